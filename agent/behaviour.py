@@ -1,0 +1,107 @@
+"""What the agent says each cycle: the handshake, the beam, settling, then the walk.
+
+Kept free of sockets so that a recorded perception stream can be replayed through it and its
+replies compared with what a real client sent (tests do this with the real-server calibration walk).
+
+Cycle by cycle (one reply per perception, as the server expects):
+
+1. first perception -> ``(init ...)``: the server only accepts init once the robot exists;
+2. second -> ``(beam x y rot)`` if the play mode allows it (BeforeKickOff, Goal_Left/Right);
+3. ``settle_cycles`` cycles holding the fixed posture and the gait's starting pose, beam repeated
+   once at ``rebeam_cycle`` because moving into the pose shifts the feet;
+4. walking, from the first cycle after settling in which the play mode is PlayOn (or at once with
+   ``start_now``), for ``duration`` seconds of gait time.
+"""
+from __future__ import annotations
+
+import enum
+import logging
+
+from agent.config import AgentConfig
+from agent.controller import joint_velocities
+from agent.fall import FallDetector
+from gait import TFSGait, leg_joint_targets
+from protocol import commands
+from protocol.nao import BEAM_PLAY_MODES, CYCLE, JOINTS
+from protocol.perception import Perception
+
+log = logging.getLogger("agent")
+
+_LIMITS = {j.effector: (j.min_deg, j.max_deg) for j in JOINTS}
+
+
+class Phase(enum.Enum):
+    CONNECTING = "connecting"
+    BEAMING = "beaming"
+    SETTLING = "settling"
+    WALKING = "walking"
+    DONE = "done"
+
+
+class WalkBehaviour:
+    def __init__(self, config: AgentConfig, gait: TFSGait) -> None:
+        self.config = config
+        self.gait = gait
+        self.phase = Phase.CONNECTING
+        self.settle_cycle = 0
+        self.walk_cycles = 0
+        self.fall = FallDetector()
+        self.fell_at: float | None = None
+        self.play_mode: str | None = None
+        base = {j.effector: 0.0 for j in JOINTS}
+        base.update(config.posture)
+        self._posture = base
+
+    @property
+    def walk_time(self) -> float:
+        """Seconds of gait time walked so far."""
+        return self.walk_cycles * CYCLE
+
+    def targets(self, gait_time: float) -> dict[str, float]:
+        """Joint targets in degrees for all 22 joints at ``gait_time``."""
+        out = dict(self._posture)
+        out.update(leg_joint_targets(self.gait.angles(gait_time), _LIMITS))
+        return out
+
+    def _hold_and_move(self, perception: Perception, gait_time: float) -> str:
+        lookahead = gait_time + self.config.lookahead_cycles * CYCLE
+        v = joint_velocities(self.targets(lookahead), perception.joints, self.config.gain)
+        return commands.hinge_velocities(v)
+
+    def _beam(self) -> str:
+        if self.play_mode in BEAM_PLAY_MODES:
+            return commands.beam(*self.config.beam)
+        log.info("beam skipped: play mode %s does not allow it", self.play_mode)
+        return ""
+
+    def reply(self, perception: Perception) -> str:
+        """The message to send after ``perception`` (without ``(syn)``, which the caller adds)."""
+        if perception.game.play_mode is not None:
+            self.play_mode = perception.game.play_mode
+        if self.phase is Phase.CONNECTING:
+            self.phase = Phase.BEAMING
+            return commands.init(self.config.unum, self.config.team)
+        if self.phase is Phase.BEAMING:
+            self.phase = Phase.SETTLING
+            return self._beam()
+        if self.phase is Phase.SETTLING:
+            if self.settle_cycle >= self.config.settle_cycles and (self.config.start_now or self.play_mode == "PlayOn"):
+                self.phase = Phase.WALKING
+                log.info("gait started at server time %.2f", perception.time)
+            else:
+                message = self._hold_and_move(perception, 0.0)
+                if self.settle_cycle == self.config.rebeam_cycle:
+                    message += self._beam()
+                self.settle_cycle += 1
+                return message
+        if self.phase is Phase.WALKING:
+            # the first walking reply is gait time 0; after it, one cycle has been walked
+            message = self._hold_and_move(perception, self.walk_time)
+            self.walk_cycles += 1
+            if self.fall.update(perception.acc):
+                self.fell_at = self.walk_time
+                log.warning("fall detected after %.2f s of walking (torso tilted past the 0.6 up-z limit)", self.walk_time)
+            if self.config.duration is not None and self.walk_time >= self.config.duration - 1e-9:
+                self.phase = Phase.DONE
+            return message
+        return ""

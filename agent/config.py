@@ -1,0 +1,40 @@
+"""Everything an agent run can be told, in one place (the CLI and the optimizer fill it)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+
+@dataclass(frozen=True)
+class AgentConfig:
+    host: str = "127.0.0.1"
+    port: int = 3100
+    team: str = "GALA"
+    unum: int = 1
+    #: Gait file (``gait.gait_file`` format); None = the shipped default gait.
+    gait: Path | None = None
+    #: Beam pose (x, y, heading deg; heading 0 faces the opponent goal, +x for the left team).
+    beam: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    #: Sync mode: end every reply with ``(syn)`` (the server waits for it before stepping).
+    sync: bool = False
+    #: Seconds of walking after the gait starts; None = walk until the server closes.
+    duration: float | None = None
+    #: Heterogeneous robot type 0-4 (0 = nao.rsg).
+    robot_type: int = 0
+    #: Start walking at once after settling instead of waiting for PlayOn.
+    start_now: bool = False
+    #: Cycles spent holding the gait's first pose after the beam before walking may start; 25 as in
+    #: the real-server calibration walk, enough for the joints to reach the pose (<= 7 deg/cycle).
+    settle_cycles: int = 25
+    #: Settle cycle (counted from 0) at which the beam is repeated: moving into the gait pose
+    #: shifts the robot, and beam only works before kick-off, so it is done again once the pose
+    #: is nearly reached (cycle 12, as in the calibration walk).
+    rebeam_cycle: int = 12
+    #: Proportional gain of the joint controller, 1/s (calibration walk: 15/s).
+    gain: float = 15.0
+    #: Targets are taken this many cycles ahead to cover the server's two-cycle action latency.
+    lookahead_cycles: int = 2
+    #: Fixed targets (deg) of every joint the gait does not drive: arms down, everything else 0.
+    posture: dict[str, float] = field(default_factory=lambda: {"lae1": -90.0, "rae1": -90.0})
+    #: Seconds to wait for the TCP connection and for each server message.
+    timeout: float = 10.0

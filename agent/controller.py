@@ -1,0 +1,35 @@
+"""Turning joint targets into the velocity commands the server's hinge effectors take.
+
+The server applies a command two cycles after the perception it answers and keeps it until the
+next one, so a proportional law towards the target *two cycles ahead*, clipped to the speed cap,
+tracks the trajectory without overshooting the cap (the same law drove the real-server
+calibration walk).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+from protocol.nao import JOINTS, SPEED_CAP
+
+_DEG = math.pi / 180.0
+
+
+def joint_velocities(
+    targets_deg: Mapping[str, float],
+    perceived_deg: Mapping[str, float],
+    gain: float,
+) -> dict[str, float]:
+    """rad/s for every joint in ``targets_deg`` (effector names; ``perceived_deg`` by perceptor name).
+
+    A joint missing from the perception gets 0, which the server treats as "hold".
+    """
+    velocities: dict[str, float] = {}
+    for joint in JOINTS:
+        target = targets_deg.get(joint.effector)
+        if target is None:
+            continue
+        angle = perceived_deg.get(joint.perceptor)
+        v = 0.0 if angle is None else gain * (target - angle) * _DEG
+        velocities[joint.effector] = min(max(v, -SPEED_CAP), SPEED_CAP)
+    return velocities

@@ -1,0 +1,45 @@
+"""Mapping TFS hip/knee angles onto the NAO's leg pitch joints, with the foot kept flat.
+
+Signs follow the facts sheet: ``*le3 > 0`` swings the thigh forward (= hip flexion), ``*le4 < 0``
+bends the knee (so knee flexion enters negated), ``*le5 > 0`` lifts the toes. The ankle is not a
+gene: ``le5 = -(le3 + le4)`` cancels the thigh and shank pitch so the sole stays parallel to the
+torso's ground plane; checked on the real server, where the opposite sign tips the robot over
+within 0.7 s.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from gait.tfs import LegAngles
+
+#: The six joints the gait drives, in command order.
+LEG_EFFECTORS: tuple[str, ...] = ("lle3", "lle4", "lle5", "rle3", "rle4", "rle5")
+
+#: Targets stay this far inside each limit: the real server drops a command for a joint that is not
+#: strictly inside (min, max), so a target sitting on a limit could leave the motor stuck.
+LIMIT_MARGIN_DEG: float = 0.5
+
+
+def leg_joint_targets(
+    angles: LegAngles,
+    limits: Mapping[str, tuple[float, float]],
+    margin: float = LIMIT_MARGIN_DEG,
+) -> dict[str, float]:
+    """NAO joint targets in degrees for ``LEG_EFFECTORS``, clamped ``margin`` inside ``limits``.
+
+    ``limits`` maps effector name -> (min_deg, max_deg); the agent passes the robot's real limits
+    (``protocol.nao``), which this package does not import so it stays free of wire concerns.
+    """
+    def clamp(name: str, value: float) -> float:
+        low, high = limits[name]
+        return min(max(value, low + margin), high - margin)
+
+    targets: dict[str, float] = {}
+    for side, hip, knee in (("l", angles.left_hip, angles.left_knee), ("r", angles.right_hip, angles.right_knee)):
+        pitch = clamp(f"{side}le3", hip)
+        knee_angle = clamp(f"{side}le4", -knee)
+        # flatten the foot against the joints as they will really be, i.e. after clamping
+        targets[f"{side}le3"] = pitch
+        targets[f"{side}le4"] = knee_angle
+        targets[f"{side}le5"] = clamp(f"{side}le5", -(pitch + knee_angle))
+    return {name: targets[name] for name in LEG_EFFECTORS}

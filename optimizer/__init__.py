@@ -1,0 +1,1 @@
+"""The GALA optimizer: search (GA, learning automata, GALA), episode evaluation, results."""

@@ -1,0 +1,107 @@
+"""Numbers that steer the search: GA, learning automaton and GALA settings, with the paper's defaults.
+
+Only plain numbers and flags live here, so a run folder can store its configuration as JSON and a
+resumed run can check it is replaying the same search. Behaviour (selection, crossover, mutation,
+the learning scheme, a constraint repair) is passed as objects to the constructors in ``ga``,
+``la`` and ``gala`` instead: a new scheme is then one new function or class, never an edit here.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+
+@dataclass(frozen=True)
+class GAConfig:
+    """One GA run (paper section VI: population 100, 10 generations, roulette wheel).
+
+    ``generations`` counts evaluated populations *including* the random initial one: the paper's
+    "generation counter greater than 10" is read as 10 evaluated generations, i.e. 1000 episodes
+    (991 with elitism, whose carried best is not re-evaluated).
+    The default rates are the paper's best pair of Table I (0.8, 0.07).
+    ``elitism`` carries the single best individual into the next generation unchanged. It is ON by
+    default because the paper's population is *continuing* (GALA keeps one population across 100
+    iterations, each with a possibly high mutation rate): without it the best walk found so far can
+    be lost to selection noise or mutation. OFF reproduces the plain paper GA.
+    """
+
+    population_size: int = 100
+    generations: int = 10
+    crossover_rate: float = 0.8
+    mutation_rate: float = 0.07
+    elitism: bool = True
+
+    def __post_init__(self) -> None:
+        if self.population_size < 2:
+            raise ValueError(f"GAConfig.population_size must be >= 2, got {self.population_size}")
+        if self.generations < 1:
+            raise ValueError(f"GAConfig.generations must be >= 1, got {self.generations}")
+        for name in ("crossover_rate", "mutation_rate"):
+            value = getattr(self, name)
+            if not 0.0 <= value <= 1.0:
+                raise ValueError(f"GAConfig.{name} must be within [0, 1], got {value}")
+
+
+@dataclass(frozen=True)
+class LAConfig:
+    """A variable-structure automaton(r) over mutation rates (paper section VI: automata(10),
+    actions 0.00 .. 0.09 by 0.01, reward step a = 0.1, penalty step b = 0.2)."""
+
+    actions: tuple[float, ...] = tuple(round(0.01 * i, 2) for i in range(10))
+    reward_step: float = 0.1
+    penalty_step: float = 0.2
+
+    def __post_init__(self) -> None:
+        if len(self.actions) < 2:
+            raise ValueError(f"LAConfig.actions needs at least 2 actions, got {len(self.actions)}")
+        if any(not 0.0 <= rate <= 1.0 for rate in self.actions):
+            raise ValueError(f"LAConfig.actions are mutation rates and must be within [0, 1], got {self.actions}")
+        for name in ("reward_step", "penalty_step"):
+            value = getattr(self, name)
+            if not 0.0 < value <= 1.0:
+                raise ValueError(f"LAConfig.{name} must be within (0, 1], got {value}")
+
+
+@dataclass(frozen=True)
+class GALAConfig:
+    """GALA for one crossover rate (paper section V-VI), and the sweep of crossover rates of Table I.
+
+    Each of ``iterations`` iterations runs ``generations_per_iteration`` generations on one
+    continuing population; ``restart_each_iteration`` takes the other reading, a fresh GA of
+    ``ga.generations`` generations per iteration. ``ga.generations`` is also the length of the
+    final GA run with the learnt mutation rate. ``ga.crossover_rate`` and ``ga.mutation_rate`` are
+    ignored: GALA is given its crossover rate and learns the mutation rate.
+    """
+
+    ga: GAConfig = field(default_factory=GAConfig)
+    la: LAConfig = field(default_factory=LAConfig)
+    iterations: int = 100
+    generations_per_iteration: int = 1
+    restart_each_iteration: bool = False
+    crossover_rates: tuple[float, ...] = tuple(round(0.1 * i, 1) for i in range(1, 10))
+
+    def __post_init__(self) -> None:
+        if self.iterations < 1:
+            raise ValueError(f"GALAConfig.iterations must be >= 1, got {self.iterations}")
+        if self.generations_per_iteration < 1:
+            raise ValueError(
+                f"GALAConfig.generations_per_iteration must be >= 1, got {self.generations_per_iteration}"
+            )
+        if any(not 0.0 <= rate <= 1.0 for rate in self.crossover_rates):
+            raise ValueError(f"GALAConfig.crossover_rates must be within [0, 1], got {self.crossover_rates}")
+
+
+class RatePreset(NamedTuple):
+    """A published (crossover, mutation) pair the paper compares GALA against."""
+
+    name: str
+    crossover_rate: float
+    mutation_rate: float
+
+
+#: De Jong's rates as quoted by the paper (its Fig. 4: 0.54 m in 15 s).
+DE_JONG = RatePreset("De Jong", 0.6, 0.001)
+#: Grefenstette's rates as quoted by the paper (its Fig. 5: 4.12 m in 15 s).
+GREFENSTETTE = RatePreset("Grefenstette", 0.95, 0.01)
+#: The pair GALA found best in the paper's Table I (its Fig. 7: 4.95 m in 15 s).
+PAPER_GALA_BEST = RatePreset("GALA (paper Table I)", 0.8, 0.07)

@@ -1,0 +1,75 @@
+"""The NAO as the server exposes it on the wire: joint names, limits, speed cap, timing.
+
+These are the facts every package needs to agree on (the agent to command joints, the gait to
+clamp targets through the agent, the stub to enforce the same rules), so they live here once.
+Source of every number: ``NAO_MODEL_FACTS.md`` (read off rcssserver3d 0.7.3 / SimSpark 0.3.2).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Joint:
+    """One hinge joint: the effector name commands it, the perceptor name reports it (degrees)."""
+
+    effector: str
+    perceptor: str
+    min_deg: float
+    max_deg: float
+
+
+#: All 22 hinge joints of robot type 0, in the order the server sends their ``HJ`` perceptors
+#: (facts sheet section 5); limits from section 3's table.
+JOINTS: tuple[Joint, ...] = (
+    Joint("he1", "hj1", -120.0, 120.0),
+    Joint("he2", "hj2", -45.0, 45.0),
+    Joint("rae1", "raj1", -120.0, 120.0),
+    Joint("rae2", "raj2", -95.0, 1.0),
+    Joint("rae3", "raj3", -120.0, 120.0),
+    Joint("rae4", "raj4", -1.0, 90.0),
+    Joint("lae1", "laj1", -120.0, 120.0),
+    Joint("lae2", "laj2", -1.0, 95.0),
+    Joint("lae3", "laj3", -120.0, 120.0),
+    Joint("lae4", "laj4", -90.0, 1.0),
+    Joint("rle1", "rlj1", -90.0, 1.0),
+    Joint("rle2", "rlj2", -45.0, 25.0),
+    Joint("rle3", "rlj3", -25.0, 100.0),
+    Joint("rle4", "rlj4", -130.0, 1.0),
+    Joint("rle5", "rlj5", -45.0, 75.0),
+    Joint("rle6", "rlj6", -25.0, 45.0),
+    Joint("lle1", "llj1", -90.0, 1.0),
+    Joint("lle2", "llj2", -25.0, 45.0),
+    Joint("lle3", "llj3", -25.0, 100.0),
+    Joint("lle4", "llj4", -130.0, 1.0),
+    Joint("lle5", "llj5", -45.0, 75.0),
+    Joint("lle6", "llj6", -45.0, 25.0),
+)
+
+JOINT_BY_EFFECTOR: dict[str, Joint] = {j.effector: j for j in JOINTS}
+JOINT_BY_PERCEPTOR: dict[str, Joint] = {j.perceptor: j for j in JOINTS}
+
+#: Hinge motor speed cap in rad/s (section 3; observed 7.03 deg per 0.02 s cycle).
+SPEED_CAP: float = 6.1395
+#: Motor torque limit of every hinge, N m (section 3).
+TORQUE_LIMIT: float = 10.0
+#: One agent cycle = one perception = one physics step, seconds (section 4).
+CYCLE: float = 0.02
+#: Cycles between a reply and the first perception that shows its effect (section 4, observed).
+ACTION_LATENCY_CYCLES: int = 2
+
+NAO_RSG: str = "rsg/agent/nao/nao.rsg"
+NAO_HETERO_RSG: str = "rsg/agent/nao/nao_hetero.rsg"
+#: Heterogeneous robot types the server offers (section 3); type 0 is nao.rsg.
+ROBOT_TYPES: tuple[int, ...] = (0, 1, 2, 3, 4)
+
+#: Play-mode names in the monitor's index order (section 9).
+PLAY_MODES: tuple[str, ...] = (
+    "BeforeKickOff", "KickOff_Left", "KickOff_Right", "PlayOn", "KickIn_Left", "KickIn_Right",
+    "corner_kick_left", "corner_kick_right", "goal_kick_left", "goal_kick_right",
+    "offside_left", "offside_right", "GameOver", "Goal_Left", "Goal_Right",
+    "free_kick_left", "free_kick_right", "direct_free_kick_left", "direct_free_kick_right",
+    "pass_left", "pass_right",
+)
+#: Play modes in which ``beam`` is honoured (section 6).
+BEAM_PLAY_MODES: frozenset[str] = frozenset({"BeforeKickOff", "Goal_Left", "Goal_Right"})

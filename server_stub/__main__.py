@@ -1,0 +1,71 @@
+"""``python -m server_stub``: a pybullet stand-in for rcssserver3d on the agent and monitor ports."""
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import sys
+
+from server_stub.config import ServerConfig
+from server_stub.server import StubServer
+
+
+def _port(text: str) -> int:
+    value = int(text)
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"port must be 0-65535 (0 = any free port), got {value}")
+    return value
+
+
+def _positive(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m server_stub", description=__doc__)
+    p.add_argument("--host", default="127.0.0.1", help="listen address (default 127.0.0.1)")
+    p.add_argument("--agent-port", type=_port, default=3100, help="agent port (default 3100; 0 = free port)")
+    p.add_argument("--monitor-port", type=_port, default=3200, help="monitor/trainer port (default 3200; 0 = free port)")
+    p.add_argument("--sync", action="store_true", help="step once every agent has sent (syn)")
+    p.add_argument("--realtime", action=argparse.BooleanOptionalAction, default=None,
+                   help="pace cycles at 50 Hz (default: on, off with --sync)")
+    p.add_argument("--sense-mypos", action="store_true", help="add mypos/myorien/ballpos to vision")
+    p.add_argument("--vision-noise", action=argparse.BooleanOptionalAction, default=True,
+                   help="noise on vision (default on, as on the real server)")
+    p.add_argument("--seed", type=int, default=0, help="seed of every random choice (vision noise)")
+    p.add_argument("--agent-timeout", type=_positive, default=10.0,
+                   help="sync mode: disconnect an agent silent this many wall seconds (default 10)")
+    p.add_argument("-v", "--verbose", action="store_true", help="log connections")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
+                        format="server_stub %(levelname)s: %(message)s", stream=sys.stderr)
+    realtime = (not args.sync) if args.realtime is None else args.realtime
+    config = ServerConfig(
+        host=args.host, agent_port=args.agent_port, monitor_port=args.monitor_port, sync=args.sync,
+        realtime=realtime, sense_mypos=args.sense_mypos, vision_noise=args.vision_noise, seed=args.seed,
+        agent_timeout=args.agent_timeout,
+    )
+    try:
+        server = StubServer(config)
+    except OSError as exc:
+        print(f"server_stub: error: cannot listen on {args.host}: {exc.strerror or exc}", file=sys.stderr)
+        return 1
+    # a parent that started us on free ports reads this line to learn them
+    print(f"server_stub listening: agent port {server.agent_port}, monitor port {server.monitor_port}", flush=True)
+    signal.signal(signal.SIGTERM, lambda *_: server.stop())
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        pass
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

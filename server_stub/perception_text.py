@@ -1,0 +1,112 @@
+"""The text of one agent perception, printed as rcssserver3d 0.7.3 prints it.
+
+Runs every cycle for every robot, so everything that does not change (the ``HJ`` name prefixes,
+the order of perceptors) is laid out once at import and a message is one ``%``-format per block
+and one join. Format (facts sheet section 5; fixtures ``agent_perceptions_*.txt``), numbers with
+2 decimals as the server's printf does (``-0.00`` included)::
+
+    (time (now <t>))(GS [(unum <n>) (team <left|right>)] (sl <n>) (sr <n>) (t <t>) (pm <mode>))
+    (GYR (n torso) (rt <x> <y> <z>))(ACC (n torso) (a <x> <y> <z>))
+    (HJ (n hj1) (ax <deg>))(HJ (n hj2) (ax <deg>))[(See ...)][(hear ...)...]
+    (HJ raj1..4)(HJ laj1..4)(HJ rlj1..5)[(FRP (n rf) (c <x> <y> <z>) (f <x> <y> <z>))](HJ rlj6)
+    (HJ llj1..5)[(FRP (n lf) (c ...) (f ...))](HJ llj6)
+
+The order is the server's scene-graph order: perceptors are collected walking the robot's body
+tree, so the head's ``See`` sits between the neck/head joints and the arms, and each foot's
+``FRP`` just before the ankle-roll joint of that leg.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+from protocol.nao import JOINTS
+
+Vec3 = tuple[float, float, float]
+#: One foot's contact: centre of pressure and total force, both in the foot frame.
+FootContact = tuple[Vec3, Vec3]
+
+
+@dataclass(frozen=True, slots=True)
+class GameStateText:
+    """What ``GS`` reports. ``unum`` and ``team`` ('left'/'right') are set only for the first
+    perception after ``init`` was processed (the server sends them once)."""
+
+    score_left: int
+    score_right: int
+    time: float
+    play_mode: str
+    unum: int | None = None
+    team: str | None = None
+
+
+def _hj_template(names: Sequence[str]) -> str:
+    return "".join(f"(HJ (n {name}) (ax %.2f))" for name in names)
+
+
+_PERCEPTORS = [j.perceptor for j in JOINTS]
+_HEAD = _PERCEPTORS[:2]
+#: Blocks of joints between which optional perceptors (See, FRP) are printed.
+_ARMS_RIGHT_LEG = _PERCEPTORS[2:15]          # raj1-4, laj1-4, rlj1-5
+_RIGHT_ANKLE_ROLL = _PERCEPTORS[15:16]       # rlj6
+_LEFT_LEG = _PERCEPTORS[16:21]               # llj1-5
+_LEFT_ANKLE_ROLL = _PERCEPTORS[21:22]        # llj6
+assert _ARMS_RIGHT_LEG[-1] == "rlj5" and _RIGHT_ANKLE_ROLL == ["rlj6"] and _LEFT_ANKLE_ROLL == ["llj6"]
+
+_HEAD_T = ("(time (now %.2f))%s(GYR (n torso) (rt %.2f %.2f %.2f))(ACC (n torso) (a %.2f %.2f %.2f))"
+           + _hj_template(_HEAD))
+_ARMS_RIGHT_LEG_T = _hj_template(_ARMS_RIGHT_LEG)
+_RIGHT_ANKLE_ROLL_T = _hj_template(_RIGHT_ANKLE_ROLL)
+_LEFT_LEG_T = _hj_template(_LEFT_LEG)
+_LEFT_ANKLE_ROLL_T = _hj_template(_LEFT_ANKLE_ROLL)
+_FRP_T = "(FRP (n %s) (c %.2f %.2f %.2f) (f %.2f %.2f %.2f))"
+
+
+def format_game_state(gs: GameStateText) -> str:
+    """``(GS [(unum <n>) (team <side>)] (sl <n>) (sr <n>) (t <t>) (pm <mode>))``."""
+    ident = ""
+    if gs.unum is not None:
+        ident += f"(unum {gs.unum}) "
+    if gs.team is not None:
+        ident += f"(team {gs.team}) "
+    return f"(GS {ident}(sl {gs.score_left}) (sr {gs.score_right}) (t {gs.time:.2f}) (pm {gs.play_mode}))"
+
+
+def format_hear(team: str, time: float, direction: float | None, message: str) -> str:
+    """``(hear <team> <t> <self|angle> <message>)``; ``direction`` None means the robot heard
+    itself, else the horizontal angle (deg) towards the speaker."""
+    source = "self" if direction is None else f"{direction:.2f}"
+    return f"(hear {team} {time:.2f} {source} {message})"
+
+
+def _frp(key: str, contact: FootContact) -> str:
+    (cx, cy, cz), (fx, fy, fz) = contact
+    return _FRP_T % (key, cx, cy, cz, fx, fy, fz)
+
+
+def format_perception(now: float, game: GameStateText, gyro: Vec3, acc: Vec3,
+                      joints_deg: Mapping[str, float], frp: Mapping[str, FootContact],
+                      see: str | None = None, hear: Sequence[str] = ()) -> str:
+    """One perception message. ``joints_deg`` needs every perceptor of ``protocol.nao.JOINTS``;
+    ``frp`` holds only the feet touching something ('lf', 'rf'); ``see`` is a full ``(See ...)``
+    entry (vision cycles only); ``hear`` entries come from ``format_hear``, printed after the
+    head's other perceptors (our choice; the fixtures hold no ``hear``)."""
+    j = joints_deg
+    parts = [
+        _HEAD_T % (now, format_game_state(game), gyro[0], gyro[1], gyro[2], acc[0], acc[1], acc[2],
+                   j["hj1"], j["hj2"]),
+    ]
+    if see is not None:
+        parts.append(see)
+    parts.extend(hear)
+    parts.append(_ARMS_RIGHT_LEG_T % tuple([j[n] for n in _ARMS_RIGHT_LEG]))
+    right = frp.get("rf")
+    if right is not None:
+        parts.append(_frp("rf", right))
+    parts.append(_RIGHT_ANKLE_ROLL_T % j["rlj6"])
+    parts.append(_LEFT_LEG_T % tuple([j[n] for n in _LEFT_LEG]))
+    left = frp.get("lf")
+    if left is not None:
+        parts.append(_frp("lf", left))
+    parts.append(_LEFT_ANKLE_ROLL_T % j["llj6"])
+    return "".join(parts)

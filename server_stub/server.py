@@ -1,0 +1,385 @@
+"""The stub's event loop: two listening ports, the cycle, sync and real-time pacing.
+
+One thread, non-blocking sockets. Each cycle:
+
+1. send every agent the perception computed after the previous step;
+2. apply what agents sent since the last cycle (effectors, beam, scene, init, say);
+3. step the physics once (0.02 s) and advance the game clock;
+4. compute each agent's next perception and, every 2nd cycle, the monitor update.
+
+Sending a perception *before* stepping is how the stub reproduces the real server's two-cycle
+action latency (a reply to perception k first shows in perception k+2), and it lets the physics of
+the next cycle run while the agent is still thinking about this one: on two cores the agent and
+the server overlap instead of taking turns.
+
+Sync mode starts a cycle once every agent that was sent a perception has answered with ``(syn)``
+(or ``sync_grace`` seconds passed, as the real server's waits do); real-time mode every 20 ms.
+"""
+from __future__ import annotations
+
+import logging
+import selectors
+import socket
+import time
+
+from protocol.errors import ProtocolError
+from protocol.nao import CYCLE, NAO_HETERO_RSG, NAO_RSG, ROBOT_TYPES
+from protocol.sexp import parse_sexp
+from server_stub.agent_commands import has_syn, read_commands
+from server_stub.clients import AgentState, Client
+from server_stub.config import PhysicsConfig, ServerConfig
+from server_stub.game import Game, GameError, beam_pose
+from server_stub.sensing import Sensing
+from server_stub.trainer import TrainerError, apply_trainer_command
+from server_stub.world import World
+
+log = logging.getLogger("server_stub")
+
+#: Where a new robot appears (facts section 6): in the air, it falls until beamed.
+#: Placement after ``repos``: the robot's last beam pose, or its side's default spot.
+_DEFAULT_REPOS = {"left": (-5.0, 0.0, 0.0), "right": (5.0, 0.0, 180.0)}
+
+
+class StubServer:
+    """``serve_forever`` until ``(killsim)`` or ``stop``; ports are bound in the constructor."""
+
+    def __init__(self, config: ServerConfig = ServerConfig(), physics: PhysicsConfig = PhysicsConfig()) -> None:
+        self.config = config
+        self.world = World(physics, seed=config.seed)
+        self.game = Game()
+        self.sensing = Sensing(config, self.world)
+        self.cycle = 0
+        self.running = False
+        self._selector = selectors.DefaultSelector()
+        self._agents: dict[Client, AgentState] = {}
+        self._monitors: dict[Client, bool] = {}  # monitor -> needs a full scene
+        self._scene_changed = False
+        self._last_beam: dict[tuple[str, int], tuple[float, float, float]] = {}
+        self._agent_listener = self._listen(config.agent_port, "agent")
+        self._monitor_listener = self._listen(config.monitor_port, "monitor")
+        self.agent_port = self._agent_listener.getsockname()[1]
+        self.monitor_port = self._monitor_listener.getsockname()[1]
+
+    # ----- sockets -----
+    def _listen(self, port: int, kind: str) -> socket.socket:
+        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        sock.bind((self.config.host, port))
+        sock.listen(64)
+        sock.setblocking(False)
+        self._selector.register(sock, selectors.EVENT_READ, kind)
+        return sock
+
+    def _accept(self, listener: socket.socket, kind: str) -> None:
+        try:
+            sock, _ = listener.accept()
+        except OSError:
+            return
+        sock.setblocking(False)
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        cap = self.config.agent_out_cap if kind == "agent" else self.config.monitor_out_cap
+        client = Client(sock, kind, self.config.max_frame, cap)
+        self._selector.register(sock, selectors.EVENT_READ, client)
+        if kind == "agent":
+            self._agents[client] = AgentState()
+        else:
+            self._monitors[client] = True
+            self._send_monitor(client)
+        log.info("%s connected", client.name)
+
+    def _read(self, client: Client) -> None:
+        try:
+            data = client.sock.recv(65536)
+        except (BlockingIOError, InterruptedError):
+            return
+        except OSError as exc:
+            self._drop(client, f"connection error ({exc.strerror or exc})")
+            return
+        if not data:
+            self._drop(client, None if not client.decoder.buffered else "vanished in the middle of a frame")
+            return
+        client.last_heard = time.monotonic()
+        try:
+            frames = client.decoder.feed(data)
+        except ProtocolError as exc:
+            self._drop(client, str(exc))
+            return
+        state = self._agents.get(client)
+        for frame in frames:
+            if state is not None:
+                state.inbox.append(frame)
+                if has_syn(frame):
+                    state.awaiting_syn = False
+            else:
+                self._on_trainer_frame(client, frame)
+
+    def _drop(self, client: Client, problem: str | None) -> None:
+        if problem:
+            log.warning("%s: %s; disconnected", client.name, problem)
+        else:
+            log.info("%s disconnected", client.name)
+        try:
+            self._selector.unregister(client.sock)
+        except (KeyError, ValueError):
+            pass
+        client.close()
+        state = self._agents.pop(client, None)
+        self._monitors.pop(client, None)
+        if state is not None and state.robot is not None:
+            self.world.remove_robot(state.robot)
+            if state.side is not None and state.unum is not None:
+                self.game.leave(state.side, state.unum)
+            self._scene_changed = True
+
+    def _want_write(self, client: Client) -> None:
+        events = selectors.EVENT_READ | (selectors.EVENT_WRITE if client.out else 0)
+        try:
+            self._selector.modify(client.sock, events, client)
+        except (KeyError, ValueError):
+            pass
+
+    # ----- the loop -----
+    def serve_forever(self) -> None:
+        self.running = True
+        next_tick = time.monotonic()
+        try:
+            while self.running:
+                timeout = self._select_timeout(next_tick)
+                for key, events in self._selector.select(timeout):
+                    if key.data in ("agent", "monitor"):
+                        self._accept(key.fileobj, key.data)
+                        continue
+                    client: Client = key.data
+                    if client.closed:
+                        continue
+                    if events & selectors.EVENT_WRITE:
+                        client.flush()
+                        self._want_write(client)
+                    if events & selectors.EVENT_READ:
+                        self._read(client)
+                self._reap()
+                now = time.monotonic()
+                if self.config.realtime:
+                    if now >= next_tick and self._ready(now):
+                        self._run_cycle()
+                        next_tick = max(next_tick + CYCLE, now - CYCLE)
+                elif self._ready(now):
+                    self._run_cycle()
+        finally:
+            self.close()
+
+    def _select_timeout(self, next_tick: float) -> float | None:
+        if self.config.realtime:
+            return max(0.0, next_tick - time.monotonic())
+        if self._ready(time.monotonic()):
+            return 0.0
+        return 0.05 if self._agents else None
+
+    def _reap(self) -> None:
+        """Disconnect clients whose socket failed and agents silent past the timeout."""
+        now = time.monotonic()
+        for client in list(self._agents) + list(self._monitors):
+            if client.closed:
+                self._drop(client, "write failed")
+            elif self.config.sync and client in self._agents and self._agents[client].awaiting_syn \
+                    and now - client.last_heard > self.config.agent_timeout:
+                self._drop(client, f"silent for more than {self.config.agent_timeout:g} s")
+            elif len(client.out) > client.out_cap and client in self._agents:
+                self._drop(client, "stopped reading its perceptions")
+            elif client.out:
+                self._want_write(client)
+
+    def _ready(self, now: float) -> bool:
+        """Whether a cycle may run now."""
+        active = False
+        for state in self._agents.values():
+            if state.robot is None and not state.inbox:
+                continue
+            active = True
+            if self.config.sync and state.awaiting_syn and now - state.sent_at < self.config.sync_grace:
+                return False
+        return active or (self.config.realtime and bool(self._monitors))
+
+    def _run_cycle(self) -> None:
+        now = time.monotonic()
+        for client, state in self._agents.items():
+            if state.next_perception is not None:
+                client.send(state.next_perception)
+                state.next_perception = None
+                state.awaiting_syn = True
+                state.sent_at = now
+        for client, state in list(self._agents.items()):
+            inbox, state.inbox = state.inbox, []
+            for frame in inbox:
+                self._on_agent_frame(client, state, frame)
+        self.world.step()
+        self.game.advance()
+        self.cycle += 1
+        self.sensing.end_of_cycle(self.cycle)
+        with_vision = self.cycle % self.config.vision_interval == 0
+        for state in self._agents.values():
+            if state.robot is not None:
+                state.next_perception = self.sensing.perception(state, self.game, with_vision)
+        if self.cycle % self.config.monitor_interval == 0:
+            for monitor in list(self._monitors):
+                self._send_monitor(monitor)
+            self._scene_changed = False
+
+    # ----- agents -----
+    def _on_agent_frame(self, client: Client, state: AgentState, frame: bytes) -> None:
+        try:
+            expressions = read_commands(frame)
+        except ProtocolError as exc:
+            client.warn(f"message ignored, it does not parse: {exc}", "parse")
+            return
+        for expr in expressions:
+            name = expr[0] if expr and isinstance(expr[0], str) else None
+            try:
+                self._apply_agent_command(client, state, name, expr[1:])
+            except (GameError, ValueError, KeyError, IndexError, TypeError) as exc:
+                problem = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+                client.warn(f"({name} ...) ignored: {problem}", f"{name}:{type(exc).__name__}")
+
+    def _apply_agent_command(self, client: Client, state: AgentState, name: str | None, args: list) -> None:
+        if name is None:
+            raise ValueError("not a command")
+        robot = state.robot
+        if name == "syn" or name == "pass":
+            return
+        if robot is not None and name not in ("scene", "init", "beam", "say"):
+            robot.command(name, float(args[0]))  # KeyError for an unknown effector
+            return
+        if name == "scene":
+            self._scene(state, args)
+        elif name == "init":
+            self._init(state, args)
+        elif name == "beam":
+            self._beam(state, args)
+        elif name == "say":
+            self.sensing.say(state, " ".join(str(a) for a in args))
+        else:
+            raise ValueError(f"unknown effector (robot {'exists' if robot else 'not created yet'})")
+
+    def _scene(self, state: AgentState, args: list) -> None:
+        if state.robot is not None:
+            raise ValueError("robot already created")
+        path = args[0] if args else None
+        robot_type = 0
+        if path == NAO_HETERO_RSG:
+            robot_type = int(args[1]) if len(args) > 1 else 0
+            if robot_type not in ROBOT_TYPES:
+                raise ValueError(f"robot type {robot_type} not in {ROBOT_TYPES}")
+        elif path != NAO_RSG:
+            raise ValueError(f"unknown scene {path!r}; known: {NAO_RSG}, {NAO_HETERO_RSG} <type>")
+        state.robot = self.world.add_robot(robot_type)
+        state.robot_type = robot_type
+        self.sensing.add_robot(state)
+        self._scene_changed = True
+
+    def _init(self, state: AgentState, args: list) -> None:
+        if state.robot is None:
+            raise ValueError("init before scene")
+        if state.side is not None:
+            raise ValueError("already initialised")
+        fields = {item[0]: item[1:] for item in args if isinstance(item, list) and item}
+        unum = int(fields.get("unum", ["0"])[0])
+        team = str(fields.get("teamname", [""])[0])
+        if not team:
+            raise ValueError("(teamname NAME) missing")
+        state.side, state.unum = self.game.join(team, unum)
+        state.team = team
+        state.announce_identity = True
+        self._scene_changed = True
+
+    def _beam(self, state: AgentState, args: list) -> None:
+        if state.robot is None:
+            raise ValueError("beam before scene")
+        if not self.game.beam_allowed():
+            return  # silently ignored outside BeforeKickOff / Goal_*, as on the real server
+        x, y, rot = (float(a) for a in args[:3])
+        pose = beam_pose(state.side or "left", x, y, rot)
+        state.robot.beam(*pose)
+        if state.side is not None and state.unum is not None:
+            self._last_beam[(state.side, state.unum)] = pose
+
+    # ----- monitors and trainer -----
+    def _send_monitor(self, monitor: Client) -> None:
+        full = self._monitors.get(monitor, True) or self._scene_changed
+        message = self.sensing.monitor_message(self.game, list(self._agents.values()), full)
+        if monitor.send(message):
+            self._monitors[monitor] = False
+        else:
+            self._monitors[monitor] = True  # missed an update: the next one must be a full scene
+        self._want_write(monitor)
+
+    def _on_trainer_frame(self, monitor: Client, frame: bytes) -> None:
+        try:
+            expressions = parse_sexp(frame)
+        except ProtocolError as exc:
+            monitor.warn(f"trainer message ignored, it does not parse: {exc}", "parse")
+            return
+        for expr in expressions:
+            try:
+                apply_trainer_command(expr if isinstance(expr, list) else [expr], self, monitor)
+            except (TrainerError, GameError, ValueError) as exc:
+                monitor.warn(f"trainer command ignored: {exc}", str(exc))
+
+    def _agent_by(self, side: str, unum: int) -> tuple[Client, AgentState]:
+        for client, state in self._agents.items():
+            if state.side == side and state.unum == unum and state.robot is not None:
+                return client, state
+        raise TrainerError(f"no robot {unum} on the {side} team")
+
+    def set_play_mode(self, name: str) -> None:
+        self.game.set_play_mode(name)
+
+    def set_game_time(self, t: float) -> None:
+        self.game.time = max(0.0, t)
+
+    def set_score(self, left: int, right: int) -> None:
+        self.game.score_left, self.game.score_right = left, right
+
+    def place_agent(self, side: str, unum: int, pos: tuple[float, float, float], yaw_deg: float | None) -> None:
+        _, state = self._agent_by(side, unum)
+        state.robot.place(*pos, yaw_deg=yaw_deg)
+
+    def reposition_agent(self, side: str, unum: int) -> None:
+        _, state = self._agent_by(side, unum)
+        x, y, heading = self._last_beam.get((side, unum), _DEFAULT_REPOS[side])
+        state.robot.beam(x, y, heading)
+
+    def kill_agent(self, side: str, unum: int) -> None:
+        client, _ = self._agent_by(side, unum)
+        self._drop(client, None)
+
+    def set_ball(self, pos: tuple[float, float, float], vel: tuple[float, float, float]) -> None:
+        self.world.set_ball(pos, vel)
+
+    def drop_ball(self) -> None:
+        x, y, _ = self.world.ball_position()
+        self.world.set_ball((x, y, 0.042), (0.0, 0.0, 0.0))
+        self.game.set_play_mode("PlayOn")
+
+    def request_full_state(self, monitor: object) -> None:
+        if monitor in self._monitors:
+            self._monitors[monitor] = True
+
+    def kill_sim(self) -> None:
+        log.info("killsim received: shutting down")
+        self.running = False
+
+    def stop(self) -> None:
+        self.running = False
+
+    def close(self) -> None:
+        for client in list(self._agents) + list(self._monitors):
+            client.flush()
+            self._drop(client, None)
+        for listener in (self._agent_listener, self._monitor_listener):
+            try:
+                self._selector.unregister(listener)
+            except (KeyError, ValueError):
+                pass
+            listener.close()
+        self._selector.close()
+        self.world.close()

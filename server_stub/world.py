@@ -1,0 +1,178 @@
+"""The simulated world: a pybullet DIRECT client holding the field, the ball and the robots.
+
+One ``step`` is one 0.02 s server cycle for everything in it (NAO_MODEL_FACTS.md section 4).
+The server built on top of this reads sensors from each ``Robot`` and forwards effector commands
+to ``Robot.command``; nothing here knows about sockets or message text.
+"""
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pybullet as pb
+
+from server_stub import nao_model
+from server_stub.config import PhysicsConfig
+from server_stub.robot import Robot
+
+#: Facts sheet section 6: a new robot appears with its torso here, in the air.
+SPAWN_POSITION = (0.0, -1.0, 1.5)
+#: Facts sheet section 7 (field defaults).
+FIELD_LENGTH = 30.0
+FIELD_WIDTH = 20.0
+GOAL_WIDTH = 2.1
+GOAL_DEPTH = 0.6
+GOAL_HEIGHT = 0.8
+BALL_RADIUS = 0.042
+BALL_MASS = 0.026
+#: Thickness of the goal's posts, bar and net boxes (not given by the facts sheet; thin).
+_GOAL_THICKNESS = 0.02
+#: Border walls: 1 m boxes about 10 m beyond the goal lines and 15 m beyond the side lines.
+_WALL_GAP_X = 10.0
+_WALL_GAP_Y = 15.0
+_WALL_SIZE = 1.0
+_SOLVERS = {"dantzig": pb.CONSTRAINT_SOLVER_LCP_DANTZIG, "pgs": pb.CONSTRAINT_SOLVER_LCP_SI}
+
+
+def _static_boxes() -> list[tuple[tuple[float, float, float], tuple[float, float, float]]]:
+    """(half extents, centre) of every static box: both goals (posts, bar, sides, back) and walls."""
+    t = _GOAL_THICKNESS / 2
+    half_w = GOAL_WIDTH / 2
+    h = GOAL_HEIGHT / 2
+    boxes = []
+    for side in (-1.0, 1.0):
+        line = side * FIELD_LENGTH / 2
+        for y in (-half_w - t, half_w + t):
+            boxes.append(((t, t, h), (line + side * t, y, h)))  # post on the goal line
+            boxes.append(((GOAL_DEPTH / 2, t, h), (line + side * GOAL_DEPTH / 2, y, h)))  # side net
+        boxes.append(((t, half_w, t), (line + side * t, 0.0, GOAL_HEIGHT + t)))  # crossbar
+        boxes.append(((t, half_w, h), (line + side * (GOAL_DEPTH + t), 0.0, h)))  # back net
+    wall_x = FIELD_LENGTH / 2 + _WALL_GAP_X
+    wall_y = FIELD_WIDTH / 2 + _WALL_GAP_Y
+    half = _WALL_SIZE / 2
+    for side in (-1.0, 1.0):
+        boxes.append(((half, wall_y, half), (side * (wall_x + half), 0.0, half)))
+        boxes.append(((wall_x, half, half), (0.0, side * (wall_y + half), half)))
+    return boxes
+
+
+class World:
+    """A field with goals and a ball, and any number of NAOs, stepped one server cycle at a time.
+
+    ``seed`` feeds ``rng``, the only source of randomness a caller should use for this world
+    (the physics itself has none, so equal seeds and equal calls give equal runs).
+    """
+
+    def __init__(self, config: PhysicsConfig = PhysicsConfig(), seed: int = 0) -> None:
+        self.config = config
+        self.seed = seed
+        self.rng = np.random.default_rng(seed)
+        self.time = 0.0
+        self._client = pb.connect(pb.DIRECT)
+        self._tmp = tempfile.TemporaryDirectory(prefix="nao_stub_")
+        self._urdf: dict[int, str] = {}
+        self._robots: list[Robot] = []
+        self._configure_engine()
+        self._build_field()
+
+    def _configure_engine(self) -> None:
+        cfg = self.config
+        c = self._client
+        pb.setGravity(0.0, 0.0, cfg.gravity, physicsClientId=c)
+        pb.setPhysicsEngineParameter(
+            fixedTimeStep=cfg.cycle,
+            numSubSteps=cfg.sub_steps,
+            numSolverIterations=cfg.solver_iterations,
+            globalCFM=cfg.global_cfm,
+            deterministicOverlappingPairs=1,
+            constraintSolverType=_SOLVERS[cfg.solver],
+            physicsClientId=c,
+        )
+
+    def _build_field(self) -> None:
+        c = self._client
+        plane = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=c)
+        self._ground = pb.createMultiBody(0.0, plane, physicsClientId=c)
+        boxes = _static_boxes()
+        shapes = pb.createCollisionShapeArray(
+            [pb.GEOM_BOX] * len(boxes), halfExtents=[b[0] for b in boxes],
+            collisionFramePositions=[b[1] for b in boxes], physicsClientId=c)
+        self._static = pb.createMultiBody(0.0, shapes, physicsClientId=c)
+        ball_shape = pb.createCollisionShape(pb.GEOM_SPHERE, radius=BALL_RADIUS, physicsClientId=c)
+        self._ball = pb.createMultiBody(BALL_MASS, ball_shape, basePosition=(0.0, 0.0, BALL_RADIUS),
+                                        physicsClientId=c)
+        pb.changeDynamics(self._ball, -1, linearDamping=self.config.linear_damping,
+                          angularDamping=self.config.angular_damping, physicsClientId=c)
+
+    # ----- robots -----
+    def add_robot(self, robot_type: int = 0) -> Robot:
+        """A new NAO of ``robot_type`` (0-3) with its torso at (0, -1, 1.5), facing +y, falling."""
+        cfg = self.config
+        c = self._client
+        body = pb.loadURDF(self._urdf_file(robot_type), basePosition=SPAWN_POSITION,
+                           flags=pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_MAINTAIN_LINK_ORDER,
+                           physicsClientId=c)
+        for link in range(-1, pb.getNumJoints(body, physicsClientId=c)):
+            pb.changeDynamics(
+                body, link,
+                lateralFriction=cfg.lateral_friction,
+                rollingFriction=cfg.rolling_friction,
+                spinningFriction=cfg.spinning_friction,
+                restitution=cfg.restitution,
+                contactStiffness=cfg.contact_stiffness,
+                contactDamping=cfg.contact_damping,
+                linearDamping=cfg.linear_damping,
+                angularDamping=cfg.angular_damping,
+                jointDamping=0.0,
+                physicsClientId=c,
+            )
+        robot = Robot(c, body, robot_type, cfg)
+        self._robots.append(robot)
+        return robot
+
+    def _urdf_file(self, robot_type: int) -> str:
+        if robot_type not in self._urdf:
+            path = Path(self._tmp.name) / f"nao{robot_type}.urdf"
+            path.write_text(nao_model.urdf(robot_type, self.config.inertia_floor))
+            self._urdf[robot_type] = str(path)
+        return self._urdf[robot_type]
+
+    def remove_robot(self, robot: Robot) -> None:
+        self._robots.remove(robot)
+        pb.removeBody(robot.body_id, physicsClientId=self._client)
+
+    @property
+    def robots(self) -> tuple[Robot, ...]:
+        return tuple(self._robots)
+
+    # ----- time -----
+    def step(self) -> None:
+        """One server cycle: motors from the commands of two cycles ago, then one physics step."""
+        for robot in self._robots:
+            robot._before_step()
+        pb.stepSimulation(physicsClientId=self._client)
+        self.time += self.config.cycle
+        for robot in self._robots:
+            robot._after_step()
+
+    # ----- ball -----
+    def set_ball(self, pos, vel=(0.0, 0.0, 0.0)) -> None:
+        c = self._client
+        pb.resetBasePositionAndOrientation(self._ball, pos, (0.0, 0.0, 0.0, 1.0), physicsClientId=c)
+        pb.resetBaseVelocity(self._ball, vel, (0.0, 0.0, 0.0), physicsClientId=c)
+
+    def ball_position(self) -> tuple[float, float, float]:
+        return tuple(pb.getBasePositionAndOrientation(self._ball, physicsClientId=self._client)[0])
+
+    def close(self) -> None:
+        if self._client >= 0:
+            pb.disconnect(physicsClientId=self._client)
+            self._client = -1
+            self._tmp.cleanup()
+
+    def __enter__(self) -> "World":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

@@ -1,0 +1,99 @@
+"""The agent's cycle logic replayed against a real client's recorded walk on a real server.
+
+The calibration walk (fixtures/rcssserver3d/walk_calibration) was driven by a probe client with the
+same gait, mapping and controller the agent implements; feeding the agent the perceptions that
+probe received must make it send the same commands, cycle by cycle.
+"""
+from __future__ import annotations
+
+import math
+import re
+
+import pytest
+
+from agent.behaviour import Phase, WalkBehaviour
+from agent.config import AgentConfig
+from agent.controller import joint_velocities
+from agent.fall import FallDetector
+from gait import TFSGait, load_gait
+from protocol.nao import JOINTS, SPEED_CAP
+from protocol.perception import parse_perception
+
+_COMMAND = re.compile(r"\((\w+) ([-\d.]+)\)")
+
+
+def _hinges(line: str) -> dict[str, float]:
+    return {name: float(v) for name, v in _COMMAND.findall(line) if name not in ("unum",)}
+
+
+@pytest.mark.parametrize("run", [1, 2, 3])
+def test_replay_of_the_real_calibration_walk_sends_the_recorded_commands(fixtures_dir, run: int) -> None:
+    folder = fixtures_dir / "walk_calibration"
+    perceptions = (folder / f"run{run}_perceptions.txt").read_text().splitlines()
+    sent = (folder / f"run{run}_commands.txt").read_text().splitlines()
+    config = AgentConfig(team="Calib", beam=(-10.0, 3.0, 0.0), sync=True, duration=15.0, start_now=True)
+    behaviour = WalkBehaviour(config, TFSGait(load_gait()))
+    replies = []
+    for line in perceptions:
+        replies.append(behaviour.reply(parse_perception(line)) + "(syn)")
+        if behaviour.phase is Phase.DONE:
+            break
+    assert sent[0] == "(scene rsg/agent/nao/nao.rsg)"
+    recorded = sent[1:]
+    assert len(replies) == len(recorded) == 777
+    assert replies[0] == recorded[0] == "(init (unum 1)(teamname Calib))(syn)"
+    assert replies[1] == recorded[1] == "(beam -10 3 0)(syn)"
+    worst = 0.0
+    for k, (ours, theirs) in enumerate(zip(replies[2:], recorded[2:]), start=3):
+        a, b = _hinges(ours), _hinges(theirs)
+        assert a.keys() == b.keys(), f"reply to perception {k}"
+        worst = max(worst, max(abs(a[n] - b[n]) for n in a))
+        assert ("(beam -10 3 0)" in ours) == ("(beam -10 3 0)" in theirs), f"reply to perception {k}"
+    # 4-decimal printing on both sides: anything above two units in the last place is a real difference
+    assert worst <= 2e-4
+
+
+def test_controller_caps_velocity_and_holds_missing_joints() -> None:
+    targets = {j.effector: 90.0 for j in JOINTS}
+    perceived = {j.perceptor: -90.0 for j in JOINTS if j.perceptor != "hj1"}
+    v = joint_velocities(targets, perceived, gain=15.0)
+    assert v["he1"] == 0.0
+    assert all(abs(x) <= SPEED_CAP for x in v.values())
+    assert v["lle3"] == SPEED_CAP
+    small = joint_velocities({"he2": 1.0}, {"hj2": 0.0}, gain=15.0)
+    assert small == {"he2": pytest.approx(15.0 * math.radians(1.0))}
+
+
+def test_fall_detector_ignores_spikes_and_sees_a_lying_torso() -> None:
+    fd = FallDetector()
+    assert not any(fd.update((0.0, 0.0, 9.81)) for _ in range(20))
+    assert not fd.update((0.0, -29.4, 1.0))  # one-cycle spike
+    assert not any(fd.update((0.0, 0.0, 9.81)) for _ in range(5))
+    events = [fd.update((0.0, -9.8, 1.0)) for _ in range(10)]
+    assert events.count(True) == 1 and fd.fallen
+
+
+def test_fall_detector_on_the_real_forward_fall(fixtures_dir) -> None:
+    """The main capture's robot falls forward about 1.4 s after the beam and then lies."""
+    fd = FallDetector()
+    fell_at = None
+    for k, line in enumerate((fixtures_dir / "agent_perceptions_full_run.txt").read_text().splitlines()):
+        if fd.update(parse_perception(line).acc) and fell_at is None:
+            fell_at = k
+    assert fell_at is not None
+    assert 40 <= fell_at <= 200  # after the beam at perception 4, within the first 4 s
+
+
+def test_walking_waits_for_play_on_unless_told() -> None:
+    config = AgentConfig(settle_cycles=3, rebeam_cycle=2, duration=0.1)
+    behaviour = WalkBehaviour(config, TFSGait(load_gait()))
+    before = "(time (now 1.00))(GS (sl 0) (sr 0) (t 0.00) (pm BeforeKickOff))(HJ (n hj1) (ax 0.00))"
+    playon = "(time (now 1.00))(GS (sl 0) (sr 0) (t 0.02) (pm PlayOn))(HJ (n hj1) (ax 0.00))"
+    for _ in range(10):
+        behaviour.reply(parse_perception(before))
+    assert behaviour.phase is Phase.SETTLING
+    behaviour.reply(parse_perception(playon))
+    assert behaviour.phase is Phase.WALKING
+    for _ in range(10):
+        behaviour.reply(parse_perception(playon))
+    assert behaviour.phase is Phase.DONE and behaviour.walk_time == pytest.approx(0.1)
