@@ -172,3 +172,9 @@ class GALA(KeyedSearch):
             final_ga_history=list(final.history),
             mutation_rates=automaton.actions,
         )
+
+
+if __name__ == "__main__":
+    from optimizer.gala_command import main
+
+    raise SystemExit(main())

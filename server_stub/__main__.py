@@ -3,11 +3,11 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import signal
 import sys
 
 from server_stub.config import ServerConfig
-from server_stub.server import StubServer
 
 
 def _port(text: str) -> int:
@@ -22,6 +22,11 @@ def _positive(text: str) -> float:
     if not value > 0:
         raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
     return value
+
+
+def _interrupt(*_: object) -> None:
+    """SIGTERM stops the server like Ctrl-C does (select() is retried after a handler that returns)."""
+    raise KeyboardInterrupt
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -46,6 +51,12 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="server_stub %(levelname)s: %(message)s", stream=sys.stderr)
+    # pybullet's C code prints banners to file descriptor 1; keep our stdout for the one line a
+    # parent process reads (the ports) and send everything native to stderr
+    ports_out = os.fdopen(os.dup(1), "w")
+    os.dup2(2, 1)
+    from server_stub.server import StubServer
+
     realtime = (not args.sync) if args.realtime is None else args.realtime
     config = ServerConfig(
         host=args.host, agent_port=args.agent_port, monitor_port=args.monitor_port, sync=args.sync,
@@ -58,8 +69,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"server_stub: error: cannot listen on {args.host}: {exc.strerror or exc}", file=sys.stderr)
         return 1
     # a parent that started us on free ports reads this line to learn them
-    print(f"server_stub listening: agent port {server.agent_port}, monitor port {server.monitor_port}", flush=True)
-    signal.signal(signal.SIGTERM, lambda *_: server.stop())
+    print(f"server_stub listening: agent port {server.agent_port}, monitor port {server.monitor_port}",
+          file=ports_out, flush=True)
+    signal.signal(signal.SIGTERM, _interrupt)
     try:
         server.serve_forever()
     except KeyboardInterrupt:

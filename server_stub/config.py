@@ -36,6 +36,7 @@ class PhysicsConfig:
     #: k = ERP / (CFM h), d = (1 - ERP) / CFM (same stiffness for any step size h).
     contact_erp: float = 0.4
     contact_cfm: float = 1e-4
+    contact_breaking_threshold: float = 0.002
     lateral_friction: float = 1.0
     rolling_friction: float = 0.0
     spinning_friction: float = 0.0

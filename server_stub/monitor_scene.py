@@ -195,8 +195,13 @@ class _Movers:
         self.sent = poses.copy()
         return "".join(f"(nd TRF {_slt(row)}{c.full})" for row, c in zip(poses.tolist(), self.children))
 
+    def __post_init__(self) -> None:
+        self._still = "".join(f"(nd{c.delta})" for c in self.children)
+
     def delta(self, poses: np.ndarray) -> str:
         moved = np.abs(poses - self.sent).max(axis=1) > self.threshold
+        if not moved.any():
+            return self._still
         self.sent[moved] = poses[moved]
         rows = poses.tolist()
         return "".join(f"(nd {_slt(rows[i])}{c.delta})" if m else f"(nd{c.delta})"

@@ -20,6 +20,7 @@ from server_stub.config import PhysicsConfig
 
 _N = len(JOINTS)
 _EFFECTOR_INDEX: dict[str, int] = {j.effector: i for i, j in enumerate(JOINTS)}
+_PERCEPTORS = [j.perceptor for j in JOINTS]
 _MIN = np.radians([j.min_deg for j in JOINTS])
 _MAX = np.radians([j.max_deg for j in JOINTS])
 #: Torso height of a beamed robot (facts section 6).
@@ -48,13 +49,13 @@ class Robot:
         names = [pb.getJointInfo(body, i, physicsClientId=client)[12].decode() for i in self._indices]
         self._part_names = ["torso"] + names
         self._head_link = names.index("head")
-        self._foot_links = {key: names.index(part) for key, part in nao_model.FOOT_PARTS.items()}
+        self._foot_keys = {names.index(part): key for key, part in nao_model.FOOT_PARTS.items()}
         self._requested = np.full(_N, np.nan)  # commands since the last step
         self._pending = np.full(_N, np.nan)  # commands to apply at the start of the next step
         self._motor = np.zeros(_N)  # sticky motor target velocities, rad/s
         self._sent: tuple[np.ndarray, np.ndarray] | None = None
-        self._prev_velocity = np.zeros(3)
-        self._velocity = np.zeros(3)
+        self._prev_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self._velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._invalidate()
 
     # ----- commands -----
@@ -110,11 +111,11 @@ class Robot:
     def _after_step(self) -> None:
         self._invalidate()
         self._prev_velocity = self._velocity
-        self._velocity = np.array(pb.getBaseVelocity(self._body, physicsClientId=self._client)[0])
+        self._velocity = pb.getBaseVelocity(self._body, physicsClientId=self._client)[0]
 
     def _invalidate(self) -> None:
         self._joints: tuple[np.ndarray, np.ndarray] | None = None
-        self._pose: tuple[np.ndarray, np.ndarray] | None = None
+        self._pose: tuple[tuple[float, ...], tuple[float, ...]] | None = None
 
     # ----- placing -----
     def beam(self, x: float, y: float, heading_deg: float) -> None:
@@ -149,68 +150,73 @@ class Robot:
             self._joints = (np.array([s[0] for s in states]), np.array([s[1] for s in states]))
         return self._joints
 
-    def _base_pose(self) -> tuple[np.ndarray, np.ndarray]:
+    def _base_pose(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """(position, rotation as 9 floats, row-major), cached until the next step."""
         if self._pose is None:
             position, orientation = pb.getBasePositionAndOrientation(
                 self._body, physicsClientId=self._client)
-            rotation = np.array(pb.getMatrixFromQuaternion(orientation)).reshape(3, 3)
-            self._pose = (np.array(position), rotation)
+            self._pose = (position, pb.getMatrixFromQuaternion(orientation))
         return self._pose
 
     def joint_angles(self) -> dict[str, float]:
         """Hinge angles in degrees by perceptor name (hj1 ... llj6), in JOINTS order."""
-        angles = np.degrees(self._joint_state()[0])
-        return {j.perceptor: float(a) for j, a in zip(JOINTS, angles)}
+        return dict(zip(_PERCEPTORS, np.degrees(self._joint_state()[0]).tolist()))
 
     def torso_position(self) -> tuple[float, float, float]:
-        return tuple(float(c) for c in self._base_pose()[0])
+        return tuple(self._base_pose()[0])
 
     def torso_rotation(self) -> np.ndarray:
         """3x3 rotation whose columns are the torso's x (right), y (forward), z (up) in world."""
-        return self._base_pose()[1].copy()
+        return np.array(self._base_pose()[1]).reshape(3, 3)
 
     def gyro(self) -> tuple[float, float, float]:
         """Torso angular velocity in the torso frame, deg/s (GYR)."""
         omega = pb.getBaseVelocity(self._body, physicsClientId=self._client)[1]
-        local = self._base_pose()[1].T @ np.array(omega)
-        return tuple(float(c) for c in np.degrees(local))
+        x, y, z = _to_local(self._base_pose()[1], omega)
+        return (math.degrees(x), math.degrees(y), math.degrees(z))
 
     def accelerometer(self) -> tuple[float, float, float]:
         """Torso proper acceleration in the torso frame, m/s^2 (ACC): the velocity change over the
         last step minus gravity, so (0, 0, 9.81) upright at rest and 0 in free fall."""
-        world = (self._velocity - self._prev_velocity) / self._config.cycle
-        world[2] -= self._config.gravity
-        return tuple(float(c) for c in self._base_pose()[1].T @ world)
+        dt = self._config.cycle
+        (vx, vy, vz), (px, py, pz) = self._velocity, self._prev_velocity
+        world = ((vx - px) / dt, (vy - py) / dt, (vz - pz) / dt - self._config.gravity)
+        return _to_local(self._base_pose()[1], world)
 
     def foot_pressure(self) -> dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]]:
         """FRP per foot in contact: (centre of pressure, total contact force), both in the foot's
-        frame (origin at the foot centre, so the sole is z = -0.01). Feet without contact are
-        absent, as the server omits them."""
+        frame (origin at the foot centre, so the sole is z = -0.01). The centre is the contact
+        points' mean weighted by normal force. Feet without contact are absent, as the server
+        omits them."""
         contacts = pb.getContactPoints(bodyA=self._body, physicsClientId=self._client)
-        if not contacts:
+        sums: dict[int, list[float]] = {}
+        for c in contacts:
+            normal = c[9]
+            if normal <= 0.0 or c[3] not in self._foot_keys:
+                continue
+            s = sums.setdefault(c[3], [0.0] * 7)
+            (nx, ny, nz), (ax, ay, az), (bx, by, bz) = c[7], c[11], c[13]
+            f1, f2 = c[10], c[12]
+            s[0] += normal * nx + f1 * ax + f2 * bx
+            s[1] += normal * ny + f1 * ay + f2 * by
+            s[2] += normal * nz + f1 * az + f2 * bz
+            px, py, pz = c[5]
+            s[3] += normal * px
+            s[4] += normal * py
+            s[5] += normal * pz
+            s[6] += normal
+        if not sums:
             return {}
+        links = sorted(sums)
+        states = pb.getLinkStates(self._body, links, computeForwardKinematics=True,
+                                  physicsClientId=self._client)
         result = {}
-        for key, link in self._foot_links.items():
-            points = [c for c in contacts if c[3] == link]
-            if not points:
-                continue
-            force = np.zeros(3)
-            weighted = np.zeros(3)
-            total_normal = 0.0
-            for c in points:
-                normal_force = c[9]
-                force += (normal_force * np.array(c[7]) + c[10] * np.array(c[11])
-                          + c[12] * np.array(c[13]))
-                weighted += normal_force * np.array(c[5])
-                total_normal += normal_force
-            if total_normal <= 0.0:
-                continue
-            state = pb.getLinkState(self._body, link, computeForwardKinematics=True,
-                                    physicsClientId=self._client)
-            rotation = np.array(pb.getMatrixFromQuaternion(state[1])).reshape(3, 3)
-            centre = rotation.T @ (weighted / total_normal - np.array(state[0]))
-            local_force = rotation.T @ force
-            result[key] = (tuple(float(c) for c in centre), tuple(float(c) for c in local_force))
+        for link, state in zip(links, states):
+            s = sums[link]
+            (ox, oy, oz), rotation = state[0], pb.getMatrixFromQuaternion(state[1])
+            centre = (s[3] / s[6] - ox, s[4] / s[6] - oy, s[5] / s[6] - oz)
+            result[self._foot_keys[link]] = (_to_local(rotation, centre),
+                                             _to_local(rotation, (s[0], s[1], s[2])))
         return result
 
     def head_pose(self) -> tuple[tuple[float, float, float], np.ndarray]:
@@ -226,7 +232,7 @@ class Robot:
     def part_poses(self) -> list[tuple[str, np.ndarray]]:
         """Every body part's world pose (4x4, part centre and axes), torso first, for the monitor."""
         position, rotation = self._base_pose()
-        poses = [("torso", _homogeneous(position, rotation))]
+        poses = [("torso", _homogeneous(np.array(position), np.array(rotation).reshape(3, 3)))]
         states = pb.getLinkStates(self._body, self._indices, computeForwardKinematics=True,
                                   physicsClientId=self._client)
         for name, state in zip(self._part_names[1:], states):
@@ -237,6 +243,13 @@ class Robot:
     @property
     def body_id(self) -> int:
         return self._body
+
+
+def _to_local(r: tuple[float, ...], v) -> tuple[float, float, float]:
+    """R^T v for a row-major 3x3 rotation ``r``: a world vector in the body's frame."""
+    x, y, z = v
+    return (r[0] * x + r[3] * y + r[6] * z, r[1] * x + r[4] * y + r[7] * z,
+            r[2] * x + r[5] * y + r[8] * z)
 
 
 def _homogeneous(position: np.ndarray, rotation: np.ndarray) -> np.ndarray:

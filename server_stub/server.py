@@ -31,7 +31,7 @@ from server_stub.config import PhysicsConfig, ServerConfig
 from server_stub.game import Game, GameError, beam_pose
 from server_stub.sensing import Sensing
 from server_stub.trainer import TrainerError, apply_trainer_command
-from server_stub.world import World
+from server_stub.world import SPAWN_POSITION, World
 
 log = logging.getLogger("server_stub")
 
@@ -84,7 +84,7 @@ class StubServer:
             self._agents[client] = AgentState()
         else:
             self._monitors[client] = True
-            self._send_monitor(client)
+            self._broadcast_monitor()
         log.info("%s connected", client.name)
 
     def _read(self, client: Client) -> None:
@@ -130,6 +130,9 @@ class StubServer:
             if state.side is not None and state.unum is not None:
                 self.game.leave(state.side, state.unum)
             self._scene_changed = True
+            if self.running:
+                # tell monitors at once: in sync mode with no agent left no cycle would do it
+                self._broadcast_monitor()
 
     def _want_write(self, client: Client) -> None:
         events = selectors.EVENT_READ | (selectors.EVENT_WRITE if client.out else 0)
@@ -217,15 +220,38 @@ class StubServer:
         self.cycle += 1
         self.sensing.end_of_cycle(self.cycle)
         with_vision = self.cycle % self.config.vision_interval == 0
-        for state in self._agents.values():
+        states = list(self._agents.values())
+        for state in states:
             if state.robot is not None:
-                state.next_perception = self.sensing.perception(state, self.game, with_vision)
+                state.next_perception = self.sensing.perception(state, self.game, with_vision, states)
         if self.cycle % self.config.monitor_interval == 0:
-            for monitor in list(self._monitors):
-                self._send_monitor(monitor)
-            self._scene_changed = False
+            self._broadcast_monitor()
 
-    # ----- agents -----
+    def _broadcast_monitor(self) -> None:
+        """One update to every monitor: a delta, or a full scene to those that need one (just
+        connected, asked with ``reqfullstate``, missed an update) and to all when robots changed."""
+        if not self._monitors:
+            return
+        views = self.sensing.monitor_views(list(self._agents.values()))
+        header = self.sensing.monitor_header(self.game)
+        ball = self.world.ball_position()
+        scene = self.sensing.scene
+        everyone_full = self._scene_changed or scene.needs_full(views)
+        delta = None
+        if not everyone_full and not all(self._monitors.values()):
+            delta = scene.delta(header, views, ball)
+        full = None
+        for monitor, needs_full in list(self._monitors.items()):
+            if everyone_full or needs_full:
+                full = full or scene.full(header, views, ball)
+                message = full
+            else:
+                message = delta
+            # a monitor over its buffer cap misses this update and gets a full scene later
+            self._monitors[monitor] = not monitor.send(message)
+            self._want_write(monitor)
+        self._scene_changed = False
+
     def _on_agent_frame(self, client: Client, state: AgentState, frame: bytes) -> None:
         try:
             expressions = read_commands(frame)
@@ -271,7 +297,16 @@ class StubServer:
                 raise ValueError(f"robot type {robot_type} not in {ROBOT_TYPES}")
         elif path != NAO_RSG:
             raise ValueError(f"unknown scene {path!r}; known: {NAO_RSG}, {NAO_HETERO_RSG} <type>")
-        state.robot = self.world.add_robot(robot_type)
+        robot = self.world.add_robot(robot_type)
+        # the real server drops every new robot at (0, -1, 1.5); two robots created there before
+        # either is beamed would overlap and explode, so later ones hang beside the first
+        taken = [s.robot.torso_position() for s in self._agents.values() if s.robot is not None]
+        x, y, z = SPAWN_POSITION
+        while any(abs(tx - x) < 0.5 and abs(ty - y) < 0.5 for tx, ty, _ in taken):
+            x -= 0.6
+        if x != SPAWN_POSITION[0]:
+            robot.place(x, y, z)
+        state.robot = robot
         state.robot_type = robot_type
         self.sensing.add_robot(state)
         self._scene_changed = True
@@ -303,15 +338,6 @@ class StubServer:
             self._last_beam[(state.side, state.unum)] = pose
 
     # ----- monitors and trainer -----
-    def _send_monitor(self, monitor: Client) -> None:
-        full = self._monitors.get(monitor, True) or self._scene_changed
-        message = self.sensing.monitor_message(self.game, list(self._agents.values()), full)
-        if monitor.send(message):
-            self._monitors[monitor] = False
-        else:
-            self._monitors[monitor] = True  # missed an update: the next one must be a full scene
-        self._want_write(monitor)
-
     def _on_trainer_frame(self, monitor: Client, frame: bytes) -> None:
         try:
             expressions = parse_sexp(frame)

@@ -89,7 +89,7 @@ class SeenRobot:
 
 
 def _pol(d: float, h: float, v: float) -> str:
-    return f"(pol {d:.2f} {h:.2f} {v:.2f})"
+    return "(pol %.2f %.2f %.2f)" % (d, h, v)
 
 
 class VisionSensor:
@@ -121,7 +121,7 @@ class VisionSensor:
         (``mypos``, ``myorien``, ``ballpos``); ``robots`` includes the observer itself."""
         cam = np.asarray(camera_pos, dtype=float)
         rot = np.asarray(camera_rot, dtype=float)
-        # Points: landmarks, ball, then every robot part, in one batch.
+        # One batch: landmarks, ball, every robot part, then the ends of the visible lines.
         owners: list[tuple[int, str]] = []
         world = [self._landmarks, np.asarray(ball, dtype=float)[None, :]]
         for i, robot in enumerate(robots):
@@ -131,8 +131,11 @@ class VisionSensor:
                     owners.append((i, part))
                     world.append(np.asarray(pos, dtype=float)[None, :])
         points = self._to_head(np.concatenate(world), cam, rot)
-        polar = self._observe(points)
-        visible = self._in_view(polar)
+        line_a, line_b = self._clipped_lines(cam, rot)
+        n_points, n_lines = len(points), len(line_a)
+        exact = self._polar(np.concatenate([points, line_a, line_b]))
+        visible = self._in_view(exact[:n_points]).tolist()   # the cone cuts before the noise
+        polar = self._with_noise(exact).tolist()
 
         out = ["(See"]
         n_land = len(LANDMARKS)
@@ -141,29 +144,34 @@ class VisionSensor:
                 out.append(f" ({name} {_pol(*polar[k])})")
         if visible[n_land]:
             out.append(f" (B {_pol(*polar[n_land])})")
-        out.extend(self._players(robots, owners, polar[n_land + 1:], visible[n_land + 1:]))
+        out.extend(self._players(robots, owners, polar[n_land + 1:n_points], visible[n_land + 1:]))
         if self._sense_mypos:
             out.append(self._ground_truth(cam, rot, side, ball))
-        out.extend(self._lines(cam, rot))
+        ends = polar[n_points:]
+        out.extend(f" (L {_pol(*ends[k])} {_pol(*ends[n_lines + k])})" for k in range(n_lines))
         out.append(")")
         return "".join(out)
 
     def _to_head(self, world: np.ndarray, cam: np.ndarray, rot: np.ndarray) -> np.ndarray:
         return (world - cam) @ rot + self._offset
 
-    def _observe(self, rel: np.ndarray) -> np.ndarray:
-        """(d, h, v) per row of head-frame points, noise added when on."""
+    @staticmethod
+    def _polar(rel: np.ndarray) -> np.ndarray:
+        """(d, h, v) per row of head-frame points."""
         x, y, z = rel[:, 0], rel[:, 1], rel[:, 2]
-        d = np.sqrt(x * x + y * y + z * z)
-        h = np.degrees(np.arctan2(-x, y))
-        v = np.degrees(np.arctan2(z, np.sqrt(x * x + y * y)))
-        if self._noise:
-            c = self._cfg
-            e = self._rng.standard_normal((3, len(d)))
-            d = d * (1.0 + e[0] * (c.distance_sigma_percent / 100.0))
-            h = h + e[1] * c.h_sigma_deg
-            v = v + e[2] * c.v_sigma_deg
-        return np.stack([d, h, v], axis=1)
+        flat = np.sqrt(x * x + y * y)
+        return np.stack([np.sqrt(flat * flat + z * z), np.degrees(np.arctan2(-x, y)),
+                         np.degrees(np.arctan2(z, flat))], axis=1)
+
+    def _with_noise(self, polar: np.ndarray) -> np.ndarray:
+        if not self._noise:
+            return polar
+        c = self._cfg
+        e = self._rng.standard_normal(polar.shape)
+        scale = np.array([0.0, c.h_sigma_deg, c.v_sigma_deg])
+        noisy = polar + e * scale
+        noisy[:, 0] = polar[:, 0] * (1.0 + e[:, 0] * (c.distance_sigma_percent / 100.0))
+        return noisy
 
     def _in_view(self, polar: np.ndarray) -> np.ndarray:
         c = self._cfg
@@ -171,7 +179,7 @@ class VisionSensor:
                 & (np.abs(polar[:, 2]) <= c.half_cone_v_deg))
 
     def _players(self, robots: Sequence[SeenRobot], owners: list[tuple[int, str]],
-                 polar: np.ndarray, visible: np.ndarray) -> list[str]:
+                 polar: list[list[float]], visible: list[bool]) -> list[str]:
         seen: dict[int, list[str]] = {}
         for (i, part), pol, ok in zip(owners, polar, visible):
             if ok:
@@ -188,21 +196,17 @@ class VisionSensor:
                 f" (myorien {heading:.2f})"
                 f" (ballpos {s * ball[0]:.2f} {s * ball[1]:.2f} {ball[2]:.2f})")
 
-    def _lines(self, cam: np.ndarray, rot: np.ndarray) -> list[str]:
-        """Every field line cut to the view pyramid, then observed like points."""
+    def _clipped_lines(self, cam: np.ndarray, rot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Ends (head frame) of the field lines cut to the view pyramid. Each line is a + t (b - a),
+        t in [0, 1]; every side plane bounds t from below or above (the plane's signed distance
+        is linear in t), and a line is visible where the bounds leave an interval."""
         a = self._to_head(self._line_a, cam, rot)
         b = self._to_head(self._line_b, cam, rot)
-        keep = np.ones(len(a), dtype=bool)
-        with np.errstate(divide="ignore", invalid="ignore"):  # lines parallel to a plane
-            for normal in self._planes:
-                da, db = a @ normal, b @ normal
-                keep &= (da >= 0.0) | (db >= 0.0)
-                cut = a + (da / (da - db))[:, None] * (b - a)
-                a = np.where((da < 0.0)[:, None] & keep[:, None], cut, a)
-                b = np.where((db < 0.0)[:, None] & keep[:, None], cut, b)
-        a, b = a[keep], b[keep]
-        if len(a) == 0:
-            return []
-        polar = self._observe(np.concatenate([a, b]))
-        n = len(a)
-        return [f" (L {_pol(*polar[k])} {_pol(*polar[n + k])})" for k in range(n)]
+        da, db = a @ self._planes.T, b @ self._planes.T          # (lines, planes)
+        with np.errstate(divide="ignore", invalid="ignore"):     # lines parallel to a plane
+            cross = da / (da - db)
+        t0 = np.where((da < 0.0) & (db >= 0.0), cross, 0.0).max(axis=1)
+        t1 = np.where((db < 0.0) & (da >= 0.0), cross, 1.0).min(axis=1)
+        keep = ~((da < 0.0) & (db < 0.0)).any(axis=1) & (t0 <= t1)
+        a, b, t0, t1 = a[keep], b[keep], t0[keep, None], t1[keep, None]
+        return a + t0 * (b - a), a + t1 * (b - a)

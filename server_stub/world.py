@@ -85,6 +85,7 @@ class World:
             numSubSteps=cfg.sub_steps,
             numSolverIterations=cfg.solver_iterations,
             globalCFM=cfg.global_cfm,
+            contactBreakingThreshold=cfg.contact_breaking_threshold,
             deterministicOverlappingPairs=1,
             constraintSolverType=_SOLVERS[cfg.solver],
             physicsClientId=c,

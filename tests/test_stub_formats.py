@@ -301,3 +301,18 @@ def test_slt_numbers_print_like_the_server():
     m[:3, 3] = (-1.0, 2.12738e-11, 0.396076)
     text = scene.full(GameHeader(0.0, "BeforeKickOff"), [RobotView("left", 1, 0, [("torso", m)])], (0, 0, 0.042))
     assert "(SLT 1 1.5e-20 0 0 -4.37114e-08 1 0 0 0 0 1 0 -1 2.12738e-11 0.396076 1)" in text
+
+
+def test_robot_delta_has_the_real_shape(fixtures_dir):
+    """Stripped of SLTs, our robot's delta subtree equals the real one (monitor_messages line 9)."""
+    real = _lines(fixtures_dir, "monitor_messages.txt")[8]
+    scene = MonitorScene()
+    robot = _robot("left", 1, (-1, 0, 0.4))
+    scene.full(GameHeader(0.0, "BeforeKickOff", team_left="Probe"), [robot], (0, 0, 0.042))
+    fallen = _robot("left", 1, (-0.9, 0, 0.35), pitch=-30.0)
+    ours = scene.delta(GameHeader(0.0, "BeforeKickOff", team_left="Probe"), [fallen], (0, 0, 0.042))
+    def robot_delta(text):
+        body = re.sub(r" ?\(SLT[^)]*\)", "", text)
+        return body[body.rindex("(nd(nd StaticMesh))(nd(nd(nd(nd StaticMesh))") + len("(nd(nd StaticMesh))"):]
+    assert robot_delta(ours) == robot_delta(real)
+    assert ours.count("(SLT") == len(_PART_NAMES)

@@ -1,0 +1,266 @@
+"""What the optimizer's commands share: argument types, the run flags, settings and resume
+checks, and running a search session with its evaluator, log and progress bar.
+
+Settings are what decides a run's episodes (search numbers, walk time, agent mode) and are stored
+in the manifest; ``--resume`` takes them from there and refuses a flag that contradicts them.
+How the run is executed (workers, servers, progress) is not a setting and may change on resume.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import secrets
+import sys
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gait import TFSParams, save_gait
+from optimizer.driver import BarProgress, Driver, ResumeMismatch
+from optimizer.episode import EpisodeConfig, ServerAddress
+from optimizer.evaluation import EpisodeRunnerFactory, EvaluationError, Evaluator, ProcessPoolEvaluator
+from optimizer.run_folder import RunFolder, RunFolderError, new_run_path
+
+#: Exit status of an interrupted run (the shell's convention for SIGINT).
+EXIT_INTERRUPTED = 130
+
+
+# --- argument types: each names what is wrong; argparse adds the flag -----------------------------
+
+
+def probability(text: str) -> float:
+    value = _number(text)
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be a rate within [0, 1], got {text}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    value = _number(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
+
+
+def _number(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text}")
+    return value
+
+
+def server_address(text: str) -> ServerAddress:
+    """``HOST:AGENT_PORT:MONITOR_PORT`` of a running rcssserver3d."""
+    try:
+        return ServerAddress.parse(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def existing_run(text: str) -> RunFolder:
+    try:
+        return RunFolder.open(Path(text))
+    except RunFolderError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+# --- flags ----------------------------------------------------------------------------------------
+
+
+def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
+    """How one episode is run: ``--walk-time`` and ``--agent-mode`` (default None: resolved later,
+    so a resumed run can tell a given flag from a default)."""
+    parser.add_argument("--walk-time", type=positive_float, default=None,
+                        help="seconds of walking per episode (eq. 9; default 15)")
+    parser.add_argument("--agent-mode", choices=("inprocess", "process"), default=None,
+                        help="run the agent inside the worker or as its own process (default inprocess)")
+
+
+def add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """Flags of every search command: GA numbers shared by GA and GALA, the seed, the run folder
+    and the workers."""
+    parser.add_argument("--population", type=positive_int, default=None, help="population size (default 100)")
+    parser.add_argument("--elitism", action=argparse.BooleanOptionalAction, default=None,
+                        help="carry the best individual into the next generation (default on)")
+    add_episode_arguments(parser)
+    parser.add_argument("--seed", type=int, default=None,
+                        help="fixes every random choice of the run (default: a random seed, recorded)")
+    parser.add_argument("--server", type=server_address, action="append", default=None,
+                        metavar="HOST:AGENT_PORT:MONITOR_PORT",
+                        help="evaluate on this running rcssserver3d instead of the embedded stub; "
+                             "repeat for more servers (one worker per server)")
+    parser.add_argument("--workers", type=positive_int, default=None,
+                        help="worker processes (default: one per core; one per --server)")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--out", type=Path, default=None, help="new run folder (default runs/<command>-<time>)")
+    where.add_argument("--resume", type=existing_run, default=None, metavar="DIR",
+                       help="continue the run in DIR: finished episodes are not run again")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+#: Defaults of the episode settings every command stores.
+EPISODE_DEFAULTS: dict[str, Any] = {"walk_time": 15.0, "agent_mode": "inprocess"}
+
+
+def _flag(name: str, value: Any) -> str:
+    if isinstance(value, bool):
+        return f"--{name.replace('_', '-')}" if value else f"--no-{name.replace('_', '-')}"
+    shown = " ".join(map(str, value)) if isinstance(value, (list, tuple)) else value
+    return f"--{name.replace('_', '-')} {shown}"
+
+
+def resolve_settings(parser: argparse.ArgumentParser, args: argparse.Namespace,
+                     defaults: Mapping[str, Any], stored: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The run's settings: the stored ones on ``--resume`` (a given flag that contradicts one is
+    refused), else each given flag or its default. Lists are compared and stored as lists."""
+    given = {name: getattr(args, name) for name in defaults if getattr(args, name) is not None}
+    given = {k: list(v) if isinstance(v, tuple) else v for k, v in given.items()}
+    if stored is None:
+        return {**defaults, **given}
+    for name, value in given.items():
+        if name not in stored:
+            parser.error(f"--resume: the run has no setting {name!r}; it was made by another version")
+        if value != stored[name]:
+            parser.error(f"--resume: {_flag(name, value)} conflicts with the run's {_flag(name, stored[name])}")
+    return dict(stored)
+
+
+# --- the session ----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class EvaluationSetup:
+    """What an evaluator is made from (everything but the search)."""
+
+    walk_time: float
+    agent_mode: str
+    servers: tuple[ServerAddress, ...]
+    workers: int
+    seed: int
+
+
+def pool_evaluator(setup: EvaluationSetup) -> Evaluator:
+    """The local evaluator: one worker process per core (or per server), each with one runner."""
+    config = EpisodeConfig(walk_time=setup.walk_time, agent_mode=setup.agent_mode)
+    # an episode may take the runner's timeout twice (it restarts and retries once) plus a restart
+    timeout = 2 * config.episode_timeout + 30.0
+    return ProcessPoolEvaluator(EpisodeRunnerFactory(config, setup.servers, setup.seed), setup.workers,
+                                task_timeout=timeout)
+
+
+EvaluatorMaker = Callable[[EvaluationSetup], Evaluator]
+
+
+@dataclass
+class Run:
+    """A prepared run: its folder, settings and seed, and how to evaluate."""
+
+    command: str
+    folder: RunFolder
+    settings: dict[str, Any]
+    seed: int
+    setup: EvaluationSetup
+    resumed: bool
+
+
+def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, command: str,
+                defaults: Mapping[str, Any], argv: Sequence[str]) -> Run:
+    """Resolve settings, seed and workers, and create or reopen the run folder. Every refusal goes
+    through ``parser.error`` (exit status 2, the flag named)."""
+    folder: RunFolder | None = args.resume
+    stored = None
+    if folder is not None:
+        if folder.manifest.get("command") != command:
+            parser.error(f"--resume: {folder.path} is a {folder.manifest.get('command')} run, not a {command} run")
+        stored = folder.manifest["settings"]
+        if args.seed is not None and args.seed != folder.manifest["seed"]:
+            parser.error(f"--resume: --seed {args.seed} conflicts with the run's --seed {folder.manifest['seed']}")
+    settings = resolve_settings(parser, args, {**defaults, **EPISODE_DEFAULTS}, stored)
+    servers = tuple(args.server or ())
+    if servers and args.workers is not None and args.workers != len(servers):
+        parser.error(f"--workers {args.workers} conflicts with {len(servers)} --server address(es): "
+                     "one worker per server")
+    workers = len(servers) or args.workers or os.cpu_count() or 1
+    runtime = {"workers": workers, "servers": [str(s) for s in servers]}
+    if folder is None:
+        seed = args.seed if args.seed is not None else secrets.randbits(32)
+        out = args.out or new_run_path(command)
+        try:
+            folder = RunFolder.create(out, command, settings, seed, argv, runtime)
+        except RunFolderError as exc:
+            parser.error(f"--out: {exc}")
+    else:
+        seed = folder.manifest["seed"]
+        folder.note_resume(argv, runtime)
+    setup = EvaluationSetup(settings["walk_time"], settings["agent_mode"], servers, workers, seed)
+    return Run(command, folder, settings, seed, setup, resumed=stored is not None)
+
+
+def run_session(run: Run, planned_episodes: int, body: Callable[[Driver], None], *,
+                make_evaluator: EvaluatorMaker = pool_evaluator, quiet: bool = False) -> int:
+    """Open the log and the evaluator, run ``body`` with a driver, and turn the ways a run can end
+    into exit statuses: 0 done, 1 cannot evaluate or cannot resume, 130 interrupted (resumable)."""
+    say = (lambda text: None) if quiet else (lambda text: print(text, file=sys.stderr))
+    log = run.folder.open_log()
+    for warning in log.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
+    logged = [r for r in log.records.values()]
+    say(f"{run.command}: run folder {run.folder.path} (seed {run.seed}, {run.setup.workers} worker(s)"
+        + (f", {len(logged)} episodes already logged)" if run.resumed else ")"))
+    progress = BarProgress(planned_episodes, len(logged), max((r["fitness"] for r in logged), default=-math.inf),
+                           quiet=quiet)
+    evaluator: Evaluator | None = None
+    try:
+        evaluator = make_evaluator(run.setup)
+        body(Driver(evaluator, log, run.seed, progress))
+    except KeyboardInterrupt:
+        progress.close()
+        print(f"\ninterrupted; continue with: python -m optimizer.{run.command} --resume {run.folder.path}",
+              file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (EvaluationError, ResumeMismatch) as exc:
+        progress.close()
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    finally:
+        if evaluator is not None:
+            evaluator.close()
+        log.close()
+    progress.close()
+    return 0
+
+
+# --- result files shared by the commands ----------------------------------------------------------
+
+
+def best_episode(records: Mapping[str, Mapping[str, Any]], prefix: str, genes: np.ndarray,
+                 fitness: float) -> dict[str, Any] | None:
+    """The logged episode of the best individual of the search under ``prefix`` (its distance and
+    speed go into the tables): the best's genes and fitness, among the keys of that search."""
+    wanted = [float(g) for g in genes]
+    for key, record in records.items():
+        if key.startswith(prefix) and record["genes"] == wanted and record["fitness"] == fitness:
+            return dict(record)
+    return None
+
+
+def write_gait(path: Path, genes: np.ndarray, notes: str) -> None:
+    """The best gait as a gait file the agent takes with ``--gait``."""
+    save_gait(TFSParams.from_array(genes), path, notes)

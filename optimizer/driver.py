@@ -1,0 +1,108 @@
+"""Driving a keyed search: ask, answer from the episode log or evaluate, log, tell.
+
+Resuming is replaying: the search is rebuilt from its seed and driven from the start; every
+candidate whose key is already in the log is answered from it, the rest are evaluated and logged.
+Because the search is a deterministic function of its seed and its answers, the replay reaches
+exactly the state of an uninterrupted run, and no episode is ever run twice.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any, Protocol
+
+from tqdm import tqdm
+
+from optimizer.evaluation import EpisodeTask, Evaluator, stable_seed
+from optimizer.ga import AskTellSearch
+from optimizer.run_folder import EpisodeLog
+
+
+class ResumeMismatch(RuntimeError):
+    """The log answers a key whose logged genes differ from what the replayed search asks: the
+    log belongs to other settings, seed or code, and replaying it would mix two searches."""
+
+
+class Progress(Protocol):
+    """Hears about the drive: a batch about to be evaluated, each episode as it is logged."""
+
+    def batch(self, prefix: str) -> None: ...
+
+    def episode(self, record: Mapping[str, Any]) -> None: ...
+
+
+class Driver:
+    """Runs searches against one evaluator and one episode log (a run may drive several searches,
+    e.g. one GALA per crossover rate, through the same driver: keys never collide)."""
+
+    def __init__(self, evaluator: Evaluator, log: EpisodeLog, run_seed: int,
+                 progress: Progress | None = None) -> None:
+        self.evaluator = evaluator
+        self.log = log
+        self.run_seed = run_seed
+        self.progress = progress
+        #: episodes this driver evaluated (not replayed from the log)
+        self.evaluated = 0
+
+    def run(self, search: AskTellSearch) -> Any:
+        """Drive ``search`` to the end and return its ``result()``."""
+        while not search.done:
+            answers: dict[str, float] = {}
+            tasks: list[EpisodeTask] = []
+            for candidate in search.ask():
+                genes = tuple(float(g) for g in candidate.genes)
+                record = self.log.records.get(candidate.key)
+                if record is None:
+                    tasks.append(EpisodeTask(candidate.key, genes, stable_seed(self.run_seed, candidate.key)))
+                    continue
+                if tuple(record["genes"]) != genes:
+                    raise ResumeMismatch(
+                        f"episode {candidate.key!r}: the log holds other genes than the search asks "
+                        f"({record['genes']} vs {list(genes)}); was the run made with other settings or code?"
+                    )
+                answers[candidate.key] = float(record["fitness"])
+            if tasks:
+                if self.progress is not None:
+                    self.progress.batch(tasks[0].key.rsplit("/", 1)[0])
+                for outcome in self.evaluator.evaluate(tasks):
+                    record = outcome.to_record()
+                    self.log.append(record)
+                    self.evaluated += 1
+                    answers[outcome.task.key] = outcome.fitness
+                    if self.progress is not None:
+                        self.progress.episode(record)
+            search.tell(answers)
+        return search.result()
+
+
+class BarProgress:
+    """One tqdm bar for a whole run, on stderr: episodes done of planned, episodes per second and
+    the ETA (tqdm's), the batch being evaluated (crossover row, iteration, generation), the best
+    fitness so far and the number of failed episodes. Episodes replayed from the log are counted
+    from the start, so the rate and the ETA measure only the episodes run now."""
+
+    def __init__(self, total: int, done: int = 0, best: float = -math.inf, *, quiet: bool = False) -> None:
+        self.best = best
+        self.failed = 0
+        self._bar = tqdm(total=total, initial=done, unit="ep", dynamic_ncols=True, disable=quiet,
+                         smoothing=0.05)
+        self._batch = ""
+
+    def batch(self, prefix: str) -> None:
+        self._batch = prefix
+        self._show()
+
+    def episode(self, record: Mapping[str, Any]) -> None:
+        self.best = max(self.best, float(record["fitness"]))
+        self.failed += record.get("status") == "failed"
+        self._bar.update(1)
+        self._show()
+
+    def _show(self) -> None:
+        postfix = {"batch": self._batch, "best": f"{self.best:.3f}"}
+        if self.failed:
+            postfix["failed"] = str(self.failed)
+        self._bar.set_postfix(postfix, refresh=False)
+
+    def close(self) -> None:
+        self._bar.close()

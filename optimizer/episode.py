@@ -1,0 +1,316 @@
+"""One episode (paper eq. 9): a fresh agent walks one gait; the monitor stream scores it.
+
+Fitness = 10 x the torso's displacement along the walking direction, taken when the robot falls
+(torso up-vector z < 0.6 or torso height < 0.25 m, the community's run-benchmark rule) or when
+``walk_time`` seconds of game time have passed. Everything is read the way a trainer on a real
+rcssserver3d would: the torso pose from the monitor stream, control through trainer commands.
+
+Per episode on the server (stub or real, sync mode):
+``(playMode BeforeKickOff)(time 0)``, the ball parked out of the way; a new agent connects, beams
+to the start, settles; ``(playMode PlayOn)`` is sent at the cycle its walk starts, so the game clock
+measures walking time; the episode ends at a fall or at ``walk_time``; the agent disconnects and
+its robot is removed. Resetting the clock each episode keeps a real server's half (300 s) from
+ever ending, so thousands of episodes run on one server.
+
+``python -m optimizer.episode`` evaluates one gait from the command line.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import os
+import select
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from agent import AgentConfig, AgentError, NaoAgent
+from gait import TFSParams, save_gait
+from optimizer.servers import ServerAddress, StubProcess
+from protocol import trainer
+from protocol.framing import FrameDecoder, encode_frame
+from protocol.monitor import MonitorReader, MonitorState, RobotPose
+
+log = logging.getLogger("optimizer.episode")
+
+__all__ = ["EpisodeConfig", "EpisodeResult", "EpisodeRunner", "ServerAddress"]
+
+
+@dataclass(frozen=True)
+class EpisodeConfig:
+    #: Seconds of walking (game time after PlayOn) before the walk is scored (paper: 15 s).
+    walk_time: float = 15.0
+    #: Start point (x, y) and heading (deg, 0 = +x) on the field; distance is measured from it.
+    start: tuple[float, float] = (0.0, 0.0)
+    heading: float = 0.0
+    #: "inprocess": a fresh ``agent.NaoAgent`` per episode in this process, over the same socket
+    #: protocol (fast, default); "process": a fresh ``python -m agent`` process per episode.
+    agent_mode: str = "inprocess"
+    #: Wall seconds an episode may take before the server or agent is declared hung.
+    episode_timeout: float = 60.0
+    team: str = "GALA"
+    unum: int = 1
+    #: Fall rule (community run benchmark): torso up-vector z below / torso height below.
+    fall_up_z: float = 0.6
+    fall_height: float = 0.25
+
+    def __post_init__(self) -> None:
+        if not self.walk_time > 0:
+            raise ValueError(f"walk_time must be > 0 s, got {self.walk_time}")
+        if self.agent_mode not in ("inprocess", "process"):
+            raise ValueError(f"agent_mode must be 'inprocess' or 'process', got {self.agent_mode!r}")
+        if not self.episode_timeout > 0:
+            raise ValueError(f"episode_timeout must be > 0 s, got {self.episode_timeout}")
+
+
+@dataclass(frozen=True)
+class EpisodeResult:
+    distance: float
+    fell: bool
+    time: float
+    fitness: float
+    mean_speed: float
+    status: str = "ok"
+    reason: str = ""
+    wall: float = 0.0
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def failed(cls, reason: str, wall: float) -> "EpisodeResult":
+        """An episode the infrastructure could not run; fitness 0 so that the search goes on."""
+        return cls(0.0, False, 0.0, 0.0, 0.0, "failed", reason, wall)
+
+
+class EpisodeFailure(RuntimeError):
+    """The server or the agent died, hung or misbehaved: not the gait's fault."""
+
+
+class MonitorLink:
+    """A trainer's connection to the monitor port: sends commands, follows the stream."""
+
+    def __init__(self, address: ServerAddress, timeout: float) -> None:
+        self._sock = socket.create_connection((address.host, address.monitor_port), timeout=timeout)
+        self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self._decoder = FrameDecoder()
+        self.reader = MonitorReader()
+
+    def send(self, *commands: str) -> None:
+        for command in commands:
+            self._sock.sendall(encode_frame(command))
+
+    def poll(self, wait: float = 0.0) -> list[MonitorState]:
+        """Every monitor state that arrived, oldest first (waits up to ``wait`` s for the first)."""
+        states: list[MonitorState] = []
+        while True:
+            ready, _, _ = select.select([self._sock], [], [], wait)
+            if not ready:
+                return states
+            data = self._sock.recv(1 << 20)
+            if not data:
+                raise EpisodeFailure("the server closed the monitor connection")
+            states.extend(self.reader.feed(frame) for frame in self._decoder.feed(data))
+            wait = 0.0
+
+    def close(self) -> None:
+        self._sock.close()
+
+
+def _find_robot(state: MonitorState, side: str, unum: int) -> RobotPose | None:
+    for robot in state.robots:
+        if robot.team == side and robot.unum == unum:
+            return robot
+    return None
+
+
+class _Judge:
+    """Watches monitor states in order and decides, from their content alone, when and how an
+    episode ends; so the outcome does not depend on when the states happen to be read."""
+
+    def __init__(self, config: EpisodeConfig) -> None:
+        self.config = config
+        self.result: EpisodeResult | None = None
+        self._heading = math.radians(config.heading)
+
+    def feed(self, state: MonitorState) -> None:
+        if self.result is not None or state.play_mode != "PlayOn":
+            return
+        robot = _find_robot(state, "left", self.config.unum)
+        if robot is None:
+            return
+        x, y, z = robot.position
+        fell = robot.up[2] < self.config.fall_up_z or z < self.config.fall_height
+        if fell or state.game_time >= self.config.walk_time - 1e-6:
+            sx, sy = self.config.start
+            distance = (x - sx) * math.cos(self._heading) + (y - sy) * math.sin(self._heading)
+            t = min(state.game_time, self.config.walk_time)
+            speed = distance / t if t > 0 else 0.0
+            self.result = EpisodeResult(distance, fell, t, 10.0 * distance, speed)
+
+
+class EpisodeRunner:
+    """Runs episodes one after another on one server, which it starts (stub) or is given (real).
+
+    A server or agent that dies or hangs is detected, the stub restarted, the episode retried once;
+    if that fails too the episode is returned as failed with its reason. ``evaluate`` never raises
+    for such failures, so a worker keeps going.
+    """
+
+    def __init__(self, config: EpisodeConfig = EpisodeConfig(), server: ServerAddress | None = None,
+                 seed: int = 0) -> None:
+        self.config = config
+        self._fixed_server = server
+        self._stub = None if server is not None else StubProcess(seed=seed)
+        self._monitor: MonitorLink | None = None
+        self._tmp = tempfile.TemporaryDirectory(prefix="gala_episode_")
+
+    # ----- public -----
+    def evaluate(self, genes: Sequence[float] | TFSParams) -> EpisodeResult:
+        params = genes if isinstance(genes, TFSParams) else TFSParams.from_array(list(genes))
+        started = time.monotonic()
+        reason = ""
+        for attempt in (1, 2):
+            try:
+                result = self._episode(params)
+                return EpisodeResult(**{**result.to_dict(), "wall": time.monotonic() - started})
+            except (EpisodeFailure, AgentError, OSError, RuntimeError) as exc:
+                reason = f"{type(exc).__name__}: {exc}"
+                log.warning("episode attempt %d failed: %s", attempt, reason)
+                self._reset_server()
+        return EpisodeResult.failed(reason, time.monotonic() - started)
+
+    def close(self) -> None:
+        self._close_monitor()
+        if self._stub is not None:
+            self._stub.stop()
+        self._tmp.cleanup()
+
+    def __enter__(self) -> "EpisodeRunner":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ----- one episode -----
+    def _address(self) -> ServerAddress:
+        if self._stub is not None:
+            return self._stub.ensure_running()
+        assert self._fixed_server is not None
+        return self._fixed_server
+
+    def _link(self) -> MonitorLink:
+        if self._monitor is None:
+            self._monitor = MonitorLink(self._address(), self.config.episode_timeout)
+        return self._monitor
+
+    def _reset_server(self) -> None:
+        self._close_monitor()
+        if self._stub is not None:
+            self._stub.restart()
+
+    def _close_monitor(self) -> None:
+        if self._monitor is not None:
+            self._monitor.close()
+            self._monitor = None
+
+    def _prepare(self, link: MonitorLink) -> None:
+        """Reset what a long-running server carries over from the previous episode."""
+        sx, sy = self.config.start
+        link.send(trainer.play_mode("BeforeKickOff"), trainer.set_time(0.0),
+                  trainer.ball((sx, sy + 5.0, 0.042), (0.0, 0.0, 0.0)))
+        link.poll()
+
+    def _agent_config(self, address: ServerAddress) -> AgentConfig:
+        sx, sy = self.config.start
+        return AgentConfig(host=address.host, port=address.agent_port, team=self.config.team,
+                           unum=self.config.unum, beam=(sx, sy, self.config.heading), sync=True,
+                           duration=None, start_now=True, timeout=self.config.episode_timeout)
+
+    def _episode(self, params: TFSParams) -> EpisodeResult:
+        address = self._address()
+        link = self._link()
+        self._prepare(link)
+        judge = _Judge(self.config)
+        deadline = time.monotonic() + self.config.episode_timeout
+        if self.config.agent_mode == "inprocess":
+            self._run_inprocess(params, address, link, judge, deadline)
+        else:
+            self._run_process(params, address, link, judge, deadline)
+        assert judge.result is not None
+        return judge.result
+
+    def _run_inprocess(self, params: TFSParams, address: ServerAddress, link: MonitorLink,
+                       judge: _Judge, deadline: float) -> None:
+        config = self._agent_config(address)
+        agent = NaoAgent(config, gait=params)
+        agent.connect()
+        play_on_sent = False
+        try:
+            while judge.result is None:
+                agent.receive()
+                if not play_on_sent and agent.behaviour.settle_cycle >= config.settle_cycles:
+                    # sent between a perception and its reply, so it reaches the server at the
+                    # same cycle in every run: the walk and the game clock start together
+                    link.send(trainer.play_mode("PlayOn"))
+                    play_on_sent = True
+                agent.reply()
+                for state in link.poll():
+                    judge.feed(state)
+                if time.monotonic() > deadline:
+                    raise EpisodeFailure(f"no result within {self.config.episode_timeout:g} s")
+        finally:
+            agent.close()
+        self._await_robot_gone(link, deadline)
+
+    def _run_process(self, params: TFSParams, address: ServerAddress, link: MonitorLink,
+                     judge: _Judge, deadline: float) -> None:
+        gait_file = save_gait(params, Path(self._tmp.name) / "gait.json")
+        sx, sy = self.config.start
+        command = [sys.executable, "-m", "agent", "--host", address.host, "--port", str(address.agent_port),
+                   "--team", self.config.team, "--unum", str(self.config.unum), "--gait", str(gait_file),
+                   "--beam", str(sx), str(sy), str(self.config.heading), "--sync", "--start-now",
+                   "--timeout", str(self.config.episode_timeout)]
+        process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                                   env=dict(os.environ))
+        try:
+            # the agent walks by its own count after settling; PlayOn starts the game clock once
+            # the robot has its team (init done) and has stood for the settling time
+            settle_messages = 0
+            play_on_sent = False
+            while judge.result is None:
+                for state in link.poll(wait=0.05):
+                    robot = _find_robot(state, "left", self.config.unum)
+                    if robot is not None and not play_on_sent:
+                        settle_messages += 1
+                        if settle_messages * 2 >= AgentConfig.settle_cycles + 2:
+                            link.send(trainer.play_mode("PlayOn"))
+                            play_on_sent = True
+                    judge.feed(state)
+                if process.poll() is not None:
+                    raise EpisodeFailure(f"agent process exited early ({process.returncode}): "
+                                         f"{(process.stderr.read() if process.stderr else '').strip()}")
+                if time.monotonic() > deadline:
+                    raise EpisodeFailure(f"no result within {self.config.episode_timeout:g} s")
+            link.send(trainer.kill(self.config.unum, "Left"))
+            process.wait(timeout=max(1.0, deadline - time.monotonic()))
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+            if process.stderr is not None:
+                process.stderr.close()
+        self._await_robot_gone(link, deadline)
+
+    def _await_robot_gone(self, link: MonitorLink, deadline: float) -> None:
+        """The next episode's robot must not meet this one's: wait until the server removed it."""
+        while time.monotonic() < deadline:
+            if _find_robot(link.reader.state, "left", self.config.unum) is None:
+                return
+            link.poll(wait=0.05)
+        raise EpisodeFailure("the previous robot was not removed from the server")

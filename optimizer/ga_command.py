@@ -1,0 +1,91 @@
+"""``python -m optimizer.ga``: one GA with fixed rates (paper Fig. 4, 5, 7), in a run folder.
+
+    python -m optimizer.ga --preset dejong            # (0.6, 0.001), Fig. 4
+    python -m optimizer.ga --preset grefenstette      # (0.95, 0.01), Fig. 5
+    python -m optimizer.ga --crossover 0.8 --mutation 0.07 --generations 10
+
+Writes manifest.json, episodes.jsonl, results.json, ga.png (best and mean fitness per
+generation) and best_gait.json into the run folder (default runs/ga-YYYYmmdd-HHMMSS).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+from gait import GENE_BOUNDS, repair_genes
+from optimizer.command_line import (
+    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, positive_int, prepare_run, probability,
+    run_session, write_gait,
+)
+from optimizer.driver import Driver
+from optimizer.evaluation import stable_seed
+from optimizer.ga import GAResult, GARun
+from optimizer.report import plot_ga_convergence
+from optimizer.run_folder import write_json
+from optimizer.search_config import DE_JONG, GREFENSTETTE, PAPER_GALA_BEST, GAConfig, RatePreset
+
+PRESETS: dict[str, RatePreset] = {"dejong": DE_JONG, "grefenstette": GREFENSTETTE, "gala": PAPER_GALA_BEST}
+
+#: Keys of the GA's episodes start with this.
+PREFIX = "ga"
+
+
+def planned_episodes(config: GAConfig) -> int:
+    """Episodes a GA run evaluates: the first generation whole, later ones without the carried elite."""
+    return config.population_size + (config.generations - 1) * (config.population_size - int(config.elitism))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m optimizer.ga", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--preset", choices=sorted(PRESETS), default=None,
+                   help="published rates: dejong (0.6, 0.001), grefenstette (0.95, 0.01), gala (0.8, 0.07, "
+                        "the paper's Table I best; the default); --crossover/--mutation override it")
+    p.add_argument("--crossover", type=probability, default=None, help="crossover rate pc")
+    p.add_argument("--mutation", type=probability, default=None, help="mutation rate pm (per gene)")
+    p.add_argument("--generations", type=positive_int, default=None,
+                   help="generations, the random first one included (default 10)")
+    add_run_arguments(p)
+    return p
+
+
+def defaults(preset: str | None) -> dict[str, Any]:
+    rates = PRESETS[preset or "gala"]
+    base = GAConfig()
+    return {"preset": preset, "crossover": rates.crossover_rate, "mutation": rates.mutation_rate,
+            "population": base.population_size, "generations": base.generations, "elitism": base.elitism}
+
+
+def ga_config(settings: dict[str, Any]) -> GAConfig:
+    return GAConfig(population_size=settings["population"], generations=settings["generations"],
+                    crossover_rate=settings["crossover"], mutation_rate=settings["mutation"],
+                    elitism=settings["elitism"])
+
+
+def title(settings: dict[str, Any]) -> str:
+    name = PRESETS[settings["preset"]].name + ": " if settings["preset"] else ""
+    return f"GA, {name}crossover {settings['crossover']:g}, mutation {settings['mutation']:g}"
+
+
+def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = pool_evaluator) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    run = prepare_run(parser, args, "ga", defaults(args.preset), argv)
+    config = ga_config(run.settings)
+
+    def body(driver: Driver) -> None:
+        search = GARun(GENE_BOUNDS, config, stable_seed(run.seed, PREFIX), repair=repair_genes, prefix=PREFIX)
+        result: GAResult = driver.run(search)
+        folder = run.folder.path
+        best = best_episode(driver.log.records, PREFIX + "/", result.best_genes, result.best_fitness)
+        write_json(folder / "results.json", {**result.to_dict(), "settings": run.settings, "best_episode": best})
+        plot_ga_convergence(result.history, folder / "ga.png", title(run.settings))
+        write_gait(folder / "best_gait.json", result.best_genes,
+                   f"{title(run.settings)}: fitness {result.best_fitness:.4f} (run {folder})")
+        distance = "-" if best is None else f"{best['distance']:.2f} m"
+        print(f"best fitness {result.best_fitness:.4f} ({distance}); results in {folder}")
+
+    return run_session(run, planned_episodes(config), body, make_evaluator=make_evaluator, quiet=args.quiet)

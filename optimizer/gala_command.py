@@ -1,0 +1,160 @@
+"""``python -m optimizer.gala``: the paper's Table I protocol, in a run folder.
+
+For each crossover rate (0.1 ... 0.9 unless ``--crossover`` is given) a GALA learns the mutation
+rate (automata(10) over 0.00 ... 0.09, a = 0.1, b = 0.2, 100 iterations, population 100), then a
+final GA with (crossover, optimal mutation) runs ``--generations`` generations and gives the row's
+best fitness. ``--budget quick`` is a first look in a few minutes.
+
+Writes, as each row finishes: table1.csv and table1.md, gala-pc0.8.png (Fig. 6), ga-pc0.8.png
+(Fig. 7), best_gait-pc0.8.json and best_gait.json (the best over all rows), results.json; and
+episodes.jsonl as each episode finishes (what ``--resume DIR`` continues from).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+from gait import GENE_BOUNDS, repair_genes
+from optimizer.command_line import (
+    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, positive_int, prepare_run, probability,
+    run_session, write_gait,
+)
+from optimizer.driver import Driver
+from optimizer.evaluation import stable_seed
+from optimizer.ga_command import planned_episodes as ga_episodes
+from optimizer.gala import GALA, GALAResult
+from optimizer.la import LearningScheme, LinearRewardInaction, LinearRewardPenalty
+from optimizer.report import TableRow, plot_ga_convergence, plot_gala_convergence, write_table_csv, \
+    write_table_markdown
+from optimizer.run_folder import RunFolder, write_json
+from optimizer.search_config import GAConfig, GALAConfig
+
+#: The paper's protocol (section VI).
+PAPER: dict[str, Any] = {
+    "crossover": list(GALAConfig().crossover_rates),
+    "iterations": GALAConfig().iterations,
+    "population": GAConfig().population_size,
+    "generations": GAConfig().generations,
+    "generations_per_iteration": GALAConfig().generations_per_iteration,
+    "restart_each_iteration": GALAConfig().restart_each_iteration,
+    "scheme": "lrp",
+    "elitism": GAConfig().elitism,
+}
+
+#: A first look on a 2-core machine: one row (the paper's best crossover rate), population 20,
+#: 30 iterations, a 10-generation final GA: 781 episodes, about 2-3 minutes with 2 workers at
+#: ~0.3 s per 15-s episode. Enough for the automaton to move (29 feedbacks) and for Fig. 6/7.
+BUDGETS: dict[str, dict[str, Any]] = {
+    "paper": {},
+    "quick": {"crossover": [0.8], "population": 20, "iterations": 30, "generations": 10},
+}
+
+
+def planned_episodes(config: GALAConfig) -> int:
+    """Episodes of one GALA row: the search iterations and the final GA."""
+    ga = config.ga
+    if config.restart_each_iteration:
+        search = config.iterations * ga_episodes(ga)
+    else:
+        search = ga.population_size + config.iterations * config.generations_per_iteration * (
+            ga.population_size - int(ga.elitism))
+    return search + ga_episodes(ga)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m optimizer.gala", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--budget", choices=sorted(BUDGETS), default=None,
+                   help="paper: the full Table I protocol (default); quick: crossover 0.8, population 20, "
+                        "30 iterations, 10 final generations (a few minutes). Flags given override it")
+    p.add_argument("--crossover", type=probability, action="append", default=None,
+                   help="a crossover rate (one Table I row); repeat for more rows (default 0.1 ... 0.9)")
+    p.add_argument("--iterations", type=positive_int, default=None, help="GALA iterations per row (default 100)")
+    p.add_argument("--generations", type=positive_int, default=None,
+                   help="generations of the final GA of each row (and of each iteration's GA with "
+                        "--restart-each-iteration), the first included (default 10)")
+    p.add_argument("--generations-per-iteration", type=positive_int, default=None,
+                   help="generations the continuing population runs per iteration (default 1)")
+    p.add_argument("--restart-each-iteration", action=argparse.BooleanOptionalAction, default=None,
+                   help="a fresh GA of --generations generations per iteration instead of one continuing population")
+    p.add_argument("--scheme", choices=("lrp", "lri"), default=None,
+                   help="learning scheme: lrp (L_R-P, eq. 7-8; default) or lri (L_R-I, eq. 6)")
+    add_run_arguments(p)
+    return p
+
+
+def gala_config(settings: dict[str, Any]) -> GALAConfig:
+    return GALAConfig(
+        ga=GAConfig(population_size=settings["population"], generations=settings["generations"],
+                    elitism=settings["elitism"]),
+        iterations=settings["iterations"],
+        generations_per_iteration=settings["generations_per_iteration"],
+        restart_each_iteration=settings["restart_each_iteration"],
+        crossover_rates=tuple(settings["crossover"]),
+    )
+
+
+def scheme(settings: dict[str, Any], config: GALAConfig) -> LearningScheme:
+    la = config.la
+    if settings["scheme"] == "lri":
+        return LinearRewardInaction(la.reward_step)
+    return LinearRewardPenalty(la.reward_step, la.penalty_step)
+
+
+def write_outputs(folder: RunFolder, settings: dict[str, Any], results: list[GALAResult],
+                  bests: list[dict[str, Any] | None]) -> None:
+    """Every result file, for the rows finished so far (rewritten after each row)."""
+    path = folder.path
+    rows = [TableRow.from_gala(r, None if b is None else b["distance"], None if b is None else b["mean_speed"])
+            for r, b in zip(results, bests)]
+    write_table_csv(rows, path / "table1.csv")
+    write_table_markdown(rows, path / "table1.md")
+    write_json(path / "results.json", {
+        "settings": settings,
+        "rows": [{**r.to_dict(), "best_episode": b} for r, b in zip(results, bests)],
+    })
+    latest, best = results[-1], bests[-1]
+    tag = f"pc{latest.crossover:g}"
+    plot_gala_convergence(latest, path / f"gala-{tag}.png")
+    plot_ga_convergence(latest.final_ga_history, path / f"ga-{tag}.png",
+                        f"Final GA: crossover {latest.crossover:g}, mutation {latest.optimal_mutation:g}")
+    notes = (f"GALA row pc={latest.crossover:g}, pm={latest.optimal_mutation:g}: fitness {latest.best_fitness:.4f}"
+             + ("" if best is None else f", {best['distance']:.2f} m in {best['time']:.1f} s"))
+    write_gait(path / f"best_gait-{tag}.json", latest.best_genes, notes)
+    top = max(range(len(results)), key=lambda k: results[k].best_fitness)
+    if top == len(results) - 1:
+        write_gait(path / "best_gait.json", latest.best_genes, notes)
+
+
+def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = pool_evaluator) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    for name, value in BUDGETS[args.budget or "paper"].items():  # a budget stands for the flags it sets
+        if getattr(args, name) is None:
+            setattr(args, name, value)
+    tags = [f"pc{pc:g}" for pc in args.crossover or ()]
+    if len(set(tags)) != len(tags):
+        parser.error(f"--crossover: a rate is given twice ({' '.join(t[2:] for t in tags)})")
+    run = prepare_run(parser, args, "gala", PAPER, argv)
+    config = gala_config(run.settings)
+    rates = config.crossover_rates
+
+    def body(driver: Driver) -> None:
+        results: list[GALAResult] = []
+        bests: list[dict[str, Any] | None] = []
+        for pc in rates:
+            tag = f"pc{pc:g}"
+            search = GALA(GENE_BOUNDS, config, pc, stable_seed(run.seed, tag), scheme=scheme(run.settings, config),
+                          repair=repair_genes)
+            result: GALAResult = driver.run(search)
+            results.append(result)
+            bests.append(best_episode(driver.log.records, f"{tag}/final/", result.best_genes, result.best_fitness))
+            write_outputs(run.folder, run.settings, results, bests)
+        print((run.folder.path / "table1.md").read_text(), end="")
+        print(f"results in {run.folder.path}")
+
+    return run_session(run, len(rates) * planned_episodes(config), body, make_evaluator=make_evaluator,
+                       quiet=args.quiet)

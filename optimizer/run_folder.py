@@ -1,0 +1,228 @@
+"""A run folder: the manifest, the append-only episode log and the result files of one optimizer run.
+
+Layout (``runs/gala-20250101-120000/``)::
+
+    manifest.json      what was run: command, settings, seed, versions, command line, start time
+    episodes.jsonl     one JSON object per finished episode, appended and flushed as it finishes
+    results.json       the search results (GALAResult/GAResult.to_dict() plus the best episode)
+    table1.csv/.md     Table I (GALA runs)
+    *.png              convergence plots
+    best_gait*.json    the best gaits, in the gait file format (``python -m agent --gait FILE``)
+
+The episode log is what makes a run resumable: a search replayed with the same seed asks the same
+keys in the same order, and every key found in the log is answered from it instead of being run.
+"""
+from __future__ import annotations
+
+import json
+import os
+import platform
+import subprocess
+import time
+from collections.abc import Mapping, Sequence
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+MANIFEST = "manifest.json"
+EPISODES = "episodes.jsonl"
+MANIFEST_FORMAT = "gala-run/1"
+_REPO = Path(__file__).resolve().parents[1]
+
+
+class RunFolderError(ValueError):
+    """A folder that cannot be used as asked; the message names the folder and the problem."""
+
+
+def write_json(path: Path, document: Any) -> None:
+    """Write through a temporary file and rename, so a reader (or a kill) never sees half a file."""
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(document, indent=2) + "\n")
+    os.replace(tmp, path)
+
+
+def _distribution_version(name: str) -> str | None:
+    try:
+        return metadata.version(name)
+    except metadata.PackageNotFoundError:
+        return None
+
+
+def _package_version() -> str | None:
+    """This project's version: from the installed metadata, else from the pyproject.toml beside
+    the sources (a checkout run without ``pip install``)."""
+    installed = _distribution_version("gala-nao")
+    if installed is not None:
+        return installed
+    try:
+        import tomllib
+
+        return tomllib.loads((_REPO / "pyproject.toml").read_text())["project"]["version"]
+    except (OSError, KeyError, ValueError):
+        return None
+
+
+def _git_commit() -> str | None:
+    try:
+        out = subprocess.run(["git", "-C", str(_REPO), "rev-parse", "HEAD"], capture_output=True,
+                             text=True, timeout=5, check=True)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out.stdout.strip() or None
+
+
+def versions() -> dict[str, str | None]:
+    """What produced the numbers: read from package metadata, so pybullet is never imported here."""
+    return {
+        "python": platform.python_version(),
+        "numpy": _distribution_version("numpy"),
+        "pybullet": _distribution_version("pybullet"),
+        "gala-nao": _package_version(),
+        "git_commit": _git_commit(),
+    }
+
+
+def new_run_path(kind: str, root: Path = Path("runs")) -> Path:
+    """``runs/<kind>-YYYYmmdd-HHMMSS``; a suffix keeps two runs started in one second apart."""
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    path = root / f"{kind}-{stamp}"
+    n = 1
+    while path.exists():
+        n += 1
+        path = root / f"{kind}-{stamp}-{n}"
+    return path
+
+
+class RunFolder:
+    """One run's folder. ``create`` starts a run, ``open`` finds an existing one (``--resume``)."""
+
+    def __init__(self, path: Path, manifest: dict[str, Any]) -> None:
+        self.path = Path(path)
+        self.manifest = manifest
+
+    @classmethod
+    def create(cls, path: Path, command: str, settings: Mapping[str, Any], seed: int,
+               argv: Sequence[str], runtime: Mapping[str, Any] | None = None) -> "RunFolder":
+        """A new run in ``path`` (created; it may exist only if empty)."""
+        path = Path(path)
+        if (path / MANIFEST).exists():
+            raise RunFolderError(f"{path} already holds a run ({MANIFEST}); resume it instead")
+        if path.exists() and any(path.iterdir()):
+            raise RunFolderError(f"{path} exists and is not empty")
+        path.mkdir(parents=True, exist_ok=True)
+        manifest = {
+            "format": MANIFEST_FORMAT,
+            "command": command,
+            "settings": dict(settings),
+            "seed": seed,
+            "versions": versions(),
+            "argv": list(argv),
+            "command_line": " ".join([f"python -m optimizer.{command}", *argv]),
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "runtime": dict(runtime or {}),
+            "resumed": [],
+        }
+        folder = cls(path, manifest)
+        write_json(path / MANIFEST, manifest)
+        return folder
+
+    @classmethod
+    def open(cls, path: Path) -> "RunFolder":
+        """An existing run; ``RunFolderError`` if ``path`` has no readable manifest."""
+        path = Path(path)
+        try:
+            manifest = json.loads((path / MANIFEST).read_text())
+        except FileNotFoundError:
+            raise RunFolderError(f"{path} has no {MANIFEST}: not a run folder") from None
+        except (OSError, json.JSONDecodeError) as exc:
+            raise RunFolderError(f"{path / MANIFEST} cannot be read: {exc}") from None
+        if not isinstance(manifest, dict) or manifest.get("format") != MANIFEST_FORMAT:
+            raise RunFolderError(f"{path / MANIFEST}: expected \"format\": \"{MANIFEST_FORMAT}\"")
+        return cls(path, manifest)
+
+    def note_resume(self, argv: Sequence[str], runtime: Mapping[str, Any]) -> None:
+        """Record a resume in the manifest: when, with which command line, on what workers."""
+        self.manifest["resumed"].append(
+            {"time": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "argv": list(argv), "runtime": dict(runtime)}
+        )
+        write_json(self.path / MANIFEST, self.manifest)
+
+    @property
+    def episodes_path(self) -> Path:
+        return self.path / EPISODES
+
+    def open_log(self) -> "EpisodeLog":
+        return EpisodeLog(self.episodes_path)
+
+
+def read_episode_log(path: Path) -> tuple[dict[str, dict[str, Any]], list[str], int]:
+    """Records by key, warnings, and the byte length of the complete lines.
+
+    Grammar: ``<json object>\\n`` per line. Only the last line may be incomplete (a writer killed
+    mid-write): it is ignored. A bad line anywhere else is corruption and an error, because
+    silently skipping it would re-run or lose a finished episode. A key logged twice keeps its
+    first record (the one a search was told) and gives a warning.
+    """
+    records: dict[str, dict[str, Any]] = {}
+    warnings: list[str] = []
+    try:
+        data = Path(path).read_bytes()
+    except FileNotFoundError:
+        return records, warnings, 0
+    lines = data.split(b"\n")
+    complete = len(data) - len(lines[-1])  # bytes up to and including the last newline
+    if lines[-1]:
+        warnings.append(f"{path}: ignored an incomplete last line ({len(lines[-1])} bytes)")
+    for number, line in enumerate(lines[:-1], start=1):
+        try:
+            record = json.loads(line)
+            key = record["key"]
+        except (json.JSONDecodeError, UnicodeDecodeError, TypeError, KeyError) as exc:
+            if number == len(lines) - 1 and not lines[-1]:
+                # the last line ended by a newline but garbled: a torn write, same as truncated
+                warnings.append(f"{path}: ignored an unreadable last line ({exc})")
+                complete -= len(line) + 1
+                continue
+            raise RunFolderError(f"{path}, line {number}: not an episode record ({exc})") from None
+        if key in records:
+            warnings.append(f"{path}, line {number}: key {key!r} logged again; the first record is kept")
+            continue
+        records[key] = record
+    return records, warnings, complete
+
+
+class EpisodeLog:
+    """The append-only episode log of a run: what it already holds, and where new records go.
+
+    Each record is written and flushed as one line when its episode finishes, so a killed run
+    loses no finished episode (flush hands the line to the OS; a kill -9 of the process cannot
+    lose it, only a crash of the machine could). An incomplete tail left by a kill is cut off
+    before appending, so the next record starts on a line of its own.
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.path = Path(path)
+        self.records, self.warnings, complete = read_episode_log(self.path)
+        self._file = self.path.open("ab")
+        if self._file.tell() > complete:
+            self._file.truncate(complete)
+            self._file.seek(complete)
+
+    def append(self, record: Mapping[str, Any]) -> None:
+        """Log one finished episode; a key already logged is an error (it would count twice)."""
+        key = record["key"]
+        if key in self.records:
+            raise ValueError(f"episode {key!r} is already in the log")
+        line = json.dumps(dict(record), separators=(",", ":"), allow_nan=False) + "\n"
+        self._file.write(line.encode())
+        self._file.flush()
+        self.records[key] = dict(record)
+
+    def close(self) -> None:
+        self._file.close()
+
+    def __enter__(self) -> "EpisodeLog":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

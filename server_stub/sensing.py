@@ -1,0 +1,95 @@
+"""What each client is told every cycle: agent perceptions (with vision and hearing) and the
+monitor stream, assembled from the world's state and the game's."""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from server_stub.clients import AgentState
+from server_stub.config import ServerConfig
+from server_stub.game import Game
+from server_stub.monitor_scene import GameHeader, MonitorScene, RobotView
+from server_stub.perception_text import GameStateText, format_hear, format_perception
+from server_stub.vision import SeenRobot, VisionSensor
+from server_stub.world import World
+
+#: Body parts other robots' cameras can see (facts section 5).
+_VISIBLE_PARTS = ("head", "rlowerarm", "llowerarm", "rfoot", "lfoot")
+#: Longest message ``say`` may carry on the real server.
+_SAY_MAX = 20
+
+
+class Sensing:
+    def __init__(self, config: ServerConfig, world: World) -> None:
+        self.config = config
+        self.world = world
+        self.scene = MonitorScene()
+        self._rng = np.random.default_rng(config.seed)
+        self._said: list[tuple[AgentState, str]] = []
+        self._audible: list[tuple[AgentState, str]] = []
+        self._seen: list[SeenRobot] | None = None
+
+    # ----- agents -----
+    def add_robot(self, state: AgentState) -> None:
+        """Each robot's camera gets its own noise stream (and fixed offset) drawn from the seed."""
+        child = np.random.default_rng(self._rng.integers(2**63))
+        state.vision = VisionSensor(child, noise=self.config.vision_noise, sense_mypos=self.config.sense_mypos)
+
+    def say(self, state: AgentState, message: str) -> None:
+        if not message or len(message) > _SAY_MAX or not all(33 <= ord(c) <= 126 and c not in "()" for c in message):
+            raise ValueError(f"say message must be 1-{_SAY_MAX} printable characters without spaces or parentheses")
+        self._said.append((state, message))
+
+    def end_of_cycle(self, cycle: int) -> None:
+        """What was said this cycle is heard in the perceptions computed after this step."""
+        self._audible, self._said = self._said, []
+        self._seen = None
+
+    def _seen_robots(self, states: Sequence[AgentState]) -> list[SeenRobot]:
+        if self._seen is None:
+            seen = []
+            for s in states:
+                if s.robot is None:
+                    continue
+                parts = {name: pose[:3, 3] for name, pose in s.robot.part_poses() if name in _VISIBLE_PARTS}
+                seen.append(SeenRobot(s.team or "", s.unum or 0, parts))
+            self._seen = seen
+        return self._seen
+
+    def _hear(self, listener: AgentState, now: float) -> list[str]:
+        heard = []
+        for speaker, message in self._audible:
+            if speaker is listener:
+                direction = None
+            else:
+                (lx, ly, _), rot = listener.robot.head_pose()
+                sx, sy, _ = speaker.robot.head_pose()[0]
+                facing = math.atan2(rot[1, 1], rot[0, 1])  # the head looks along its +y axis
+                direction = math.degrees(math.atan2(sy - ly, sx - lx) - facing)
+                direction = (direction + 180.0) % 360.0 - 180.0
+            heard.append(format_hear(speaker.team or "", now, direction, message))
+        return heard
+
+    def perception(self, state: AgentState, game: Game, with_vision: bool, states: Sequence[AgentState]) -> str:
+        robot = state.robot
+        identity = state.announce_identity and state.side is not None
+        gs = GameStateText(game.score_left, game.score_right, game.time, game.play_mode,
+                           state.unum if identity else None, state.side if identity else None)
+        state.announce_identity = state.announce_identity and not identity
+        see = None
+        if with_vision:
+            position, rotation = robot.head_pose()
+            see = state.vision.see(position, rotation, state.side or "left", self.world.ball_position(),
+                                   self._seen_robots(states))
+        return format_perception(self.world.time, gs, robot.gyro(), robot.accelerometer(), robot.joint_angles(),
+                                 robot.foot_pressure(), see, self._hear(state, self.world.time))
+
+    # ----- monitors -----
+    def monitor_views(self, states: Sequence[AgentState]) -> list[RobotView]:
+        return [RobotView(s.side, s.unum, s.robot_type, s.robot.part_poses()) for s in states if s.robot is not None]
+
+    def monitor_header(self, game: Game) -> GameHeader:
+        return GameHeader(game.time, game.play_mode, game.half, game.score_left, game.score_right,
+                          game.team_left, game.team_right)

@@ -1,0 +1,236 @@
+"""server_stub over real sockets: other teams' clients, the project's agent, bad input, trainer."""
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+import time
+
+import pytest
+
+from tests.stub_client import REPO, RawClient, StubProcess, joint, now, torso_from_monitor, wait_until
+
+HJ_NAMES = ["hj1", "hj2", "raj1", "raj2", "raj3", "raj4", "laj1", "laj2", "laj3", "laj4",
+            "rlj1", "rlj2", "rlj3", "rlj4", "rlj5", "rlj6", "llj1", "llj2", "llj3", "llj4", "llj5", "llj6"]
+
+
+@pytest.fixture()
+def stub():
+    with StubProcess("--sync", "--no-realtime", "--sense-mypos", "--agent-timeout", "3") as server:
+        yield server
+
+
+def _handshake(client: RawClient, team: str = "Raw", unum: int = 1, scene: str = "(scene rsg/agent/nao/nao.rsg)",
+               syn: bool = True) -> list[str]:
+    """scene -> perception -> init -> perception; returns the two perceptions."""
+    tail = "(syn)" if syn else ""
+    client.send(scene + tail)
+    first = client.receive()
+    client.send(f"(init (unum {unum})(teamname {team}))" + tail)
+    second = client.receive()
+    return [first, second]
+
+
+def test_another_teams_raw_client_is_served(stub: StubProcess) -> None:
+    client = RawClient(stub.agent_port)
+    first, second = _handshake(client, scene="(scene rsg/agent/nao/nao_hetero.rsg 0)")
+    # shape of the real server's messages (fixtures/rcssserver3d/agent_perceptions_first20.txt)
+    assert first.startswith("(time (now ") and "(GS (sl 0) (sr 0) (t 0.00) (pm BeforeKickOff))" in first
+    assert re.findall(r"\(HJ \(n (\w+)\)", first) == HJ_NAMES
+    assert re.search(r"\(GYR \(n torso\) \(rt -?[\d.]+ -?[\d.]+ -?[\d.]+\)\)", first)
+    assert re.search(r"\(ACC \(n torso\) \(a -?[\d.]+ -?[\d.]+ -?[\d.]+\)\)", first)
+    messages = [second]
+    client.send("(beam -1 0 0)(syn)")
+    for _ in range(60):
+        messages.append(client.receive())
+        client.send("(say hello)(syn)")
+    identity = [m for m in messages if "(unum 1) (team left)" in m]
+    assert len(identity) == 1, "unum and team only in the first GS after init"
+    assert any("(See " in m for m in messages)
+    assert sum("(See " in m for m in messages[-30:]) == 10, "vision every third cycle"
+    settled = messages[-1]
+    mypos = [m for m in messages if "(mypos " in m][-1]
+    x, y, z = (float(v) for v in re.search(r"\(mypos (\S+) (\S+) (\S+)\)", mypos).groups())
+    assert abs(x + 1.0) < 0.1 and abs(y) < 0.1 and 0.45 < z < 0.6  # head centre of a beamed robot
+    force = sum(float(f) for f in re.findall(r"\(FRP \(n [lr]f\) \(c \S+ \S+ \S+\) \(f \S+ \S+ (\S+)\)\)", settled))
+    assert 40 < force < 50
+    assert any("(hear " in m for m in messages)
+    client.close()
+
+
+def test_the_projects_agent_walks_on_the_stub(stub: StubProcess) -> None:
+    done = subprocess.run([sys.executable, "-m", "agent", "--port", str(stub.agent_port), "--sync", "--start-now",
+                           "--duration", "2", "--beam", "-2", "0", "0"], cwd=REPO, capture_output=True, text=True,
+                          timeout=60)
+    assert done.returncode == 0, done.stderr
+
+
+def test_two_teams_and_removal_of_a_disconnected_robot(stub: StubProcess) -> None:
+    monitor = RawClient(stub.monitor_port)
+    a, b = RawClient(stub.agent_port), RawClient(stub.agent_port)
+    team = {a: "Reds", b: "Blues"}
+    received: dict[RawClient, list[str]] = {a: [], b: []}
+    for client in (a, b):
+        client.send("(scene rsg/agent/nao/nao.rsg)(syn)")
+    for _ in range(6):  # each answers its own perceptions; the server steps when both did
+        for client in (a, b):
+            received[client].append(client.receive())
+            first = len(received[client]) == 1
+            client.send(f"(init (unum 0)(teamname {team[client]}))(syn)" if first else "(syn)")
+    assert sum("(unum 1) (team left)" in m for m in received[a]) == 1
+    assert sum("(unum 1) (team right)" in m for m in received[b]) == 1
+    seen: list[str] = []
+
+    def read_until(pattern: str) -> bool:
+        while True:
+            message = monitor.receive()
+            seen.append(message)
+            if re.search(pattern, message):
+                return True
+
+    assert read_until(r"\(team_right Blues\)")
+    a.close()
+    for _ in range(5):
+        b.receive()
+        b.send("(syn)")
+    assert read_until(r"\(RSG 0 1\)") and seen[-1].count("models/naobody") == 1
+    b.close()
+    monitor.close()
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        b"(lle3 0.5",                       # unbalanced
+        b"(lle3 fast)(syn)",                # a word where a number belongs
+        b"(xyz9 1.0)(syn)",                 # unknown effector
+        b"(lle3 nan)(syn)",                 # non-finite
+        b"(scene rsg/agent/nao/other.rsg)(syn)",  # unknown scene
+        b"(beam 1e400 0 0)(syn)",           # absurd
+    ],
+)
+def test_bad_commands_are_ignored_and_the_client_goes_on(stub: StubProcess, bad: bytes) -> None:
+    client = RawClient(stub.agent_port)
+    _handshake(client)
+    client.send(bad)
+    client.send("(syn)")
+    client.receive()
+    client.send("(he1 1.0)(syn)")
+    for _ in range(3):
+        client.receive()
+        client.send("(syn)")
+    assert joint(client.receive(), "hj1") > 1.0  # the good command after the bad one worked
+    client.close()
+    assert "Traceback" not in stub.stop()
+
+
+def test_oversized_prefix_and_a_client_vanishing_mid_frame_do_not_hurt_others(stub: StubProcess) -> None:
+    good = RawClient(stub.agent_port)
+    _handshake(good)
+    huge = RawClient(stub.agent_port)
+    huge.send_raw(b"\xff\xff\xff\xff(scene")
+    half = RawClient(stub.agent_port)
+    half.send_raw(b"\x00\x00\x01\x00(scene rsg/agent/nao/nao")
+    half.close()
+    for _ in range(10):
+        good.send("(syn)")
+        good.receive()
+    with pytest.raises((ConnectionError, OSError)):
+        huge.sock.settimeout(5)
+        huge.receive()
+    good.close()
+    err = stub.stop()
+    assert "Traceback" not in err
+    assert re.search(r"agent 127\.0\.0\.1:\d+: .*4294967295.*disconnected", err)
+
+
+def test_a_silent_agent_is_disconnected_and_does_not_freeze_others(stub: StubProcess) -> None:
+    silent, busy = RawClient(stub.agent_port), RawClient(stub.agent_port)
+    _handshake(silent)
+    _handshake(busy, team="Raw", unum=2)
+    t0 = time.monotonic()
+    last = None
+    while time.monotonic() - t0 < 4:
+        busy.send("(syn)")
+        last = busy.receive()
+    # after the 3-s timeout the busy agent runs at full speed again
+    count = 0
+    t1 = time.monotonic()
+    while time.monotonic() - t1 < 0.5:
+        busy.send("(syn)")
+        busy.receive()
+        count += 1
+    assert count > 50
+    with pytest.raises((ConnectionError, OSError)):
+        silent.sock.settimeout(2)
+        while True:
+            silent.receive()
+    assert "silent" in stub.stop()
+
+
+def test_a_monitor_that_never_reads_does_not_block_the_server(stub: StubProcess) -> None:
+    lazy = RawClient(stub.monitor_port)
+    lazy.send("(playMode PlayOn)")
+    client = RawClient(stub.agent_port)
+    _handshake(client)
+    for _ in range(2000):  # 40 s of game time: far more monitor output than socket buffers hold
+        client.send("(syn)")
+        message = client.receive()
+    assert "(pm PlayOn)" in message
+    client.close()
+    lazy.close()
+
+
+def test_trainer_commands(stub: StubProcess) -> None:
+    monitor = RawClient(stub.monitor_port)
+    client = RawClient(stub.agent_port)
+    _handshake(client)
+    monitor.send("(agent (unum 1) (team Left) (move -3.0 2.0 0.4 -90))")
+    monitor.send("(playMode PlayOn)")
+    for _ in range(30):
+        client.send("(syn)")
+        message = client.receive()
+    assert "(pm PlayOn)" in message and "(t 0." in message
+    monitor.send("(reqfullstate)")
+    position = None
+    for _ in range(40):
+        client.send("(syn)")
+        client.receive()
+    monitor.sock.settimeout(0.5)
+    try:
+        while True:  # the newest full scene is the one after (reqfullstate)
+            position = torso_from_monitor(monitor.receive()) or position
+    except OSError:
+        pass
+    assert position is not None
+    assert abs(position[0] + 3.0) < 0.1 and abs(position[1] - 2.0) < 0.1
+    monitor.send("(killsim)")
+    assert stub.proc.wait(10) == 0
+
+
+def test_two_cycle_action_latency_over_sockets(stub: StubProcess) -> None:
+    client = RawClient(stub.agent_port)
+    _handshake(client)
+    angles = []
+    for k in range(8):
+        command = "(he1 5.0)(syn)" if k == 2 else "(syn)"
+        client.send(command)
+        angles.append(joint(client.receive(), "hj1"))
+    # reply to perception k=2 (the third after init) first shows in perception k+2
+    moved = [i for i, a in enumerate(angles) if abs(a) > 0.5]
+    assert moved and moved[0] == 2 + 2 - 1  # angles[i] is the perception after reply i
+    client.close()
+
+
+def test_real_time_mode_paces_at_50_hz() -> None:
+    with StubProcess() as server:
+        client = RawClient(server.agent_port)
+        client.send("(scene rsg/agent/nao/nao.rsg)")
+        first = now(client.receive())
+        t0 = time.monotonic()
+        for _ in range(25):
+            message = client.receive()
+        elapsed = time.monotonic() - t0
+        assert now(message) - first == pytest.approx(0.5, abs=0.011)
+        assert elapsed > 0.45  # never faster than 50 cycles per wall second
+        client.close()
