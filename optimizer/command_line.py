@@ -213,15 +213,16 @@ def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, comma
     return Run(command, folder, settings, seed, setup, resumed=stored is not None)
 
 
-def run_session(run: Run, planned_episodes: int, body: Callable[[Driver], None], *,
+def run_session(run: Run, planned_episodes: int, body: Callable[[Driver], str], *,
                 make_evaluator: EvaluatorMaker = pool_evaluator, quiet: bool = False) -> int:
-    """Open the log and the evaluator, run ``body`` with a driver, and turn the ways a run can end
-    into exit statuses: 0 done, 1 cannot evaluate or cannot resume, 130 interrupted (resumable)."""
+    """Open the log and the evaluator, run ``body`` with a driver and print the summary it returns
+    (after the progress bar is gone), and turn the ways a run can end into exit statuses:
+    0 done, 1 cannot evaluate or cannot resume, 130 interrupted (resumable)."""
     say = (lambda text: None) if quiet else (lambda text: print(text, file=sys.stderr))
     log = run.folder.open_log()
     for warning in log.warnings:
         print(f"warning: {warning}", file=sys.stderr)
-    logged = [r for r in log.records.values()]
+    logged = list(log.records.values())
     say(f"{run.command}: run folder {run.folder.path} (seed {run.seed}, {run.setup.workers} worker(s)"
         + (f", {len(logged)} episodes already logged)" if run.resumed else ")"))
     progress = BarProgress(planned_episodes, len(logged), max((r["fitness"] for r in logged), default=-math.inf),
@@ -229,7 +230,7 @@ def run_session(run: Run, planned_episodes: int, body: Callable[[Driver], None],
     evaluator: Evaluator | None = None
     try:
         evaluator = make_evaluator(run.setup)
-        body(Driver(evaluator, log, run.seed, progress))
+        summary = body(Driver(evaluator, log, run.seed, progress))
     except KeyboardInterrupt:
         progress.close()
         print(f"\ninterrupted; continue with: python -m optimizer.{run.command} --resume {run.folder.path}",
@@ -244,6 +245,7 @@ def run_session(run: Run, planned_episodes: int, body: Callable[[Driver], None],
             evaluator.close()
         log.close()
     progress.close()
+    print(summary)
     return 0
 
 

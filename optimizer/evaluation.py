@@ -258,8 +258,7 @@ class ProcessPoolEvaluator:
         """Read what ``worker`` said, then see whether it died or overran its deadline."""
         try:
             while worker.conn.poll():
-                message = worker.conn.recv()
-                outcome = self._handle(worker, message)
+                outcome = self._handle(worker, worker.conn.recv())
                 if outcome is not None:
                     yield outcome
         except (EOFError, OSError):
@@ -306,16 +305,18 @@ class ProcessPoolEvaluator:
             f"the runner raised: {message[2].strip().splitlines()[-1]}", time.monotonic() - worker.dispatched))
 
     def close(self) -> None:
-        """Stop every worker: idle ones are asked (their runners close their servers), the rest
-        are killed with their process groups."""
+        """Stop every worker: those without an episode are asked (their runners close their
+        servers; one still starting stops once it has started), the rest are killed with their
+        process groups."""
         for worker in self._pool:
-            if worker.ready and worker.task is None and worker.process.is_alive():
+            if worker.task is None:
                 try:
                     worker.conn.send(None)
                 except OSError:
                     pass
         for worker in self._pool:
-            worker.process.join(10.0)
+            if worker.task is None:
+                worker.process.join(self._start_timeout)
             self._kill(worker)
         self._pool = []
 

@@ -76,7 +76,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     run = prepare_run(parser, args, "ga", defaults(args.preset), argv)
     config = ga_config(run.settings)
 
-    def body(driver: Driver) -> None:
+    def body(driver: Driver) -> str:
         search = GARun(GENE_BOUNDS, config, stable_seed(run.seed, PREFIX), repair=repair_genes, prefix=PREFIX)
         result: GAResult = driver.run(search)
         folder = run.folder.path
@@ -86,6 +86,6 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         write_gait(folder / "best_gait.json", result.best_genes,
                    f"{title(run.settings)}: fitness {result.best_fitness:.4f} (run {folder})")
         distance = "-" if best is None else f"{best['distance']:.2f} m"
-        print(f"best fitness {result.best_fitness:.4f} ({distance}); results in {folder}")
+        return f"best fitness {result.best_fitness:.4f} ({distance}); results in {folder}"
 
     return run_session(run, planned_episodes(config), body, make_evaluator=make_evaluator, quiet=args.quiet)

@@ -142,7 +142,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     config = gala_config(run.settings)
     rates = config.crossover_rates
 
-    def body(driver: Driver) -> None:
+    def body(driver: Driver) -> str:
         results: list[GALAResult] = []
         bests: list[dict[str, Any] | None] = []
         for pc in rates:
@@ -153,8 +153,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             results.append(result)
             bests.append(best_episode(driver.log.records, f"{tag}/final/", result.best_genes, result.best_fitness))
             write_outputs(run.folder, run.settings, results, bests)
-        print((run.folder.path / "table1.md").read_text(), end="")
-        print(f"results in {run.folder.path}")
+        return (run.folder.path / "table1.md").read_text() + f"results in {run.folder.path}"
 
     return run_session(run, len(rates) * planned_episodes(config), body, make_evaluator=make_evaluator,
                        quiet=args.quiet)

@@ -14,8 +14,11 @@ class PhysicsConfig:
 
     # --- timing (facts section 4: one 0.02 s ODE step per cycle, no sub-steps) ---
     cycle: float = CYCLE
-    #: pybullet sub-steps per cycle (0 and 1 both mean one step of ``cycle``).
-    sub_steps: int = 1
+    #: pybullet sub-steps per cycle. 2, unlike ODE's 1: in a grid over friction, contact softness,
+    #: inertia floor and breaking threshold (4-8 start headings each), no single-step setting
+    #: walked the calibration gait without falling in every run; with 2 sub-steps (and the
+    #: friction below) 8 of 8 runs stayed up. Costs about 2x the step time.
+    sub_steps: int = 2
     gravity: float = -9.81
 
     # --- solver ---
@@ -28,21 +31,40 @@ class PhysicsConfig:
     #: iterations for "pgs" (and the Dantzig solver's fallback when it fails).
     solver_iterations: int = 20
     #: rotational-inertia floor on every link, kg m^2 (a crutch for "pgs"; 0 = the model's own).
+    #: With Dantzig, floors of 1e-4 and 1e-3 made the walk fall more often than 0 (grid above).
     inertia_floor: float = 0.0
+    #: world CFM of the real server (section 4).
     global_cfm: float = 1e-5
 
     # --- contacts (facts section 4: robot soft ERP 0.6 / CFM 1e-4, ground ERP 0.2, averaged) ---
-    #: ODE contact ERP/CFM of a robot part on the ground, turned into a spring-damper:
-    #: k = ERP / (CFM h), d = (1 - ERP) / CFM (same stiffness for any step size h).
+    #: ODE contact ERP/CFM of a robot part on the ground (robot ERP 0.6 and ground ERP 0.2
+    #: averaged; CFM 1e-4 from the robot side only), turned into a spring-damper set on every
+    #: robot link: k = ERP / (CFM h) = 2e5 N/m, d = (1 - ERP) / CFM = 6000 N s/m (Bullet turns
+    #: k, d back into the same ERP/CFM per (sub-)step). Measured: standing, each foot carries
+    #: 22.60 N and the torso rests at 0.385 m (real 22.59 N, 0.383 m). In the walk grid a stiffer
+    #: CFM 1e-5 fell in 1 of 4 runs, a softer ERP 0.2 / CFM 1e-3 turned or fell.
     contact_erp: float = 0.4
     contact_cfm: float = 1e-4
+    #: distance (m) within which Bullet keeps a contact point. 0.002 (default 0.02): ODE only
+    #: makes contacts for touching geometry (surface layer 0.001 m); in the walk grid 0.002 beat
+    #: 0.001, 0.003, 0.004 and the default (falls or turning walks).
     contact_breaking_threshold: float = 0.002
-    lateral_friction: float = 1.0
+    #: Coulomb mu of robot parts (the ground has 1; Bullet multiplies them). The real server has
+    #: no Coulomb limit but a force-dependent slip of 0.005 (m/s)/N, which pybullet cannot
+    #: express. Measured on the calibration walk (2 sub-steps, 8 headings): mu >= 1 always falls
+    #: backwards within 4 s with about 0 m forward, as feet cannot slide at all; mu 0.35-0.45
+    #: slides so much that the walk turns (0-2 m); 0.55 falls 5 of 8; 0.5: 0 falls, 6 of 8 runs
+    #: 2.55-3.43 m (real 2.91-3.14), foot contact alternating 75 times in 15 s like the real one.
+    lateral_friction: float = 0.5
+    #: ODE has neither rolling nor spinning friction; spinning friction 0.002-0.01 changed
+    #: nothing in the walk (the MLCP solver ignores it).
     rolling_friction: float = 0.0
     spinning_friction: float = 0.0
+    #: bounce off (facts section 4).
     restitution: float = 0.0
 
     # --- bodies and motors (facts sections 2-3) ---
+    #: drag 0.01 on every body (section 2; Bullet's damping form differs slightly: m d (1+|v|) v).
     linear_damping: float = 0.01
     angular_damping: float = 0.01
     motor_torque: float = TORQUE_LIMIT

@@ -39,8 +39,13 @@ def _yaw_quaternion(heading_deg: float) -> tuple[float, float, float, float]:
 class Robot:
     """A NAO body in a pybullet world. Created by ``World.add_robot``; ``World.step`` drives it."""
 
-    def __init__(self, client: int, body: int, robot_type: int, config: PhysicsConfig) -> None:
+    def __init__(self, client: int, body: int, robot_type: int, config: PhysicsConfig,
+                 command_delay_steps: int = 1) -> None:
         self.robot_type = robot_type
+        #: 1: a command acts in the step after the next (the real server's latency, for callers
+        #: that step right after commanding); 0: in the next step, for a server that produces the
+        #: latency itself by sending each perception one step late (``server_stub.server``).
+        self._delay = command_delay_steps
         self._client = client
         self._body = body
         self._config = config
@@ -49,6 +54,9 @@ class Robot:
         names = [pb.getJointInfo(body, i, physicsClientId=client)[12].decode() for i in self._indices]
         self._part_names = ["torso"] + names
         self._head_link = names.index("head")
+        #: pybullet reports a contact's force as the last sub-step's impulse over the whole
+        #: cycle; measured: with 2 sub-steps a standing robot's feet sum to half its weight.
+        self._force_scale = float(max(1, config.sub_steps))
         self._foot_keys = {names.index(part): key for key, part in nao_model.FOOT_PARTS.items()}
         self._requested = np.full(_N, np.nan)  # commands since the last step
         self._pending = np.full(_N, np.nan)  # commands to apply at the start of the next step
@@ -75,9 +83,11 @@ class Robot:
         """Apply last interval's commands (the latency rule) and set this step's motors."""
         angles, rates = self._joint_state()
         inside = (angles > _MIN) & (angles < _MAX)
-        take = ~np.isnan(self._pending) & inside
-        self._motor[take] = self._pending[take]
-        self._pending = self._requested
+        due = self._pending if self._delay else self._requested
+        take = ~np.isnan(due) & inside
+        self._motor[take] = due[take]
+        if self._delay:
+            self._pending = self._requested
         self._requested = np.full(_N, np.nan)
 
         target = self._motor.copy()
@@ -190,13 +200,14 @@ class Robot:
         omits them."""
         contacts = pb.getContactPoints(bodyA=self._body, physicsClientId=self._client)
         sums: dict[int, list[float]] = {}
+        scale = self._force_scale
         for c in contacts:
-            normal = c[9]
+            normal = c[9] * scale
             if normal <= 0.0 or c[3] not in self._foot_keys:
                 continue
             s = sums.setdefault(c[3], [0.0] * 7)
             (nx, ny, nz), (ax, ay, az), (bx, by, bz) = c[7], c[11], c[13]
-            f1, f2 = c[10], c[12]
+            f1, f2 = c[10] * scale, c[12] * scale
             s[0] += normal * nx + f1 * ax + f2 * bx
             s[1] += normal * ny + f1 * ay + f2 * by
             s[2] += normal * nz + f1 * az + f2 * bz

@@ -51,8 +51,8 @@ class Sensing:
         if self._seen is None:
             seen = []
             for s in states:
-                if s.robot is None:
-                    continue
+                if s.robot is None or s.team is None:
+                    continue  # a robot is shown as (P (team NAME) (id N) ...) only once init named it
                 parts = {name: pose[:3, 3] for name, pose in s.robot.part_poses() if name in _VISIBLE_PARTS}
                 seen.append(SeenRobot(s.team or "", s.unum or 0, parts))
             self._seen = seen

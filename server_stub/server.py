@@ -45,7 +45,8 @@ class StubServer:
 
     def __init__(self, config: ServerConfig = ServerConfig(), physics: PhysicsConfig = PhysicsConfig()) -> None:
         self.config = config
-        self.world = World(physics, seed=config.seed)
+        # perceptions go out one step late (see the module docstring), so commands act at once
+        self.world = World(physics, seed=config.seed, command_delay_steps=0)
         self.game = Game()
         self.sensing = Sensing(config, self.world)
         self.cycle = 0

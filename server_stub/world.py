@@ -64,8 +64,10 @@ class World:
     (the physics itself has none, so equal seeds and equal calls give equal runs).
     """
 
-    def __init__(self, config: PhysicsConfig = PhysicsConfig(), seed: int = 0) -> None:
+    def __init__(self, config: PhysicsConfig = PhysicsConfig(), seed: int = 0, command_delay_steps: int = 1) -> None:
+        """``command_delay_steps``: see ``Robot``; 1 reproduces the real latency for in-process use."""
         self.config = config
+        self.command_delay_steps = command_delay_steps
         self.seed = seed
         self.rng = np.random.default_rng(seed)
         self.time = 0.0
@@ -128,7 +130,7 @@ class World:
                 jointDamping=0.0,
                 physicsClientId=c,
             )
-        robot = Robot(c, body, robot_type, cfg)
+        robot = Robot(c, body, robot_type, cfg, self.command_delay_steps)
         self._robots.append(robot)
         return robot
 
