@@ -1,0 +1,65 @@
+"""Episode throughput of the optimizer's worker pool on the embedded stub, with 1 and 2 workers.
+
+Random gaits from the search box (what a GA's first generation evaluates) mostly fall within a
+second, so raw episodes per hour says little; the figure that compares across gaits and machines
+is *15-s-episode equivalents per hour*: simulated walking seconds per wall hour, divided by 15.
+Parallel efficiency = equivalents/h with N workers / (N x equivalents/h with 1 worker).
+Workers are started and warmed up (one episode each) before the clock starts.
+
+Run: ``python bench/bench_episodes.py [--episodes 60] [--agent-mode inprocess|process]``.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from gait import GENE_BOUNDS, repair_genes  # noqa: E402
+from optimizer.episode import EpisodeConfig  # noqa: E402
+from optimizer.evaluation import EpisodeRunnerFactory, EpisodeTask, ProcessPoolEvaluator  # noqa: E402
+
+
+def gaits(count: int, seed: int) -> list[tuple[float, ...]]:
+    rng = np.random.default_rng(seed)
+    raw = rng.uniform(GENE_BOUNDS[:, 0], GENE_BOUNDS[:, 1], size=(count, len(GENE_BOUNDS)))
+    return [tuple(float(g) for g in repair_genes(row)) for row in raw]
+
+
+def measure(workers: int, episodes: int, config: EpisodeConfig) -> dict[str, float]:
+    factory = EpisodeRunnerFactory(config, seed=0)
+    with ProcessPoolEvaluator(factory, workers, task_timeout=2 * config.episode_timeout + 30) as pool:
+        warm = [EpisodeTask(f"warm/i{k}", g, k) for k, g in enumerate(gaits(workers, seed=99))]
+        list(pool.evaluate(warm))
+        tasks = [EpisodeTask(f"bench/i{k:03d}", g, k) for k, g in enumerate(gaits(episodes, seed=1))]
+        start = time.perf_counter()
+        outcomes = list(pool.evaluate(tasks))
+        wall = time.perf_counter() - start
+    walked = sum(float(o.result["time"]) for o in outcomes)
+    failed = sum(o.result["status"] != "ok" for o in outcomes)
+    return {"wall": wall, "episodes_per_hour": episodes / wall * 3600,
+            "equivalents_per_hour": walked / config.walk_time / wall * 3600,
+            "mean_walked": walked / episodes, "failed": failed}
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__)
+    p.add_argument("--episodes", type=int, default=60)
+    p.add_argument("--agent-mode", choices=("inprocess", "process"), default="inprocess")
+    args = p.parse_args()
+    config = EpisodeConfig(agent_mode=args.agent_mode)
+    results = {n: measure(n, args.episodes, config) for n in (1, 2)}
+    for n, r in results.items():
+        print(f"{n} worker(s), {args.episodes} random gaits ({args.agent_mode}): {r['wall']:.1f} s wall, "
+              f"{r['episodes_per_hour']:.0f} episodes/h, {r['equivalents_per_hour']:.0f} 15-s-episode "
+              f"equivalents/h (mean {r['mean_walked']:.2f} s walked per episode, {r['failed']} failed)")
+    efficiency = results[2]["equivalents_per_hour"] / (2 * results[1]["equivalents_per_hour"])
+    print(f"parallel efficiency with 2 workers: {efficiency:.0%}")
+
+
+if __name__ == "__main__":
+    main()

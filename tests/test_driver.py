@@ -1,0 +1,147 @@
+"""The driver: every episode logged as it finishes, and a resumed run (kill -9 included) replays
+the log to exactly the uninterrupted result without running any episode twice."""
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gait import GENE_BOUNDS, repair_genes
+from optimizer.driver import BarProgress, Driver, ResumeMismatch
+from optimizer.evaluation import EpisodeOutcome, EpisodeTask, stable_seed
+from optimizer.ga import GARun
+from optimizer.gala import GALA
+from optimizer.run_folder import EpisodeLog, read_episode_log
+from optimizer.search_config import GAConfig, GALAConfig
+
+TARGET = GENE_BOUNDS.mean(axis=1)
+SPAN = GENE_BOUNDS[:, 1] - GENE_BOUNDS[:, 0]
+
+
+def synthetic_fitness(genes: Sequence[float]) -> float:
+    """A smooth hill over the gene box: a stand-in for walking distance, no physics."""
+    return float(50.0 - 40.0 * np.sum(((np.asarray(genes) - TARGET) / SPAN) ** 2))
+
+
+class Killed(Exception):
+    """What a kill -9 looks like to the test: the run stops between two episodes."""
+
+
+class FakeEvaluator:
+    """In-process evaluator with a synthetic fitness; remembers every key it evaluated and can be
+    told to die after a number of episodes."""
+
+    workers = 1
+
+    def __init__(self, die_after: int | None = None) -> None:
+        self.evaluated: list[str] = []
+        self.die_after = die_after
+
+    def evaluate(self, tasks: Sequence[EpisodeTask]) -> Iterator[EpisodeOutcome]:
+        for task in reversed(tasks):  # any order is allowed
+            if self.die_after is not None and len(self.evaluated) >= self.die_after:
+                raise Killed()
+            self.evaluated.append(task.key)
+            fitness = synthetic_fitness(task.genes)
+            yield EpisodeOutcome(task, 0, {"distance": fitness / 10, "fell": False, "time": 15.0, "fitness": fitness,
+                                           "mean_speed": fitness / 150, "status": "ok", "reason": "", "wall": 0.01})
+
+    def close(self) -> None:
+        pass
+
+
+CONFIG = GALAConfig(ga=GAConfig(population_size=8, generations=3), iterations=6)
+
+
+def gala(seed: int = 5) -> GALA:
+    return GALA(GENE_BOUNDS, CONFIG, 0.8, seed, repair=repair_genes)
+
+
+def drive(log_path: Path, evaluator: FakeEvaluator, seed: int = 5):
+    with EpisodeLog(log_path) as log:
+        return Driver(evaluator, log, run_seed=seed).run(gala(seed))
+
+
+def same_result(a, b) -> None:
+    assert a.best_fitness == b.best_fitness
+    assert np.array_equal(a.best_genes, b.best_genes)
+    assert a.optimal_mutation == b.optimal_mutation
+    assert a.probabilities == b.probabilities
+    assert a.iteration_log == b.iteration_log
+    assert a.final_ga_history == b.final_ga_history
+
+
+def test_every_episode_is_logged_once_with_its_seed(tmp_path: Path) -> None:
+    evaluator = FakeEvaluator()
+    result = drive(tmp_path / "episodes.jsonl", evaluator)
+    records, warnings, _ = read_episode_log(tmp_path / "episodes.jsonl")
+    assert warnings == [] and len(records) == len(evaluator.evaluated) == len(set(evaluator.evaluated))
+    for key, record in records.items():
+        assert record["seed"] == stable_seed(5, key)
+        assert record["fitness"] == synthetic_fitness(record["genes"])
+    assert result.best_fitness == max(r["fitness"] for k, r in records.items() if k.startswith("pc0.8/final/"))
+
+
+@pytest.mark.parametrize("die_after", [1, 17, 40, 70])
+def test_a_killed_run_resumes_to_the_uninterrupted_result(tmp_path: Path, die_after: int) -> None:
+    uninterrupted = drive(tmp_path / "whole.jsonl", FakeEvaluator())
+    whole_log = read_episode_log(tmp_path / "whole.jsonl")[0]
+
+    path = tmp_path / "episodes.jsonl"
+    with pytest.raises(Killed):
+        drive(path, FakeEvaluator(die_after=die_after))
+    path.write_bytes(path.read_bytes() + b'{"key": "pc0.8/it0')  # and killed in the middle of a write
+    logged = set(read_episode_log(path)[0])
+    assert len(logged) == die_after
+
+    resumed_evaluator = FakeEvaluator()
+    resumed = drive(path, resumed_evaluator)
+    same_result(resumed, uninterrupted)
+    assert not logged & set(resumed_evaluator.evaluated)  # no logged episode ran again
+    assert len(resumed_evaluator.evaluated) == len(set(resumed_evaluator.evaluated))
+    final_log, warnings, _ = read_episode_log(path)
+    assert warnings == []
+    assert final_log.keys() == whole_log.keys()
+    assert [r["genes"] for r in final_log.values()] == [whole_log[k]["genes"] for k in final_log]
+
+
+def test_a_complete_log_replays_without_any_episode(tmp_path: Path) -> None:
+    first = drive(tmp_path / "episodes.jsonl", FakeEvaluator())
+    again = FakeEvaluator()
+    same_result(drive(tmp_path / "episodes.jsonl", again), first)
+    assert again.evaluated == []
+
+
+def test_a_log_of_another_search_is_refused(tmp_path: Path) -> None:
+    drive(tmp_path / "episodes.jsonl", FakeEvaluator(), seed=5)
+    with pytest.raises(ResumeMismatch, match="other genes"):
+        drive(tmp_path / "episodes.jsonl", FakeEvaluator(), seed=6)
+
+
+def test_a_key_logged_twice_counts_once(tmp_path: Path) -> None:
+    path = tmp_path / "episodes.jsonl"
+    uninterrupted = drive(tmp_path / "whole.jsonl", FakeEvaluator())
+    with pytest.raises(Killed):
+        drive(path, FakeEvaluator(die_after=12))
+    lines = path.read_text().splitlines()
+    duplicate = json.loads(lines[3])
+    duplicate["fitness"] = 1e6  # a second record must never be the one the search is told
+    path.write_text("\n".join(lines + [json.dumps(duplicate)]) + "\n")
+    with EpisodeLog(path) as log:
+        assert len(log.warnings) == 1
+        resumed = Driver(FakeEvaluator(), log, run_seed=5).run(gala())
+    same_result(resumed, uninterrupted)
+
+
+def test_several_searches_share_one_log_and_the_progress_bar_counts_them(tmp_path: Path) -> None:
+    bar = BarProgress(total=100, quiet=True)
+    with EpisodeLog(tmp_path / "episodes.jsonl") as log:
+        driver = Driver(FakeEvaluator(), log, run_seed=1, progress=bar)
+        first = driver.run(GARun(GENE_BOUNDS, GAConfig(population_size=5, generations=2), 1, prefix="a"))
+        driver.run(GARun(GENE_BOUNDS, GAConfig(population_size=5, generations=2), 1, prefix="b"))
+    assert driver.evaluated == 2 * (5 + 4) == len(log.records)
+    assert bar.best == max(r["fitness"] for r in log.records.values()) >= first.best_fitness
+    assert bar.failed == 0

@@ -1,0 +1,100 @@
+"""Episodes (paper eq. 9) on the stub over real sockets, and their failure handling."""
+from __future__ import annotations
+
+import socket
+import threading
+
+import pytest
+
+from gait import load_gait
+from optimizer.episode import EpisodeConfig, EpisodeRunner, ServerAddress
+
+
+@pytest.fixture(scope="module")
+def runner():
+    with EpisodeRunner(EpisodeConfig(walk_time=3.0)) as r:
+        yield r
+
+
+def test_episode_scores_eq9_and_is_reproducible(runner: EpisodeRunner) -> None:
+    first = runner.evaluate(load_gait())
+    second = runner.evaluate(load_gait().as_array())
+    assert first.status == "ok", first.reason
+    assert first.fitness == pytest.approx(10 * first.distance)
+    assert 0 < first.time <= 3.0
+    assert first.fell or first.time == pytest.approx(3.0)
+    assert first.mean_speed == pytest.approx(first.distance / first.time)
+    # same gait, same server, fresh robot: the same walk (sync mode, trainer commands at fixed cycles)
+    assert (second.distance, second.fell, second.time) == (first.distance, first.fell, first.time)
+
+
+def test_a_gait_that_collapses_is_scored_at_its_fall(runner: EpisodeRunner) -> None:
+    collapse = load_gait().as_array()
+    collapse[0], collapse[2], collapse[3] = 40.0, 40.0, 40.0  # hip far forward, big swings
+    result = runner.evaluate(collapse)
+    assert result.status == "ok"
+    assert result.fell and result.time < 3.0
+
+
+def test_process_agents_give_a_valid_episode() -> None:
+    with EpisodeRunner(EpisodeConfig(walk_time=1.0, agent_mode="process")) as r:
+        result = r.evaluate(load_gait())
+    assert result.status == "ok", result.reason
+    assert result.time == pytest.approx(1.0) or result.fell
+
+
+def test_unreachable_server_is_a_failed_episode_not_an_exception() -> None:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    with EpisodeRunner(EpisodeConfig(walk_time=1.0, episode_timeout=2.0), ServerAddress("127.0.0.1", port, port)) as r:
+        result = r.evaluate(load_gait())
+    assert result.status == "failed" and "refused" in result.reason.lower()
+    assert result.fitness == 0.0
+
+
+def test_hung_server_times_out_and_fails_the_episode() -> None:
+    listener = socket.socket()
+    listener.bind(("127.0.0.1", 0))
+    listener.listen(8)
+    port = listener.getsockname()[1]
+    accepted: list[socket.socket] = []
+    stop = threading.Event()
+
+    def accept_and_ignore() -> None:
+        listener.settimeout(0.2)
+        while not stop.is_set():
+            try:
+                accepted.append(listener.accept()[0])
+            except OSError:
+                pass
+
+    thread = threading.Thread(target=accept_and_ignore, daemon=True)
+    thread.start()
+    try:
+        with EpisodeRunner(EpisodeConfig(walk_time=1.0, episode_timeout=1.0), ServerAddress("127.0.0.1", port, port)) as r:
+            result = r.evaluate(load_gait())
+    finally:
+        stop.set()
+        thread.join()
+        for conn in accepted:
+            conn.close()
+        listener.close()
+    assert result.status == "failed"
+    assert result.wall < 10
+
+
+def test_a_dead_stub_is_restarted() -> None:
+    with EpisodeRunner(EpisodeConfig(walk_time=0.5)) as r:
+        assert r.evaluate(load_gait()).status == "ok"
+        r._stub._process.kill()  # simulate a crash between episodes
+        result = r.evaluate(load_gait())
+    assert result.status == "ok", result.reason
+
+
+@pytest.mark.parametrize("text, words", [("localhost:3100", "HOST:AGENT_PORT:MONITOR_PORT"),
+                                         ("h:x:3200", "integers"), ("h:3100:70000", "70000")])
+def test_server_address_errors_say_what_is_wrong(text: str, words: str) -> None:
+    with pytest.raises(ValueError, match=words):
+        ServerAddress.parse(text)
+    assert ServerAddress.parse("rcss1:3100:3200") == ServerAddress("rcss1", 3100, 3200)

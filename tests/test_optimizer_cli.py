@@ -1,0 +1,166 @@
+"""The command lines: refused input names its flag; a run writes its folder; a killed run resumed
+with --resume ends with the same files as an uninterrupted one. A fake evaluator stands in for
+the workers (no physics); the end-to-end runs on the stub are the lead's slow tests."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from gait import load_gait
+from optimizer import episode_command, ga_command, gala_command
+from optimizer.ga import GARun
+from optimizer.gala import GALA
+from optimizer.report import read_table_csv
+from optimizer.search_config import GAConfig, GALAConfig
+from test_driver import FakeEvaluator, Killed
+
+BOUNDS = [[0.0, 1.0]] * 3
+SMALL = ["--population", "6", "--iterations", "3", "--generations", "2", "--quiet"]
+
+
+def refused(main, argv: list[str], capsys) -> str:
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv, make_evaluator=lambda setup: pytest.fail("must not start evaluating"))
+    assert exit_info.value.code == 2
+    return capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, flag, why", [
+    (["--crossover", "1.5"], "--crossover", "[0, 1]"),
+    (["--crossover", "abc"], "--crossover", "number"),
+    (["--workers", "0"], "--workers", ">= 1"),
+    (["--population", "-3"], "--population", ">= 1"),
+    (["--walk-time", "0"], "--walk-time", "> 0"),
+    (["--scheme", "lrx"], "--scheme", "invalid choice"),
+    (["--server", "localhost:3100"], "--server", "HOST:AGENT_PORT:MONITOR_PORT"),
+    (["--server", "localhost:3100:99999"], "--server", "outside 1-65535"),
+    (["--crossover", "0.8", "--crossover", "0.8"], "--crossover", "given twice"),
+    (["--server", "h:1:2", "--server", "h:3:4", "--workers", "3"], "--workers 3", "one worker per server"),
+])
+def test_gala_refuses_a_wrong_value_naming_the_flag(argv, flag, why, capsys) -> None:
+    err = refused(gala_command.main, argv, capsys)
+    assert flag in err and why in err
+
+
+def test_resume_needs_a_run_folder_and_the_same_settings(tmp_path: Path, capsys) -> None:
+    assert "no manifest.json" in refused(gala_command.main, ["--resume", str(tmp_path)], capsys)
+    assert "no manifest.json" in refused(gala_command.main, ["--resume", str(tmp_path / "none")], capsys)
+    out = tmp_path / "run"
+    assert gala_command.main(["--crossover", "0.8", *SMALL, "--seed", "3", "--out", str(out)],
+                             make_evaluator=lambda setup: FakeEvaluator()) == 0
+    err = refused(gala_command.main, ["--resume", str(out), "--population", "7"], capsys)
+    assert "--population 7 conflicts with the run's --population 6" in err
+    err = refused(gala_command.main, ["--resume", str(out), "--seed", "4"], capsys)
+    assert "--seed 4 conflicts" in err
+    err = refused(gala_command.main, ["--resume", str(out), "--budget", "quick"], capsys)
+    assert "conflicts" in err
+    err = refused(gala_command.main, ["--resume", str(out), "--no-elitism"], capsys)
+    assert "--no-elitism conflicts with the run's --elitism" in err
+    assert "is a gala run, not a ga run" in refused(ga_command.main, ["--resume", str(out)], capsys)
+    assert "already holds a run" in refused(gala_command.main, ["--out", str(out)], capsys)
+    assert "not allowed with" in refused(gala_command.main, ["--out", "x", "--resume", str(out)], capsys)
+
+
+def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "run"
+    setups = []
+
+    def fake(setup):
+        setups.append(setup)
+        return FakeEvaluator()
+
+    argv = ["--crossover", "0.8", "--crossover", "0.3", *SMALL, "--seed", "9", "--out", str(out),
+            "--server", "127.0.0.1:3100:3200", "--server", "127.0.0.1:3101:3201", "--walk-time", "5"]
+    assert gala_command.main(argv, make_evaluator=fake) == 0
+    assert setups[0].workers == 2 and [s.agent_port for s in setups[0].servers] == [3100, 3101]
+    assert setups[0].walk_time == 5.0 and setups[0].seed == 9
+
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["settings"]["crossover"] == [0.8, 0.3] and manifest["settings"]["population"] == 6
+    assert manifest["runtime"]["servers"] == ["127.0.0.1:3100:3200", "127.0.0.1:3101:3201"]
+    rows = read_table_csv(out / "table1.csv")
+    results = json.loads((out / "results.json").read_text())["rows"]
+    assert [r.crossover_rate for r in rows] == [0.8, 0.3]
+    for row, result in zip(rows, results):
+        assert row.best_fitness == result["best_fitness"]
+        assert row.distance_m == result["best_episode"]["distance"] == result["best_fitness"] / 10
+        assert result["best_episode"]["genes"] == result["best_genes"]
+    for name in ("gala-pc0.8.png", "ga-pc0.8.png", "gala-pc0.3.png", "ga-pc0.3.png", "table1.md"):
+        assert (out / name).stat().st_size > 0
+    best_row = max(results, key=lambda r: r["best_fitness"])
+    assert list(vars(load_gait(out / "best_gait.json")).values()) == best_row["best_genes"]
+    assert list(vars(load_gait(out / "best_gait-pc0.3.json")).values()) == results[1]["best_genes"]
+    episodes = (out / "episodes.jsonl").read_text().splitlines()
+    assert len(episodes) == 2 * gala_command.planned_episodes(gala_command.gala_config(manifest["settings"]))
+    assert "| 0.80 |" in capsys.readouterr().out
+
+
+def test_a_killed_gala_run_resumes_to_the_same_files(tmp_path: Path) -> None:
+    argv = ["--crossover", "0.8", "--crossover", "0.5", *SMALL, "--seed", "11"]
+    assert gala_command.main([*argv, "--out", str(tmp_path / "whole")], make_evaluator=lambda s: FakeEvaluator()) == 0
+    with pytest.raises(Killed):
+        gala_command.main([*argv, "--out", str(tmp_path / "cut")], make_evaluator=lambda s: FakeEvaluator(30))
+    resumed = FakeEvaluator()
+    assert gala_command.main(["--resume", str(tmp_path / "cut"), "--quiet"], make_evaluator=lambda s: resumed) == 0
+    assert len(resumed.evaluated) == len((tmp_path / "whole" / "episodes.jsonl").read_text().splitlines()) - 30
+    for name in ("results.json", "table1.csv", "table1.md", "best_gait.json"):
+        assert (tmp_path / "cut" / name).read_text() == (tmp_path / "whole" / name).read_text(), name
+
+
+def test_an_interrupted_run_says_how_to_resume(tmp_path: Path, capsys) -> None:
+    class Interrupted(FakeEvaluator):
+        def evaluate(self, tasks):
+            raise KeyboardInterrupt
+
+    code = gala_command.main(["--crossover", "0.8", *SMALL, "--out", str(tmp_path / "r")],
+                             make_evaluator=lambda s: Interrupted())
+    assert code == 130
+    assert f"--resume {tmp_path / 'r'}" in capsys.readouterr().err
+
+
+def test_ga_presets_and_its_folder(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "ga"
+    argv = ["--preset", "dejong", "--population", "6", "--generations", "3", "--quiet", "--seed", "2", "--out", str(out)]
+    assert ga_command.main(argv, make_evaluator=lambda s: FakeEvaluator()) == 0
+    settings = json.loads((out / "manifest.json").read_text())["settings"]
+    assert (settings["crossover"], settings["mutation"], settings["preset"]) == (0.6, 0.001, "dejong")
+    results = json.loads((out / "results.json").read_text())
+    assert len(results["history"]) == 3 and (out / "ga.png").stat().st_size > 0
+    assert list(vars(load_gait(out / "best_gait.json")).values()) == results["best_genes"]
+    assert len((out / "episodes.jsonl").read_text().splitlines()) == 6 + 2 * 5
+    assert "best fitness" in capsys.readouterr().out
+    err = refused(ga_command.main, ["--resume", str(out), "--preset", "grefenstette"], capsys)
+    assert "--preset grefenstette conflicts with the run's --preset dejong" in err
+    assert "--mutation" in refused(ga_command.main, ["--mutation", "2"], capsys)
+
+
+@pytest.mark.parametrize("restart, elitism", [(False, True), (True, True), (False, False), (True, False)])
+def test_planned_episodes_match_what_the_searches_ask(restart: bool, elitism: bool) -> None:
+    ga = GAConfig(population_size=5, generations=3, elitism=elitism)
+    config = GALAConfig(ga=ga, iterations=4, generations_per_iteration=2, restart_each_iteration=restart)
+    asked: list[str] = []
+
+    def count(search):
+        while not search.done:
+            batch = search.ask()
+            asked.extend(c.key for c in batch)
+            search.tell({c.key: float(sum(c.genes)) for c in batch})
+
+    count(GALA(BOUNDS, config, 0.5, 1))
+    assert len(asked) == gala_command.planned_episodes(config)
+    asked.clear()
+    count(GARun(BOUNDS, ga, 1))
+    assert len(asked) == ga_command.planned_episodes(ga)
+
+
+def test_episode_command_refuses_a_bad_gait_file_or_server(tmp_path: Path, capsys) -> None:
+    bad = tmp_path / "gait.json"
+    bad.write_text("{}")
+    for argv, flag in ((["--gait", str(bad)], "--gait"), (["--server", "nowhere"], "--server"),
+                       (["--agent-mode", "thread"], "--agent-mode")):
+        with pytest.raises(SystemExit) as exit_info:
+            episode_command.main(argv)
+        assert exit_info.value.code == 2
+        assert flag in capsys.readouterr().err
