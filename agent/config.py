@@ -38,3 +38,7 @@ class AgentConfig:
     posture: dict[str, float] = field(default_factory=lambda: {"lae1": -90.0, "rae1": -90.0})
     #: Seconds to wait for the TCP connection and for each server message.
     timeout: float = 10.0
+    #: Sync mode: send a bare ``(syn)`` this often until the first perception arrives (the real
+    #: server otherwise answers a silent new agent only after about 2 s). None: never, for a server
+    #: known to answer at once (the stub), where a nudge arriving late could make it step early.
+    syn_nudge_interval: float | None = 0.01

@@ -22,10 +22,6 @@ from protocol.perception import Perception, parse_perception
 
 log = logging.getLogger("agent")
 
-#: In sync mode the real server answers a silent new agent's ``scene`` only after two 1-s waits;
-#: a ``(syn)`` every 10 ms gets the first perception in about 20 ms (facts sheet section 11).
-_SYN_NUDGE_INTERVAL = 0.01
-
 
 @dataclass(frozen=True)
 class AgentReport:
@@ -116,11 +112,14 @@ class NaoAgent:
         return self._conn
 
     def _first_message(self, conn: ServerConnection) -> bytes:
-        if not self.config.sync:
+        """In sync mode the real server answers a silent new agent's ``scene`` only after two 1-s
+        waits; a ``(syn)`` every 10 ms gets the first perception in about 20 ms (facts sheet 11)."""
+        interval = self.config.syn_nudge_interval
+        if not self.config.sync or interval is None:
             return conn.receive()
         deadline = time.monotonic() + self.config.timeout
         while time.monotonic() < deadline:
-            message = conn.receive(timeout=_SYN_NUDGE_INTERVAL)
+            message = conn.receive(timeout=interval)
             if message is not None:
                 return message
             conn.send(commands.syn())

@@ -6,7 +6,10 @@ is *15-s-episode equivalents per hour*: simulated walking seconds per wall hour,
 Parallel efficiency = equivalents/h with N workers / (N x equivalents/h with 1 worker).
 Workers are started and warmed up (one episode each) before the clock starts.
 
-Run: ``python bench/bench_episodes.py [--episodes 60] [--agent-mode inprocess|process]``.
+With ``--gait FILE`` every episode walks that gait instead (one that does not fall gives the cost
+of full 15-s episodes, what a converged population evaluates).
+
+Run: ``python bench/bench_episodes.py [--episodes 60] [--gait FILE] [--agent-mode inprocess|process]``.
 """
 from __future__ import annotations
 
@@ -19,7 +22,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from gait import GENE_BOUNDS, repair_genes  # noqa: E402
+from gait import GENE_BOUNDS, load_gait, repair_genes  # noqa: E402
 from optimizer.episode import EpisodeConfig  # noqa: E402
 from optimizer.evaluation import EpisodeRunnerFactory, EpisodeTask, ProcessPoolEvaluator  # noqa: E402
 
@@ -30,31 +33,36 @@ def gaits(count: int, seed: int) -> list[tuple[float, ...]]:
     return [tuple(float(g) for g in repair_genes(row)) for row in raw]
 
 
-def measure(workers: int, episodes: int, config: EpisodeConfig) -> dict[str, float]:
+def measure(workers: int, genes: list[tuple[float, ...]], config: EpisodeConfig) -> dict[str, float]:
     factory = EpisodeRunnerFactory(config, seed=0)
     with ProcessPoolEvaluator(factory, workers, task_timeout=2 * config.episode_timeout + 30) as pool:
         warm = [EpisodeTask(f"warm/i{k}", g, k) for k, g in enumerate(gaits(workers, seed=99))]
         list(pool.evaluate(warm))
-        tasks = [EpisodeTask(f"bench/i{k:03d}", g, k) for k, g in enumerate(gaits(episodes, seed=1))]
+        tasks = [EpisodeTask(f"bench/i{k:03d}", g, k) for k, g in enumerate(genes)]
         start = time.perf_counter()
         outcomes = list(pool.evaluate(tasks))
         wall = time.perf_counter() - start
     walked = sum(float(o.result["time"]) for o in outcomes)
     failed = sum(o.result["status"] != "ok" for o in outcomes)
-    return {"wall": wall, "episodes_per_hour": episodes / wall * 3600,
+    return {"wall": wall, "episodes_per_hour": len(tasks) / wall * 3600,
             "equivalents_per_hour": walked / config.walk_time / wall * 3600,
-            "mean_walked": walked / episodes, "failed": failed}
+            "mean_walked": walked / len(tasks), "failed": failed}
 
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__)
     p.add_argument("--episodes", type=int, default=60)
+    p.add_argument("--gait", type=Path, default=None, help="walk this gait file every episode")
     p.add_argument("--agent-mode", choices=("inprocess", "process"), default="inprocess")
     args = p.parse_args()
     config = EpisodeConfig(agent_mode=args.agent_mode)
-    results = {n: measure(n, args.episodes, config) for n in (1, 2)}
+    if args.gait is None:
+        genes, what = gaits(args.episodes, seed=1), "random gaits"
+    else:
+        genes, what = [tuple(load_gait(args.gait).as_array())] * args.episodes, f"x {args.gait.name}"
+    results = {n: measure(n, genes, config) for n in (1, 2)}
     for n, r in results.items():
-        print(f"{n} worker(s), {args.episodes} random gaits ({args.agent_mode}): {r['wall']:.1f} s wall, "
+        print(f"{n} worker(s), {args.episodes} {what} ({args.agent_mode}): {r['wall']:.1f} s wall, "
               f"{r['episodes_per_hour']:.0f} episodes/h, {r['equivalents_per_hour']:.0f} 15-s-episode "
               f"equivalents/h (mean {r['mean_walked']:.2f} s walked per episode, {r['failed']} failed)")
     efficiency = results[2]["equivalents_per_hour"] / (2 * results[1]["equivalents_per_hour"])

@@ -169,9 +169,15 @@ class EpisodeRunner:
         self._stub = None if server is not None else StubProcess(seed=seed)
         self._monitor: MonitorLink | None = None
         self._tmp = tempfile.TemporaryDirectory(prefix="gala_episode_")
+        # a fall is an episode's ordinary outcome, scored from the monitor: in-process agents need
+        # not log it (and would write through any progress display)
+        logging.getLogger("agent").setLevel(logging.ERROR)
 
     # ----- public -----
-    def evaluate(self, genes: Sequence[float] | TFSParams) -> EpisodeResult:
+    def evaluate(self, genes: Sequence[float] | TFSParams, seed: int | None = None) -> EpisodeResult:
+        """Walk ``genes`` once. ``seed`` is accepted for the evaluator's bookkeeping; no outcome
+        depends on it: the physics is deterministic and the walking agent uses no vision, the
+        only noisy sensor."""
         params = genes if isinstance(genes, TFSParams) else TFSParams.from_array(list(genes))
         started = time.monotonic()
         reason = ""
@@ -228,9 +234,13 @@ class EpisodeRunner:
 
     def _agent_config(self, address: ServerAddress) -> AgentConfig:
         sx, sy = self.config.start
+        # our own stub answers scene at once; a (syn) nudge racing its first perception would let
+        # it step once more before init and make episodes depend on timing
+        nudge = None if self._stub is not None else AgentConfig.syn_nudge_interval
         return AgentConfig(host=address.host, port=address.agent_port, team=self.config.team,
                            unum=self.config.unum, beam=(sx, sy, self.config.heading), sync=True,
-                           duration=None, start_now=True, timeout=self.config.episode_timeout)
+                           duration=None, start_now=True, timeout=self.config.episode_timeout,
+                           syn_nudge_interval=nudge)
 
     def _episode(self, params: TFSParams) -> EpisodeResult:
         address = self._address()
@@ -314,3 +324,9 @@ class EpisodeRunner:
                 return
             link.poll(wait=0.05)
         raise EpisodeFailure("the previous robot was not removed from the server")
+
+
+if __name__ == "__main__":
+    from optimizer.episode_command import main
+
+    raise SystemExit(main())

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import inspect
 import multiprocessing
 import os
 import signal
@@ -79,9 +78,6 @@ class EpisodeOutcome:
 class Evaluator(Protocol):
     """What the driver needs: run a batch, hear about each episode as it finishes."""
 
-    @property
-    def workers(self) -> int: ...
-
     def evaluate(self, tasks: Sequence[EpisodeTask]) -> Iterator[EpisodeOutcome]:
         """Yield exactly one outcome per task, as they finish (any order). Never raises for a
         lost episode (that is a failed outcome); raises ``EvaluationError`` when evaluating is
@@ -98,7 +94,7 @@ class EvaluationError(RuntimeError):
 class Runner(Protocol):
     """What a worker needs from an episode runner (``optimizer.episode.EpisodeRunner``)."""
 
-    def evaluate(self, genes: Sequence[float]) -> Any: ...
+    def evaluate(self, genes: Sequence[float], seed: int) -> Any: ...
 
     def close(self) -> None: ...
 
@@ -110,8 +106,8 @@ RunnerFactory = Callable[[int], Runner]
 @dataclass(frozen=True)
 class EpisodeRunnerFactory:
     """Makes the real ``EpisodeRunner`` of worker ``i``: on ``servers[i]`` when real servers are
-    given (one worker per server), else on its own embedded stub. Each worker's runner gets its
-    own seed; each episode's seed travels with its task."""
+    given (one worker per server), else on its own embedded stub. Every runner gets the run's
+    seed, so the stub's noise does not depend on which worker runs an episode."""
 
     config: EpisodeConfig
     servers: tuple[ServerAddress, ...] = ()
@@ -119,13 +115,7 @@ class EpisodeRunnerFactory:
 
     def __call__(self, worker: int) -> Runner:
         server = self.servers[worker] if self.servers else None
-        return EpisodeRunner(self.config, server, seed=stable_seed(self.seed, f"worker{worker}"))
-
-
-def _takes_seed(runner: Runner) -> bool:
-    """Whether the runner's ``evaluate`` takes the episode's seed (``evaluate(genes, seed=...)``):
-    then a stub with noise replays the same episode on any worker, at any time."""
-    return "seed" in inspect.signature(runner.evaluate).parameters
+        return EpisodeRunner(self.config, server, seed=self.seed)
 
 
 def _worker_main(factory: RunnerFactory, index: int, conn: Connection) -> None:
@@ -142,7 +132,6 @@ def _worker_main(factory: RunnerFactory, index: int, conn: Connection) -> None:
     except BaseException:
         conn.send(("broken", traceback.format_exc()))
         return
-    takes_seed = _takes_seed(runner)
     try:
         conn.send(("ready", os.getpid()))
         while True:
@@ -150,8 +139,7 @@ def _worker_main(factory: RunnerFactory, index: int, conn: Connection) -> None:
             if task is None:
                 break
             try:
-                extra = {"seed": task.seed} if takes_seed else {}
-                message = ("done", task.key, dict(runner.evaluate(task.genes, **extra).to_dict()))
+                message = ("done", task.key, dict(runner.evaluate(task.genes, seed=task.seed).to_dict()))
             except Exception:
                 message = ("error", task.key, traceback.format_exc(limit=4))
             conn.send(message)
@@ -193,10 +181,6 @@ class ProcessPoolEvaluator:
         self._failed_starts = [0] * workers
         self._pool: list[_Worker] = []
         self._pool = [self._start(i) for i in range(workers)]
-
-    @property
-    def workers(self) -> int:
-        return len(self._pool)
 
     def pids(self) -> list[int | None]:
         """Process ids of the current workers (what an operator, or a test, would kill)."""

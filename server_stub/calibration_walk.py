@@ -88,23 +88,42 @@ class WalkResult:
     feet: list[frozenset[str]] = field(default_factory=list)  # FRP keys present per walk cycle
 
 
-def run(world: World, robot_type: int = 0) -> WalkResult:
-    """One episode of the README on ``world``: new robot, beam, hold, 15 s walk."""
+def run(world: World, robot_type: int = 0, *, beam: tuple[float, float, float] = BEAM,
+        rebeam_cycle: int | None = REBEAM_CYCLE, beam_delay: int = 0,
+        cycles_before_beam: int = CYCLES_BEFORE_BEAM) -> WalkResult:
+    """One episode of the README on ``world``: new robot, beam, hold, 15 s walk.
+
+    The keywords perturb the start the way real runs differ: ``beam`` = (x, y, heading deg);
+    ``rebeam_cycle`` = hold cycle whose reply repeats the beam (None: no repeat);
+    ``beam_delay`` = extra steps before a beam takes effect (0: at the next step, as in the
+    README's timing; 1: one step later, as through the stub server's pipelined cycle);
+    ``cycles_before_beam`` = physics steps before the first beam is sent.
+    """
     robot = world.add_robot(robot_type)
-    for _ in range(CYCLES_BEFORE_BEAM):
+    due: set[int] = set()
+    steps = 0
+
+    def step() -> None:
+        nonlocal steps
+        if steps in due:
+            robot.beam(*beam)
         world.step()
-    robot.beam(*BEAM)
-    world.step()
+        steps += 1
+
+    for _ in range(cycles_before_beam):
+        step()
+    due.add(steps + beam_delay)
+    step()
     for cycle in range(HOLD_CYCLES):
         _act(robot, 0.0)
-        if cycle == REBEAM_CYCLE:
-            robot.beam(*BEAM)
-        world.step()
+        if cycle == rebeam_cycle:
+            due.add(steps + beam_delay)
+        step()
     start = robot.torso_position()
     result = WalkResult(0.0, 0.0, False)
     for cycle in range(WALK_CYCLES):
         _act(robot, cycle * CYCLE)
-        world.step()
+        step()
         position = robot.torso_position()
         result.torso.append(position)
         result.feet.append(frozenset(robot.foot_pressure()))

@@ -14,10 +14,13 @@ class PhysicsConfig:
 
     # --- timing (facts section 4: one 0.02 s ODE step per cycle, no sub-steps) ---
     cycle: float = CYCLE
-    #: pybullet sub-steps per cycle. 2, unlike ODE's 1: in a grid over friction, contact softness,
-    #: inertia floor and breaking threshold (4-8 start headings each), no single-step setting
-    #: walked the calibration gait without falling in every run; with 2 sub-steps (and the
-    #: friction below) 8 of 8 runs stayed up. Costs about 2x the step time.
+    #: pybullet sub-steps per cycle (World.step runs them one by one, so the slip force below is
+    #: renewed each sub-step). 2, unlike ODE's 1: with 1 sub-step the explicit slip damper is
+    #: only stable when weak; over the 24 perturbed starts of the walk probe (rebeam cycle
+    #: 10-14 or none, beam 0 or 1 step late, heading +-1 deg, anywhere on the own half) the best
+    #: 1-sub-step setting (slip_mass 1.1) walked 24 of 24 within 3.0 m +-15%, but its neighbours
+    #: slip_mass 0.9 / 1.2 / 1.4 did 15 / 22 / 22 of 24 (falls, one run flew off at 20 m); with 2
+    #: sub-steps slip_mass 0.4 / 0.45 / 0.5 all did 24 of 24. Costs about 1.6x the step time.
     sub_steps: int = 2
     gravity: float = -9.81
 
@@ -49,15 +52,29 @@ class PhysicsConfig:
     #: makes contacts for touching geometry (surface layer 0.001 m); in the walk grid 0.002 beat
     #: 0.001, 0.003, 0.004 and the default (falls or turning walks).
     contact_breaking_threshold: float = 0.002
-    #: Coulomb mu of robot parts (the ground has 1; Bullet multiplies them). The real server has
-    #: no Coulomb limit but a force-dependent slip of 0.005 (m/s)/N, which pybullet cannot
-    #: express. Measured on the calibration walk (2 sub-steps, 8 headings): mu >= 1 always falls
-    #: backwards within 4 s with about 0 m forward, as feet cannot slide at all; mu 0.35-0.45
-    #: slides so much that the walk turns (0-2 m); 0.55 falls 5 of 8; 0.5: 0 falls, 6 of 8 runs
-    #: 2.55-3.43 m (real 2.91-3.14), foot contact alternating 75 times in 15 s like the real one.
-    lateral_friction: float = 0.5
-    #: ODE has neither rolling nor spinning friction; spinning friction 0.002-0.01 changed
-    #: nothing in the walk (the MLCP solver ignores it).
+    #: Coulomb mu of robot parts (the ground has 1; Bullet multiplies them). 0: the real server has
+    #: no Coulomb limit (mu infinite) and its tangential contact force comes from force-dependent
+    #: slip alone, emulated by ``slip`` / ``slip_mass``. Measured (walk probe above): Coulomb
+    #: friction was what made the walk fragile. With mu 0.5 alone, 2 of 12 starts walked
+    #: 3.0 m +-15% and 6 fell (rebeam at cycle 12: 3.37 m, at 13: 0.56 m, beam 1 step late:
+    #: fell); mu >= 1 always fell backwards; adding mu 0.1 / 0.2 on top of the slip damper
+    #: brought back falls (1-3 of 12).
+    lateral_friction: float = 0.0
+    #: force-dependent slip of every contact point in both tangential directions, (m/s) per N
+    #: (facts section 4, ODE's dContactSlip1/2): a point slides at slip x its tangential force,
+    #: i.e. friction is a viscous damper of 1 / slip = 200 N s/m per contact point.
+    slip: float = 0.005
+    #: effective mass (kg) per contact point in the semi-implicit damper F = -v / (slip + h / m)
+    #: (h = sub-step; ``Robot._before_substep``). It caps the damper at what stops a point of
+    #: mass m in one sub-step: 36.7 N s/m per point at 0.45 kg instead of the real 200, which an
+    #: explicit force cannot reach stably. Measured over the 24 perturbed starts (no Coulomb
+    #: friction, 2 sub-steps): slip_mass 0.3: 22 of 24 within 3.0 m +-15% (1.84-3.01 m, no fall);
+    #: 0.4: 24/24 (2.76-3.12 m); 0.45: 24/24 (2.85-3.16 m); 0.5: 24/24 (2.77-3.16 m); 0.6: 22/24
+    #: (2 falls); 1.0 (66 N s/m): falls; 2.0: unstable. Applying the damper also to Bullet's
+    #: points that carry no load (up to 2 mm apart) dragged the swing foot: 0 of 12 runs.
+    slip_mass: float = 0.45
+    #: ODE has neither rolling nor spinning friction (spinning friction 0.002-0.01 changed nothing
+    #: in the walk with Coulomb friction; the MLCP solver ignores it).
     rolling_friction: float = 0.0
     spinning_friction: float = 0.0
     #: bounce off (facts section 4).

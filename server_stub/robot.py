@@ -54,9 +54,8 @@ class Robot:
         names = [pb.getJointInfo(body, i, physicsClientId=client)[12].decode() for i in self._indices]
         self._part_names = ["torso"] + names
         self._head_link = names.index("head")
-        #: pybullet reports a contact's force as the last sub-step's impulse over the whole
-        #: cycle; measured: with 2 sub-steps a standing robot's feet sum to half its weight.
-        self._force_scale = float(max(1, config.sub_steps))
+        #: Tangential slip force applied to each link in the last sub-step (see _before_substep).
+        self._slip_force: dict[int, list[float]] = {}
         self._foot_keys = {names.index(part): key for key, part in nao_model.FOOT_PARTS.items()}
         self._requested = np.full(_N, np.nan)  # commands since the last step
         self._pending = np.full(_N, np.nan)  # commands to apply at the start of the next step
@@ -118,14 +117,55 @@ class Robot:
                 target[i] = back
             force[i] = _STOP_FORCE
 
-    def _after_step(self) -> None:
+    def _before_substep(self) -> None:
+        """Force-dependent slip (facts section 4): the real contacts have no Coulomb limit, and
+        each contact point slides at 0.005 (m/s) per N of tangential force, i.e. the tangential
+        force is a viscous damper F = -v / slip on the point's sliding velocity v. Bullet has no
+        such friction row, so the damper is applied here as an external force per contact point
+        that carried load in the last sub-step (ODE only makes contacts that touch; Bullet also
+        keeps points up to 2 mm apart), in its semi-implicit form F = -v / (slip + h / m): for a
+        point of effective mass m this is the force that an implicit damper would leave after a
+        sub-step of h, and it never more than stops the slip, so it cannot oscillate."""
+        self._slip_force = {}
+        cfg = self._config
+        if cfg.slip_mass <= 0.0:
+            return
+        touching = [c for c in self._contacts() if c[9] > 0.0]
+        if not touching:
+            return
+        client = self._client
+        frames = {}
+        links = sorted({c[3] for c in touching if c[3] >= 0})
+        if links:
+            states = pb.getLinkStates(self._body, links, computeLinkVelocity=1, physicsClientId=client)
+            frames = {link: (st[0], st[6], st[7]) for link, st in zip(links, states)}
+        if any(c[3] < 0 for c in touching):
+            frames[-1] = (self._base_pose()[0],) + pb.getBaseVelocity(self._body, physicsClientId=client)
+        gain = 1.0 / (cfg.slip + cfg.cycle / cfg.sub_steps / cfg.slip_mass)
+        for c in touching:
+            (ox, oy, oz), (vx, vy, vz), (wx, wy, wz) = frames[c[3]]
+            (px, py, pz), (nx, ny, nz) = c[5], c[7]
+            rx, ry, rz = px - ox, py - oy, pz - oz
+            ux, uy, uz = vx + wy * rz - wz * ry, vy + wz * rx - wx * rz, vz + wx * ry - wy * rx
+            along = ux * nx + uy * ny + uz * nz
+            force = (gain * (along * nx - ux), gain * (along * ny - uy), gain * (along * nz - uz))
+            pb.applyExternalForce(self._body, c[3], force, c[5], pb.WORLD_FRAME, physicsClientId=client)
+            total = self._slip_force.setdefault(c[3], [0.0, 0.0, 0.0])
+            total[0] += force[0]
+            total[1] += force[1]
+            total[2] += force[2]
+
+    def _after_substep(self) -> None:
         self._invalidate()
+
+    def _after_step(self) -> None:
         self._prev_velocity = self._velocity
         self._velocity = pb.getBaseVelocity(self._body, physicsClientId=self._client)[0]
 
     def _invalidate(self) -> None:
         self._joints: tuple[np.ndarray, np.ndarray] | None = None
         self._pose: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+        self._contact_points: tuple | None = None
 
     # ----- placing -----
     def beam(self, x: float, y: float, heading_deg: float) -> None:
@@ -159,6 +199,12 @@ class Robot:
             states = pb.getJointStates(self._body, self._indices, physicsClientId=self._client)
             self._joints = (np.array([s[0] for s in states]), np.array([s[1] for s in states]))
         return self._joints
+
+    def _contacts(self) -> tuple:
+        """Every contact point of this robot after the last sub-step (pybullet's tuples)."""
+        if self._contact_points is None:
+            self._contact_points = pb.getContactPoints(bodyA=self._body, physicsClientId=self._client)
+        return self._contact_points
 
     def _base_pose(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
         """(position, rotation as 9 floats, row-major), cached until the next step."""
@@ -196,18 +242,16 @@ class Robot:
     def foot_pressure(self) -> dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]]:
         """FRP per foot in contact: (centre of pressure, total contact force), both in the foot's
         frame (origin at the foot centre, so the sole is z = -0.01). The centre is the contact
-        points' mean weighted by normal force. Feet without contact are absent, as the server
-        omits them."""
-        contacts = pb.getContactPoints(bodyA=self._body, physicsClientId=self._client)
+        points' mean weighted by normal force; the force includes the slip (friction) force.
+        Feet without contact are absent, as the server omits them."""
         sums: dict[int, list[float]] = {}
-        scale = self._force_scale
-        for c in contacts:
-            normal = c[9] * scale
+        for c in self._contacts():
+            normal = c[9]
             if normal <= 0.0 or c[3] not in self._foot_keys:
                 continue
             s = sums.setdefault(c[3], [0.0] * 7)
             (nx, ny, nz), (ax, ay, az), (bx, by, bz) = c[7], c[11], c[13]
-            f1, f2 = c[10] * scale, c[12] * scale
+            f1, f2 = c[10], c[12]
             s[0] += normal * nx + f1 * ax + f2 * bx
             s[1] += normal * ny + f1 * ay + f2 * by
             s[2] += normal * nz + f1 * az + f2 * bz
@@ -224,6 +268,10 @@ class Robot:
         result = {}
         for link, state in zip(links, states):
             s = sums[link]
+            slip = self._slip_force.get(link, (0.0, 0.0, 0.0))
+            s[0] += slip[0]
+            s[1] += slip[1]
+            s[2] += slip[2]
             (ox, oy, oz), rotation = state[0], pb.getMatrixFromQuaternion(state[1])
             centre = (s[3] / s[6] - ox, s[4] / s[6] - oy, s[5] / s[6] - oz)
             result[self._foot_keys[link]] = (_to_local(rotation, centre),

@@ -83,8 +83,8 @@ class World:
         c = self._client
         pb.setGravity(0.0, 0.0, cfg.gravity, physicsClientId=c)
         pb.setPhysicsEngineParameter(
-            fixedTimeStep=cfg.cycle,
-            numSubSteps=cfg.sub_steps,
+            fixedTimeStep=cfg.cycle / cfg.sub_steps,
+            numSubSteps=1,
             numSolverIterations=cfg.solver_iterations,
             globalCFM=cfg.global_cfm,
             contactBreakingThreshold=cfg.contact_breaking_threshold,
@@ -151,10 +151,16 @@ class World:
 
     # ----- time -----
     def step(self) -> None:
-        """One server cycle: motors from the commands of two cycles ago, then one physics step."""
+        """One server cycle: motors from the commands of two cycles ago, then the physics
+        sub-steps, each after the contact slip forces of its start (``Robot._before_substep``)."""
         for robot in self._robots:
             robot._before_step()
-        pb.stepSimulation(physicsClientId=self._client)
+        for _ in range(self.config.sub_steps):
+            for robot in self._robots:
+                robot._before_substep()
+            pb.stepSimulation(physicsClientId=self._client)
+            for robot in self._robots:
+                robot._after_substep()
         self.time += self.config.cycle
         for robot in self._robots:
             robot._after_step()

@@ -34,8 +34,6 @@ class FakeEvaluator:
     """In-process evaluator with a synthetic fitness; remembers every key it evaluated and can be
     told to die after a number of episodes."""
 
-    workers = 1
-
     def __init__(self, die_after: int | None = None) -> None:
         self.evaluated: list[str] = []
         self.die_after = die_after

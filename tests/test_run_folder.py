@@ -17,8 +17,8 @@ def record(key: str, fitness: float = 1.0) -> dict:
 
 
 def test_manifest_records_what_was_run_and_reopens(tmp_path: Path) -> None:
-    folder = RunFolder.create(tmp_path / "run", "gala", {"population": 10, "crossover": [0.8]}, 42,
-                              ["--population", "10"], {"workers": 2, "servers": []})
+    RunFolder.create(tmp_path / "run", "gala", {"population": 10, "crossover": [0.8]}, 42,
+                     ["--population", "10"], {"workers": 2, "servers": []})
     manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
     assert manifest["command"] == "gala" and manifest["seed"] == 42
     assert manifest["settings"] == {"population": 10, "crossover": [0.8]}
