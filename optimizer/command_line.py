@@ -108,6 +108,11 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
                              "repeat for more servers (one worker per server)")
     parser.add_argument("--workers", type=positive_int, default=None,
                         help="worker processes (default: one per core; one per --server)")
+    dask = parser.add_mutually_exclusive_group()
+    dask.add_argument("--scheduler", default=None, metavar="tcp://HOST:8786",
+                      help="send episodes to this Dask scheduler (needs pip install '.[dask]')")
+    dask.add_argument("--dask-local", type=positive_int, default=None, metavar="N",
+                      help="start a local Dask cluster of N workers (needs pip install '.[dask]')")
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--out", type=Path, default=None, help="new run folder (default runs/<command>-<time>)")
     where.add_argument("--resume", type=existing_run, default=None, metavar="DIR",
@@ -154,11 +159,20 @@ class EvaluationSetup:
     servers: tuple[ServerAddress, ...]
     workers: int
     seed: int
+    scheduler: str | None = None
+    dask_local: int | None = None
 
 
 def pool_evaluator(setup: EvaluationSetup) -> Evaluator:
-    """The local evaluator: one worker process per core (or per server), each with one runner."""
+    """The local evaluator: one worker process per core (or per server), each with one runner;
+    or, with ``--scheduler`` / ``--dask-local``, a Dask cluster (``optimizer.dask_evaluation``)."""
     config = EpisodeConfig(walk_time=setup.walk_time, agent_mode=setup.agent_mode)
+    if setup.scheduler is not None or setup.dask_local is not None:
+        try:
+            from optimizer.dask_evaluation import DaskEvaluator
+        except ImportError as exc:
+            raise EvaluationError(f"Dask is not installed ({exc}); pip install '.[dask]'") from None
+        return DaskEvaluator(config, setup.seed, scheduler=setup.scheduler, local_workers=setup.dask_local)
     # an episode may take the runner's timeout twice (it restarts and retries once) plus a restart
     timeout = 2 * config.episode_timeout + 30.0
     return ProcessPoolEvaluator(EpisodeRunnerFactory(config, setup.servers, setup.seed), setup.workers,
@@ -197,8 +211,12 @@ def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, comma
     if servers and args.workers is not None and args.workers != len(servers):
         parser.error(f"--workers {args.workers} conflicts with {len(servers)} --server address(es): "
                      "one worker per server")
-    workers = len(servers) or args.workers or os.cpu_count() or 1
-    runtime = {"workers": workers, "servers": [str(s) for s in servers]}
+    if servers and (args.scheduler or args.dask_local):
+        parser.error("--server conflicts with --scheduler/--dask-local: on Dask, name each worker's "
+                     "server in its environment (GALA_SERVER=HOST:AGENT_PORT:MONITOR_PORT)")
+    workers = args.dask_local or len(servers) or args.workers or os.cpu_count() or 1
+    runtime = {"workers": workers, "servers": [str(s) for s in servers],
+               "dask": args.scheduler or (f"local:{args.dask_local}" if args.dask_local else None)}
     if folder is None:
         seed = args.seed if args.seed is not None else secrets.randbits(32)
         out = args.out or new_run_path(command)
@@ -209,7 +227,8 @@ def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, comma
     else:
         seed = folder.manifest["seed"]
         folder.note_resume(argv, runtime)
-    setup = EvaluationSetup(settings["walk_time"], settings["agent_mode"], servers, workers, seed)
+    setup = EvaluationSetup(settings["walk_time"], settings["agent_mode"], servers, workers, seed,
+                            args.scheduler, args.dask_local)
     return Run(command, folder, settings, seed, setup, resumed=stored is not None)
 
 

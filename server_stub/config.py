@@ -21,7 +21,7 @@ class PhysicsConfig:
     #: 1-sub-step setting (slip_mass 1.1) walked 24 of 24 within 3.0 m +-15%, but its neighbours
     #: slip_mass 0.9 / 1.2 / 1.4 did 15 / 22 / 22 of 24 (falls, one run flew off at 20 m); with 2
     #: sub-steps slip_mass 0.4 / 0.45 / 0.5 all did 24 of 24. Costs about 1.6x the step time.
-    sub_steps: int = 2
+    sub_steps: int = 3
     gravity: float = -9.81
 
     # --- solver ---
@@ -72,7 +72,7 @@ class PhysicsConfig:
     #: 0.4: 24/24 (2.76-3.12 m); 0.45: 24/24 (2.85-3.16 m); 0.5: 24/24 (2.77-3.16 m); 0.6: 22/24
     #: (2 falls); 1.0 (66 N s/m): falls; 2.0: unstable. Applying the damper also to Bullet's
     #: points that carry no load (up to 2 mm apart) dragged the swing foot: 0 of 12 runs.
-    slip_mass: float = 0.45
+    slip_mass: float = 0.3
     #: ODE has neither rolling nor spinning friction (spinning friction 0.002-0.01 changed nothing
     #: in the walk with Coulomb friction; the MLCP solver ignores it).
     rolling_friction: float = 0.0

@@ -29,6 +29,7 @@ BEAM_HEIGHT = 0.4
 _STOP_FORCE = 1e4
 
 
+
 def _yaw_quaternion(heading_deg: float) -> tuple[float, float, float, float]:
     """Upright orientation facing world heading ``heading_deg`` (0 = +x). The model is built
     facing +y (heading 90), so the body turns by heading - 90 about z."""

@@ -128,6 +128,10 @@ class StubServer:
         self._monitors.pop(client, None)
         if state is not None and state.robot is not None:
             self.world.remove_robot(state.robot)
+            if not any(s.robot is not None for s in self._agents.values()):
+                # vision and monitor cadences restart with the next robot on an empty field, so an
+                # episode sees the same cycles whatever ran before it (the optimizer relies on it)
+                self.cycle = 0
             if state.side is not None and state.unum is not None:
                 self.game.leave(state.side, state.unum)
             self._scene_changed = True
