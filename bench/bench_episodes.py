@@ -9,7 +9,8 @@ Workers are started and warmed up (one episode each) before the clock starts.
 With ``--gait FILE`` every episode walks that gait instead (one that does not fall gives the cost
 of full 15-s episodes, what a converged population evaluates).
 
-Run: ``python bench/bench_episodes.py [--episodes 60] [--gait FILE] [--agent-mode inprocess|process]``.
+Run: ``python bench/bench_episodes.py [--episodes 60] [--gait FILE] [--agent-mode inprocess|process] [--dask]``
+(``--dask`` also runs the 2-worker case on a Dask LocalCluster and prints its overhead).
 """
 from __future__ import annotations
 
@@ -33,15 +34,26 @@ def gaits(count: int, seed: int) -> list[tuple[float, ...]]:
     return [tuple(float(g) for g in repair_genes(row)) for row in raw]
 
 
-def measure(workers: int, genes: list[tuple[float, ...]], config: EpisodeConfig) -> dict[str, float]:
+def _evaluator(workers: int, config: EpisodeConfig, dask: bool):
+    if dask:
+        from optimizer.dask_evaluation import DaskEvaluator
+
+        return DaskEvaluator(config, seed=0, local_workers=workers)
     factory = EpisodeRunnerFactory(config, seed=0)
-    with ProcessPoolEvaluator(factory, workers, task_timeout=2 * config.episode_timeout + 30) as pool:
+    return ProcessPoolEvaluator(factory, workers, task_timeout=2 * config.episode_timeout + 30)
+
+
+def measure(workers: int, genes: list[tuple[float, ...]], config: EpisodeConfig, dask: bool = False) -> dict[str, float]:
+    pool = _evaluator(workers, config, dask)
+    try:
         warm = [EpisodeTask(f"warm/i{k}", g, k) for k, g in enumerate(gaits(workers, seed=99))]
         list(pool.evaluate(warm))
         tasks = [EpisodeTask(f"bench/i{k:03d}", g, k) for k, g in enumerate(genes)]
         start = time.perf_counter()
         outcomes = list(pool.evaluate(tasks))
         wall = time.perf_counter() - start
+    finally:
+        pool.close()
     walked = sum(float(o.result["time"]) for o in outcomes)
     failed = sum(o.result["status"] != "ok" for o in outcomes)
     return {"wall": wall, "episodes_per_hour": len(tasks) / wall * 3600,
@@ -54,6 +66,7 @@ def main() -> None:
     p.add_argument("--episodes", type=int, default=60)
     p.add_argument("--gait", type=Path, default=None, help="walk this gait file every episode")
     p.add_argument("--agent-mode", choices=("inprocess", "process"), default="inprocess")
+    p.add_argument("--dask", action="store_true", help="also run the same episodes on a 2-worker Dask LocalCluster")
     args = p.parse_args()
     config = EpisodeConfig(agent_mode=args.agent_mode)
     if args.gait is None:
@@ -67,6 +80,11 @@ def main() -> None:
               f"equivalents/h (mean {r['mean_walked']:.2f} s walked per episode, {r['failed']} failed)")
     efficiency = results[2]["equivalents_per_hour"] / (2 * results[1]["equivalents_per_hour"])
     print(f"parallel efficiency with 2 workers: {efficiency:.0%}")
+    if args.dask:
+        d = measure(2, genes, config, dask=True)
+        overhead = d["wall"] / results[2]["wall"] - 1
+        print(f"Dask LocalCluster, 2 workers: {d['wall']:.1f} s wall, {d['equivalents_per_hour']:.0f} "
+              f"equivalents/h; overhead against the local pool of 2: {overhead:+.1%} (target <= 10%)")
 
 
 if __name__ == "__main__":

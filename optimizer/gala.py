@@ -150,7 +150,8 @@ class GALA(KeyedSearch):
                 ga, generations = population, config.generations_per_iteration
                 ga.mutation_rate = mutation
             best = yield from evolve(ga, generations, f"{tag}/it{k:03d}")
-            baseline = float(np.mean(bests)) if bests else None
+            preceding = bests[-config.baseline_window:] if config.baseline_window else bests
+            baseline = float(np.mean(preceding)) if preceding else None
             rewarded = None if baseline is None else best > baseline
             if rewarded is not None:
                 automaton.update(action, rewarded)

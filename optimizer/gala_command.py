@@ -41,6 +41,7 @@ PAPER: dict[str, Any] = {
     "restart_each_iteration": GALAConfig().restart_each_iteration,
     "scheme": "lrp",
     "elitism": GAConfig().elitism,
+    "baseline_window": GALAConfig().baseline_window,
 }
 
 #: A first look on a 2-core machine: one row (the paper's best crossover rate), population 20,
@@ -83,6 +84,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a fresh GA of --generations generations per iteration instead of one continuing population")
     p.add_argument("--scheme", choices=("lrp", "lri"), default=None,
                    help="learning scheme: lrp (L_R-P, eq. 7-8; default) or lri (L_R-I, eq. 6)")
+    p.add_argument("--baseline-window", type=positive_int, default=None, metavar="K",
+                   help="reward an iteration whose best beats the average of the last K bests "
+                        "(default: of all preceding bests, as the paper)")
     add_run_arguments(p)
     return p
 
@@ -94,6 +98,7 @@ def gala_config(settings: dict[str, Any]) -> GALAConfig:
         iterations=settings["iterations"],
         generations_per_iteration=settings["generations_per_iteration"],
         restart_each_iteration=settings["restart_each_iteration"],
+        baseline_window=settings["baseline_window"],
         crossover_rates=tuple(settings["crossover"]),
     )
 

@@ -14,13 +14,18 @@ class PhysicsConfig:
 
     # --- timing (facts section 4: one 0.02 s ODE step per cycle, no sub-steps) ---
     cycle: float = CYCLE
-    #: pybullet sub-steps per cycle (World.step runs them one by one, so the slip force below is
-    #: renewed each sub-step). 2, unlike ODE's 1: with 1 sub-step the explicit slip damper is
-    #: only stable when weak; over the 24 perturbed starts of the walk probe (rebeam cycle
-    #: 10-14 or none, beam 0 or 1 step late, heading +-1 deg, anywhere on the own half) the best
-    #: 1-sub-step setting (slip_mass 1.1) walked 24 of 24 within 3.0 m +-15%, but its neighbours
-    #: slip_mass 0.9 / 1.2 / 1.4 did 15 / 22 / 22 of 24 (falls, one run flew off at 20 m); with 2
-    #: sub-steps slip_mass 0.4 / 0.45 / 0.5 all did 24 of 24. Costs about 1.6x the step time.
+    #: pybullet sub-steps per cycle, run one by one by World.step so the slip force below is
+    #: renewed each sub-step. (Before, pybullet ran 2 internal sub-steps of one 0.02 s call,
+    #: which also capped each motor's impulse per sub-step at 10 N m x 0.02 s, i.e. 20 N m.)
+    #: 3, unlike ODE's 1. Walk probe = the calibration gait from 24 perturbed starts (rebeam
+    #: cycle 10-14 or none, beams 0 or 1 step late, heading +-1 deg, anywhere on the own half,
+    #: first beam after 2-4 steps); "ok" = no fall and 3.0 m +-15%. 1 sub-step: best 24/24
+    #: (slip_mass 1.1) but its neighbours 0.9 / 1.2 / 1.4 gave 15 / 22 / 22 (falls, one run shot
+    #: off 20 m: the explicit damper is near its stability limit). 2 sub-steps: 24/24 for
+    #: slip_mass 0.4-0.5, but a beamed robot landed with its ankles yielding 1.6 deg (10 N m)
+    #: and rested on its heel corners, reading ACC y -0.28 and GYR x -10 deg/s (real: 0).
+    #: 3 sub-steps: 24/24 for slip_mass 0.25 / 0.3 / 0.35, resting upright (ACC (0, 0, 9.81),
+    #: GYR 0). Robustness over speed: 3 costs about 1.5x the time of 2.
     sub_steps: int = 3
     gravity: float = -9.81
 
@@ -66,12 +71,11 @@ class PhysicsConfig:
     slip: float = 0.005
     #: effective mass (kg) per contact point in the semi-implicit damper F = -v / (slip + h / m)
     #: (h = sub-step; ``Robot._before_substep``). It caps the damper at what stops a point of
-    #: mass m in one sub-step: 36.7 N s/m per point at 0.45 kg instead of the real 200, which an
-    #: explicit force cannot reach stably. Measured over the 24 perturbed starts (no Coulomb
-    #: friction, 2 sub-steps): slip_mass 0.3: 22 of 24 within 3.0 m +-15% (1.84-3.01 m, no fall);
-    #: 0.4: 24/24 (2.76-3.12 m); 0.45: 24/24 (2.85-3.16 m); 0.5: 24/24 (2.77-3.16 m); 0.6: 22/24
-    #: (2 falls); 1.0 (66 N s/m): falls; 2.0: unstable. Applying the damper also to Bullet's
-    #: points that carry no load (up to 2 mm apart) dragged the swing foot: 0 of 12 runs.
+    #: mass m in one sub-step: 36.7 N s/m per point (0.3 kg, h = 1/150 s) instead of the real 200,
+    #: which an explicit force cannot reach stably. Walk probe, damper strength per point:
+    #: 22 N s/m: 0/12 ok (2.17-2.53 m, slides too much); 33-41: 24/24 (2.59-3.16 m);
+    #: 55-66: falls in 2-3 of 12-24; 100+: unstable. Applying the damper also to Bullet's
+    #: points that carry no load (kept up to 2 mm apart) dragged the swing foot: 0 of 12 ok.
     slip_mass: float = 0.3
     #: ODE has neither rolling nor spinning friction (spinning friction 0.002-0.01 changed nothing
     #: in the walk with Coulomb friction; the MLCP solver ignores it).

@@ -131,6 +131,20 @@ def test_feedback_is_best_against_the_average_of_preceding_bests(restart: bool) 
     assert {r.rewarded for r in log[1:]} == {True, False}  # both branches exercised
 
 
+@pytest.mark.parametrize("window", [1, 3])
+def test_baseline_window_averages_only_the_last_bests(window: int) -> None:
+    config = GALAConfig(ga=GAConfig(population_size=6, generations=2), iterations=12, baseline_window=window)
+    gala = GALA(BOUNDS, config, 0.5, 5)
+    drive(gala, lambda g: sphere(g) + float(np.sin(1e4 * g.sum())))
+    log = gala.result().iteration_log
+    for k, record in enumerate(log[1:], start=1):
+        last = [r.best_fitness for r in log[max(0, k - window):k]]
+        assert record.baseline == pytest.approx(np.mean(last), abs=1e-12)
+        assert record.rewarded == (record.best_fitness > record.baseline)
+    with pytest.raises(ValueError, match="baseline_window"):
+        GALAConfig(baseline_window=0)
+
+
 def test_result_is_the_final_run_with_the_most_probable_rate() -> None:
     config = GALAConfig(ga=GAConfig(population_size=10, generations=4), iterations=20)
     result = run_sync(GALA(BOUNDS, config, 0.8, 4), sphere)
