@@ -125,8 +125,9 @@ class Robot:
         such friction row, so the damper is applied here as an external force per contact point
         that carried load in the last sub-step (ODE only makes contacts that touch; Bullet also
         keeps points up to 2 mm apart), in its semi-implicit form F = -v / (slip + h / m): for a
-        point of effective mass m this is the force that an implicit damper would leave after a
-        sub-step of h, and it never more than stops the slip, so it cannot oscillate."""
+        point of effective mass m this is the force an implicit damper would leave after a sub-step
+        of h; it stays stable as long as m does not exceed the point's real share of the robot's
+        mass (see ``PhysicsConfig.slip_mass``; 0 switches the damper off)."""
         self._slip_force = {}
         cfg = self._config
         if cfg.slip_mass <= 0.0:
