@@ -58,7 +58,7 @@ class StubProcess:
     def restart(self) -> None:
         self.stop()
         command = [sys.executable, "-m", "server_stub", "--sync", "--no-realtime", "--agent-port", "0",
-                   "--monitor-port", "0", "--seed", str(self.seed)]
+                   "--monitor-port", "0", "--seed", str(self.seed), "--exit-with-parent"]
         self._process = subprocess.Popen(
             command, stdout=subprocess.PIPE, stderr=None, text=True, env=dict(os.environ),
         )

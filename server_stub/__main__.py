@@ -43,6 +43,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="seed of every random choice (vision noise)")
     p.add_argument("--agent-timeout", type=_positive, default=10.0,
                    help="sync mode: disconnect an agent silent this many wall seconds (default 10)")
+    p.add_argument("--exit-with-parent", action="store_true",
+                   help="exit when the process that started the server dies (for optimizer workers)")
     p.add_argument("-v", "--verbose", action="store_true", help="log connections")
     return p
 
@@ -61,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
     config = ServerConfig(
         host=args.host, agent_port=args.agent_port, monitor_port=args.monitor_port, sync=args.sync,
         realtime=realtime, sense_mypos=args.sense_mypos, vision_noise=args.vision_noise, seed=args.seed,
-        agent_timeout=args.agent_timeout,
+        agent_timeout=args.agent_timeout, parent_pid=os.getppid() if args.exit_with_parent else 0,
     )
     try:
         server = StubServer(config)

@@ -133,3 +133,6 @@ class ServerConfig:
     #: Cycles between monitor updates (0.04 s) and between vision messages (0.06 s), facts section 4.
     monitor_interval: int = 2
     vision_interval: int = 3
+    #: Exit when this process is no longer our parent (0: never). A worker that starts a stub and
+    #: is killed (SIGKILL leaves no chance to clean up) must not leave the stub behind.
+    parent_pid: int = 0

@@ -168,6 +168,7 @@ class Robot:
         self._joints: tuple[np.ndarray, np.ndarray] | None = None
         self._pose: tuple[tuple[float, ...], tuple[float, ...]] | None = None
         self._contact_points: tuple | None = None
+        self._parts: list[tuple[str, np.ndarray]] | None = None
 
     # ----- placing -----
     def beam(self, x: float, y: float, heading_deg: float) -> None:
@@ -291,15 +292,20 @@ class Robot:
         return tuple(float(c) for c in state[0]), rotation
 
     def part_poses(self) -> list[tuple[str, np.ndarray]]:
-        """Every body part's world pose (4x4, part centre and axes), torso first, for the monitor."""
-        position, rotation = self._base_pose()
-        poses = [("torso", _homogeneous(np.array(position), np.array(rotation).reshape(3, 3)))]
-        states = pb.getLinkStates(self._body, self._indices, computeForwardKinematics=True,
-                                  physicsClientId=self._client)
-        for name, state in zip(self._part_names[1:], states):
-            r = np.array(pb.getMatrixFromQuaternion(state[1])).reshape(3, 3)
-            poses.append((name, _homogeneous(np.array(state[0]), r)))
-        return poses
+        """Every body part's world pose (4x4, part centre and axes), torso first, for the monitor
+        and for other robots' cameras; computed once per step (both ask every few cycles)."""
+        if self._parts is None:
+            position, rotation = self._base_pose()
+            states = pb.getLinkStates(self._body, self._indices, computeForwardKinematics=True,
+                                      physicsClientId=self._client)
+            poses = np.zeros((len(self._part_names), 4, 4))
+            poses[:, 3, 3] = 1.0
+            poses[0, :3, :3] = np.reshape(rotation, (3, 3))
+            poses[0, :3, 3] = position
+            poses[1:, :3, :3] = _rotation_matrices(np.array([s[1] for s in states]))
+            poses[1:, :3, 3] = [s[0] for s in states]
+            self._parts = list(zip(self._part_names, poses))
+        return self._parts
 
     @property
     def body_id(self) -> int:
@@ -313,9 +319,11 @@ def _to_local(r: tuple[float, ...], v) -> tuple[float, float, float]:
             r[2] * x + r[5] * y + r[8] * z)
 
 
-def _homogeneous(position: np.ndarray, rotation: np.ndarray) -> np.ndarray:
-    m = np.eye(4)
-    m[:3, :3] = rotation
-    m[:3, 3] = position
-    return m
-
+def _rotation_matrices(q: np.ndarray) -> np.ndarray:
+    """3x3 rotation matrices of unit quaternions given as rows (x, y, z, w), all at once."""
+    x, y, z, w = q.T
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], axis=-1),
+        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], axis=-1),
+        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=-1),
+    ], axis=1)

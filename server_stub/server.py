@@ -18,12 +18,13 @@ Sync mode starts a cycle once every agent that was sent a perception has answere
 from __future__ import annotations
 
 import logging
+import os
 import selectors
 import socket
 import time
 
 from protocol.errors import ProtocolError
-from protocol.nao import CYCLE, NAO_HETERO_RSG, NAO_RSG, ROBOT_TYPES
+from protocol.nao import CYCLE, JOINT_BY_EFFECTOR, NAO_HETERO_RSG, NAO_RSG, ROBOT_TYPES
 from protocol.sexp import parse_sexp
 from server_stub.agent_commands import has_syn, read_commands
 from server_stub.clients import AgentState, Client
@@ -166,6 +167,9 @@ class StubServer:
                     if events & selectors.EVENT_READ:
                         self._read(client)
                 self._reap()
+                if self.config.parent_pid and os.getppid() != self.config.parent_pid:
+                    log.warning("parent process %d is gone: shutting down", self.config.parent_pid)
+                    break
                 now = time.monotonic()
                 if self.config.realtime:
                     if now >= next_tick and self._ready(now):
@@ -181,7 +185,7 @@ class StubServer:
             return max(0.0, next_tick - time.monotonic())
         if self._ready(time.monotonic()):
             return 0.0
-        return 0.05 if self._agents else None
+        return 0.05 if self._agents or self.config.parent_pid else None
 
     def _reap(self) -> None:
         """Disconnect clients whose socket failed and agents silent past the timeout."""
@@ -263,9 +267,13 @@ class StubServer:
         except ProtocolError as exc:
             client.warn(f"message ignored, it does not parse: {exc}", "parse")
             return
+        robot = state.robot
         for expr in expressions:
             name = expr[0] if expr and isinstance(expr[0], str) else None
             try:
+                if robot is not None and len(expr) == 2 and name in JOINT_BY_EFFECTOR:
+                    robot.command(name, float(expr[1]))  # the common case, every cycle: no detour
+                    continue
                 self._apply_agent_command(client, state, name, expr[1:])
             except (GameError, ValueError, KeyError, IndexError, TypeError) as exc:
                 problem = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc

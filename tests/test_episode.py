@@ -1,13 +1,21 @@
 """Episodes (paper eq. 9) on the stub over real sockets, and their failure handling."""
 from __future__ import annotations
 
+import os
+import signal
 import socket
+import subprocess
+import sys
 import threading
+import time
+from pathlib import Path
 
 import pytest
 
 from gait import load_gait
 from optimizer.episode import EpisodeConfig, EpisodeRunner, ServerAddress
+
+REPO = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
@@ -98,3 +106,27 @@ def test_server_address_errors_say_what_is_wrong(text: str, words: str) -> None:
     with pytest.raises(ValueError, match=words):
         ServerAddress.parse(text)
     assert ServerAddress.parse("rcss1:3100:3200") == ServerAddress("rcss1", 3100, 3200)
+
+
+def test_a_killed_worker_does_not_leave_its_stub_behind(tmp_path: Path) -> None:
+    """SIGKILL gives a worker no chance to stop its stub; the stub notices and exits by itself."""
+    pid_file = tmp_path / "stub.pid"
+    script = ("import time; from optimizer.servers import StubProcess; s = StubProcess(); s.ensure_running(); "
+              f"open({str(pid_file)!r}, 'w').write(str(s._process.pid)); time.sleep(60)")
+    worker = subprocess.Popen([sys.executable, "-c", script], cwd=REPO)
+    deadline = time.monotonic() + 30
+    while not (pid_file.exists() and pid_file.read_text()):
+        assert time.monotonic() < deadline, "the worker did not start its stub"
+        time.sleep(0.05)
+    stub_pid = int(pid_file.read_text())
+    os.kill(worker.pid, signal.SIGKILL)
+    worker.wait()
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:
+        try:
+            os.kill(stub_pid, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.1)
+    os.kill(stub_pid, signal.SIGKILL)
+    raise AssertionError("the stub outlived its killed parent")
