@@ -42,7 +42,7 @@ class Sensing:
             raise ValueError(f"say message must be 1-{_SAY_MAX} printable characters without spaces or parentheses")
         self._said.append((state, message))
 
-    def end_of_cycle(self, cycle: int) -> None:
+    def end_of_cycle(self) -> None:
         """What was said this cycle is heard in the perceptions computed after this step."""
         self._audible, self._said = self._said, []
         self._seen = None

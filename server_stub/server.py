@@ -227,7 +227,7 @@ class StubServer:
         self.world.step()
         self.game.advance()
         self.cycle += 1
-        self.sensing.end_of_cycle(self.cycle)
+        self.sensing.end_of_cycle()
         with_vision = self.cycle % self.config.vision_interval == 0
         states = list(self._agents.values())
         for state in states:
