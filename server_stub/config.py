@@ -22,10 +22,16 @@ class PhysicsConfig:
     #: first beam after 2-4 steps); "ok" = no fall and 3.0 m +-15%. 1 sub-step: best 24/24
     #: (slip_mass 1.1) but its neighbours 0.9 / 1.2 / 1.4 gave 15 / 22 / 22 (falls, one run shot
     #: off 20 m: the explicit damper is near its stability limit). 2 sub-steps: 24/24 for
-    #: slip_mass 0.4-0.5, but a beamed robot landed with its ankles yielding 1.6 deg (10 N m)
-    #: and rested on its heel corners, reading ACC y -0.28 and GYR x -10 deg/s (real: 0).
+    #: slip_mass 0.4-0.5, but a beamed robot landed with its ankles yielding 1.4 deg and never
+    #: came to rest, reading ACC y -0.24 and GYR x -10 deg/s for ever (real: 0): the slip force
+    #: on each foot flips between +2.1 and -2.1 N every sub-step (the damper's period-2
+    #: oscillation), and a contact ERP matched to 3 sub-steps (0.308) did not cure it.
     #: 3 sub-steps: 24/24 for slip_mass 0.25 / 0.3 / 0.35, resting upright (ACC (0, 0, 9.81),
-    #: GYR 0). Robustness over speed: 3 costs about 1.5x the time of 2.
+    #: GYR 0). Robustness over speed: 3 costs about 1.45x the time of 2 and 2.5x that of 1
+    #: (0.41 / 0.28 / 0.16 ms a walking cycle). A robust single step needs the slip inside the
+    #: constraint solver, as ODE has it (friction rows with CFM = slip); pybullet exposes only a
+    #: global CFM, which would soften the motors and contacts as well (tried: the robot sagged
+    #: to 0.366 m and fell backwards in every start).
     sub_steps: int = 3
     gravity: float = -9.81
 

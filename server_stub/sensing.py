@@ -12,11 +12,9 @@ from server_stub.config import ServerConfig
 from server_stub.game import Game
 from server_stub.monitor_scene import GameHeader, MonitorScene, RobotView
 from server_stub.perception_text import GameStateText, format_hear, format_perception
-from server_stub.vision import SeenRobot, VisionSensor
+from server_stub.vision import PLAYER_PARTS, SeenRobot, VisionSensor
 from server_stub.world import World
 
-#: Body parts other robots' cameras can see (facts section 5).
-_VISIBLE_PARTS = ("head", "rlowerarm", "llowerarm", "rfoot", "lfoot")
 #: Longest message ``say`` may carry on the real server.
 _SAY_MAX = 20
 
@@ -53,8 +51,7 @@ class Sensing:
             for s in states:
                 if s.robot is None or s.team is None:
                     continue  # a robot is shown as (P (team NAME) (id N) ...) only once init named it
-                parts = {name: pose[:3, 3] for name, pose in s.robot.part_poses() if name in _VISIBLE_PARTS}
-                seen.append(SeenRobot(s.team or "", s.unum or 0, parts))
+                seen.append(SeenRobot(s.team or "", s.unum or 0, s.robot.part_positions(PLAYER_PARTS)))
             self._seen = seen
         return self._seen
 

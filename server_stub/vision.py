@@ -88,8 +88,8 @@ class SeenRobot:
     parts: Mapping[str, Vec3]
 
 
-def _pol(d: float, h: float, v: float) -> str:
-    return "(pol %.2f %.2f %.2f)" % (d, h, v)
+_NAMED_POL = " (%s (pol %.2f %.2f %.2f))"
+_LINE = " (L (pol %.2f %.2f %.2f) (pol %.2f %.2f %.2f))"
 
 
 class VisionSensor:
@@ -104,15 +104,16 @@ class VisionSensor:
         self._cfg = config
         self._offset = (rng.uniform(-config.calibration_error, config.calibration_error, 3)
                         if noise else np.zeros(3))
-        self._landmarks = np.array([p for _, p in LANDMARKS])
-        self._line_a = np.array([a for a, _ in FIELD_LINES])
-        self._line_b = np.array([b for _, b in FIELD_LINES])
+        #: what never moves, in the order ``see`` transforms it: landmarks, line starts, line ends
+        self._fixed = np.array([p for _, p in LANDMARKS] + [a for a, _ in FIELD_LINES]
+                               + [b for _, b in FIELD_LINES], dtype=float)
+        self._n_lines = len(FIELD_LINES)
         h, v = math.radians(config.half_cone_h_deg), math.radians(config.half_cone_v_deg)
         # Inward normals of the 4 sides of the view pyramid (head frame x right, y fwd, z up).
-        self._planes = np.array([
+        self._planes_t = np.array([
             [math.cos(h), math.sin(h), 0.0], [-math.cos(h), math.sin(h), 0.0],
             [0.0, math.sin(v), -math.cos(v)], [0.0, math.sin(v), math.cos(v)],
-        ])
+        ]).T
 
     def see(self, camera_pos: Vec3, camera_rot: np.ndarray, side: str, ball: Vec3,
             robots: Sequence[SeenRobot]) -> str:
@@ -123,32 +124,36 @@ class VisionSensor:
         rot = np.asarray(camera_rot, dtype=float)
         # One batch: landmarks, ball, every robot part, then the ends of the visible lines.
         owners: list[tuple[int, str]] = []
-        world = [self._landmarks, np.asarray(ball, dtype=float)[None, :]]
+        moving = [ball]
         for i, robot in enumerate(robots):
             for part in PLAYER_PARTS:
                 pos = robot.parts.get(part)
                 if pos is not None:
                     owners.append((i, part))
-                    world.append(np.asarray(pos, dtype=float)[None, :])
-        points = self._to_head(np.concatenate(world), cam, rot)
-        line_a, line_b = self._clipped_lines(cam, rot)
-        n_points, n_lines = len(points), len(line_a)
-        exact = self._polar(np.concatenate([points, line_a, line_b]))
+                    moving.append(pos)
+        n_land = len(LANDMARKS)
+        n_points = n_land + len(moving)
+        head = self._to_head(np.concatenate([self._fixed, np.array(moving, dtype=float)]), cam, rot)
+        line_a, line_b = self._clip_lines(head[n_land:n_land + self._n_lines],
+                                          head[n_land + self._n_lines:n_land + 2 * self._n_lines])
+        n_lines = len(line_a)
+        exact = self._polar(np.concatenate([head[:n_land], head[n_land + 2 * self._n_lines:], line_a, line_b]))
         visible = self._in_view(exact[:n_points]).tolist()   # the cone cuts before the noise
-        polar = self._with_noise(exact).tolist()
+        polar = self._with_noise(exact)
 
         out = ["(See"]
-        n_land = len(LANDMARKS)
+        flat = polar[:n_points].ravel().tolist()
         for k, (name, _) in enumerate(LANDMARKS):
             if visible[k]:
-                out.append(f" ({name} {_pol(*polar[k])})")
+                out.append(_NAMED_POL % (name, flat[3 * k], flat[3 * k + 1], flat[3 * k + 2]))
         if visible[n_land]:
-            out.append(f" (B {_pol(*polar[n_land])})")
-        out.extend(self._players(robots, owners, polar[n_land + 1:n_points], visible[n_land + 1:]))
+            out.append(_NAMED_POL % ("B", flat[3 * n_land], flat[3 * n_land + 1], flat[3 * n_land + 2]))
+        out.extend(self._players(robots, owners, flat[3 * (n_land + 1):], visible[n_land + 1:]))
         if self._sense_mypos:
             out.append(self._ground_truth(cam, rot, side, ball))
-        ends = polar[n_points:]
-        out.extend(f" (L {_pol(*ends[k])} {_pol(*ends[n_lines + k])})" for k in range(n_lines))
+        if n_lines:
+            ends = np.concatenate([polar[n_points:n_points + n_lines], polar[n_points + n_lines:]], axis=1)
+            out.append(_LINE * n_lines % tuple(ends.ravel().tolist()))
         out.append(")")
         return "".join(out)
 
@@ -159,9 +164,13 @@ class VisionSensor:
     def _polar(rel: np.ndarray) -> np.ndarray:
         """(d, h, v) per row of head-frame points."""
         x, y, z = rel[:, 0], rel[:, 1], rel[:, 2]
-        flat = np.sqrt(x * x + y * y)
-        return np.stack([np.sqrt(flat * flat + z * z), np.degrees(np.arctan2(-x, y)),
-                         np.degrees(np.arctan2(z, flat))], axis=1)
+        flat = np.hypot(x, y)
+        out = np.empty_like(rel)
+        out[:, 0] = np.hypot(flat, z)
+        out[:, 1] = np.arctan2(-x, y)
+        out[:, 2] = np.arctan2(z, flat)
+        out[:, 1:] *= 180.0 / math.pi
+        return out
 
     def _with_noise(self, polar: np.ndarray) -> np.ndarray:
         if not self._noise:
@@ -179,11 +188,12 @@ class VisionSensor:
                 & (np.abs(polar[:, 2]) <= c.half_cone_v_deg))
 
     def _players(self, robots: Sequence[SeenRobot], owners: list[tuple[int, str]],
-                 polar: list[list[float]], visible: list[bool]) -> list[str]:
+                 flat: list[float], visible: list[bool]) -> list[str]:
+        """``(P ...)`` of each robot with a part in view; ``flat`` holds (d, h, v) per owner."""
         seen: dict[int, list[str]] = {}
-        for (i, part), pol, ok in zip(owners, polar, visible):
+        for k, ((i, part), ok) in enumerate(zip(owners, visible)):
             if ok:
-                seen.setdefault(i, []).append(f" ({part} {_pol(*pol)})")
+                seen.setdefault(i, []).append(_NAMED_POL % (part, flat[3 * k], flat[3 * k + 1], flat[3 * k + 2]))
         return [f" (P (team {robots[i].team}) (id {robots[i].unum}){''.join(parts)})"
                 for i, parts in seen.items()]
 
@@ -196,17 +206,18 @@ class VisionSensor:
                 f" (myorien {heading:.2f})"
                 f" (ballpos {s * ball[0]:.2f} {s * ball[1]:.2f} {ball[2]:.2f})")
 
-    def _clipped_lines(self, cam: np.ndarray, rot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Ends (head frame) of the field lines cut to the view pyramid. Each line is a + t (b - a),
-        t in [0, 1]; every side plane bounds t from below or above (the plane's signed distance
-        is linear in t), and a line is visible where the bounds leave an interval."""
-        a = self._to_head(self._line_a, cam, rot)
-        b = self._to_head(self._line_b, cam, rot)
-        da, db = a @ self._planes.T, b @ self._planes.T          # (lines, planes)
-        with np.errstate(divide="ignore", invalid="ignore"):     # lines parallel to a plane
-            cross = da / (da - db)
-        t0 = np.where((da < 0.0) & (db >= 0.0), cross, 0.0).max(axis=1)
-        t1 = np.where((db < 0.0) & (da >= 0.0), cross, 1.0).min(axis=1)
-        keep = ~((da < 0.0) & (db < 0.0)).any(axis=1) & (t0 <= t1)
-        a, b, t0, t1 = a[keep], b[keep], t0[keep, None], t1[keep, None]
-        return a + t0 * (b - a), a + t1 * (b - a)
+    def _clip_lines(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Ends (head frame) of the field lines from ``a`` to ``b`` cut to the view pyramid. Each
+        line is a + t (b - a), t in [0, 1]; every side plane bounds t from below or above (the
+        plane's signed distance is linear in t), and a line is visible where the bounds leave an
+        interval."""
+        da, db = a @ self._planes_t, b @ self._planes_t          # (lines, planes)
+        a_out, b_out = da < 0.0, db < 0.0
+        diff = da - db
+        diff[diff == 0.0] = 1.0  # a line parallel to a plane: its crossing is never used
+        cross = da / diff
+        t0 = np.where(a_out & ~b_out, cross, 0.0).max(axis=1)
+        t1 = np.where(b_out & ~a_out, cross, 1.0).min(axis=1)
+        keep = ~(a_out & b_out).any(axis=1) & (t0 <= t1)
+        a, step = a[keep], b[keep] - a[keep]
+        return a + t0[keep, None] * step, a + t1[keep, None] * step

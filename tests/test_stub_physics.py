@@ -333,10 +333,26 @@ def test_ball_rests_on_the_ground_and_can_be_set(world):
 
 def test_part_poses_cover_every_part(standing):
     _, robot = standing
+    fresh = robot.part_positions(["head", "rfoot", "llowerarm"])  # before part_poses is cached
     poses = dict(robot.part_poses())
+    for name, position in fresh.items():
+        assert position == pytest.approx(poses[name][:3, 3], abs=1e-12)
+        assert robot.part_positions([name])[name] == pytest.approx(position, abs=1e-12)
     assert set(poses) == {p.name for p in nao_model.body_parts()}
     assert poses["torso"][:3, 3] == pytest.approx(robot.torso_position())
     assert poses["head"][:3, 3] == pytest.approx(robot.head_pose()[0])
+    assert poses["head"][:3, :3] == pytest.approx(robot.head_pose()[1], abs=1e-12)
+    assert poses["torso"][:3, :3] == pytest.approx(robot.torso_rotation(), abs=1e-12)
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.floats(-1.0, 1.0), min_size=4, max_size=4).filter(lambda q: sum(c * c for c in q) > 0.01))
+def test_part_rotations_match_pybullet_for_any_orientation(q):
+    from server_stub.robot import _rotation_matrices
+
+    q = np.array(q) / np.linalg.norm(q)
+    ours = _rotation_matrices(q[None, :])[0]
+    assert ours == pytest.approx(np.reshape(pb.getMatrixFromQuaternion(q.tolist()), (3, 3)), abs=1e-12)
 
 
 def test_robots_can_be_added_and_removed(world):
