@@ -16,7 +16,7 @@ import numpy as np
 import pybullet as pb
 
 from protocol.nao import JOINTS
-from server_stub import nao_model
+from server_stub import nao_model, slip
 from server_stub.config import PhysicsConfig
 
 _N = len(JOINTS)
@@ -64,9 +64,13 @@ class Robot:
         self._pending: dict[int, float] = {}  # commands to apply at the start of the next step
         self._motor = np.zeros(_N)  # sticky motor target velocities, rad/s
         self._sent: tuple[np.ndarray, np.ndarray] | None = None
+        self._yielding = np.zeros(_N, dtype=bool)  # motors at their torque limit in the last step
+        self._motor_load = np.zeros(_N)  # torque each motor applied in the last step (stops: 0)
+        self._slip_torque = np.zeros(_N)  # torque of the last step's slip forces about each hinge
         self._prev_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._invalidate()
+        self._skeleton = self._skeleton_of()
 
     # ----- commands -----
     def command(self, effector: str, velocity: float) -> None:
@@ -83,7 +87,11 @@ class Robot:
 
     def _before_step(self) -> None:
         """Apply last interval's commands (the latency rule) and set this step's motors."""
-        angles, rates = self._joint_state()
+        angles, rates, torques = self._joint_state()
+        if self._sent is not None:  # a motor at its torque limit yields (a stop never does)
+            motors = self._sent[1] <= self._config.motor_torque
+            self._yielding = (np.abs(torques) >= 0.99 * self._config.motor_torque) & motors
+            self._motor_load = np.where(motors, torques, 0.0)
         inside = (angles > _MIN) & (angles < _MAX)
         due = self._pending if self._delay else self._requested
         for index, velocity in due.items():
@@ -122,43 +130,52 @@ class Robot:
             force[i] = _STOP_FORCE
 
     def _before_substep(self) -> None:
-        """Force-dependent slip (facts section 4): the real contacts have no Coulomb limit, and
-        each contact point slides at 0.005 (m/s) per N of tangential force, i.e. the tangential
-        force is a viscous damper F = -v / slip on the point's sliding velocity v. Bullet has no
-        such friction row, so the damper is applied here as an external force per contact point
-        that carried load in the last sub-step (ODE only makes contacts that touch; Bullet also
-        keeps points up to 2 mm apart), in its semi-implicit form F = -v / (slip + h / m): for a
-        point of effective mass m this is the force an implicit damper would leave after a sub-step
-        of h; it stays stable as long as m does not exceed the point's real share of the robot's
-        mass (see ``PhysicsConfig.slip_mass``; 0 switches the damper off)."""
+        """Force-dependent slip (facts section 4; ``server_stub.slip``) at every contact point
+        that carried load in the last step (ODE only makes contacts for touching geometry, while
+        Bullet also keeps points up to ``contact_breaking_threshold`` apart)."""
         self._slip_force = {}
         cfg = self._config
-        if cfg.slip_mass <= 0.0:
-            return
         touching = [c for c in self._contacts() if c[9] > 0.0]
-        if not touching:
+        if not touching or cfg.slip <= 0.0:
             return
-        client = self._client
-        frames = {}
-        links = sorted({c[3] for c in touching if c[3] >= 0})
-        if links:
-            states = pb.getLinkStates(self._body, links, computeLinkVelocity=1, physicsClientId=client)
-            frames = {link: (st[0], st[6], st[7]) for link, st in zip(links, states)}
-        if any(c[3] < 0 for c in touching):
-            frames[-1] = (self._base_pose()[0],) + pb.getBaseVelocity(self._body, physicsClientId=client)
-        gain = 1.0 / (cfg.slip + cfg.cycle / cfg.sub_steps / cfg.slip_mass)
-        for c in touching:
-            (ox, oy, oz), (vx, vy, vz), (wx, wy, wz) = frames[c[3]]
-            (px, py, pz), (nx, ny, nz) = c[5], c[7]
-            rx, ry, rz = px - ox, py - oy, pz - oz
-            ux, uy, uz = vx + wy * rz - wz * ry, vy + wz * rx - wx * rz, vz + wx * ry - wy * rx
-            along = ux * nx + uy * ny + uz * nz
-            force = (gain * (along * nx - ux), gain * (along * ny - uy), gain * (along * nz - uz))
-            pb.applyExternalForce(self._body, c[3], force, c[5], pb.WORLD_FRAME, physicsClientId=client)
+        forces, self._slip_torque = slip.contact_forces(
+            self._skeleton, self._state_for_slip(), np.array([c[3] + 1 for c in touching]),
+            np.array([c[5] for c in touching]), np.array([c[7] for c in touching]),
+            self._motor_load, self._yielding, self._slip_torque, cfg.slip, cfg.cycle / cfg.sub_steps)
+        for c, force in zip(touching, forces.tolist()):
+            pb.applyExternalForce(self._body, c[3], force, c[5], pb.WORLD_FRAME, physicsClientId=self._client)
             total = self._slip_force.setdefault(c[3], [0.0, 0.0, 0.0])
             total[0] += force[0]
             total[1] += force[1]
             total[2] += force[2]
+
+    def _state_for_slip(self) -> slip.Pose:
+        client = self._client
+        position, orientation = pb.getBasePositionAndOrientation(self._body, physicsClientId=client)
+        velocity, spin = pb.getBaseVelocity(self._body, physicsClientId=client)
+        states = pb.getLinkStates(self._body, self._indices, computeLinkVelocity=1,
+                                  computeForwardKinematics=1, physicsClientId=client)
+        # per part, torso first: centre (3), orientation (4), frame origin = hinge anchor (3),
+        # velocity (3), spin (3)
+        table = np.array([position + orientation + position + velocity + spin]
+                         + [st[0] + st[1] + st[4] + st[6] + st[7] for st in states])
+        rotations = _rotation_matrices(table[:, 3:7])
+        return slip.Pose(table[:, :3], rotations, table[:, 10:13], table[:, 13:16], table[1:, 7:10],
+                         (rotations[1:] @ self._axes[:, :, None])[:, :, 0])
+
+    def _skeleton_of(self) -> slip.Skeleton:
+        """Masses and principal moments of the parts (torso first), each hinge's axis in its
+        link's frame (kept in ``_axes``), and which hinges lie between each part and the torso."""
+        client, body = self._client, self._body
+        dynamics = [pb.getDynamicsInfo(body, link, physicsClientId=client) for link in [-1] + self._indices]
+        infos = [pb.getJointInfo(body, i, physicsClientId=client) for i in self._indices]
+        self._axes = np.array([info[13] for info in infos])
+        chains = np.zeros((_N + 1, _N), dtype=bool)
+        for link, info in zip(self._indices, infos):
+            chains[link + 1] = chains[info[16] + 1]
+            chains[link + 1, link] = True
+        return slip.Skeleton(np.array([d[0] for d in dynamics]), np.array([d[2] for d in dynamics]),
+                             chains, self._config.motor_torque)
 
     def _after_substep(self) -> None:
         self._invalidate()
@@ -192,7 +209,7 @@ class Robot:
         """Re-pose the body at rest. The accelerometer's previous velocity is kept on purpose:
         the real server shows a one-cycle spike after a beam (facts section 5)."""
         client = self._client
-        angles, _ = self._joint_state()
+        angles = self._joint_state()[0]
         pb.resetBasePositionAndOrientation(self._body, (x, y, z), orientation, physicsClientId=client)
         pb.resetBaseVelocity(self._body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=client)
         pb.resetJointStatesMultiDof(self._body, self._indices, [[a] for a in angles],
@@ -200,10 +217,12 @@ class Robot:
         self._invalidate()
 
     # ----- sensors -----
-    def _joint_state(self) -> tuple[np.ndarray, np.ndarray]:
+    def _joint_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(angles, rates, motor torques of the last step), cached until the next step."""
         if self._joints is None:
             states = pb.getJointStates(self._body, self._indices, physicsClientId=self._client)
-            self._joints = (np.array([s[0] for s in states]), np.array([s[1] for s in states]))
+            self._joints = (np.array([s[0] for s in states]), np.array([s[1] for s in states]),
+                            np.array([s[3] for s in states]))
         return self._joints
 
     def _contacts(self) -> tuple:
@@ -333,17 +352,10 @@ def _to_local(r: tuple[float, ...], v) -> tuple[float, float, float]:
             r[2] * x + r[5] * y + r[8] * z)
 
 
-#: Cross-product tensor: v @ _CROSS.reshape(3, 9) is the flattened matrix [v]x (so [v]x u = v x u).
-_CROSS = np.zeros((3, 3, 3))
-for _i, _j, _k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-    _CROSS[_i, _k, _j], _CROSS[_i, _j, _k] = 1.0, -1.0
-_CROSS = _CROSS.reshape(3, 9)
-
-
 def _rotation_matrices(q: np.ndarray) -> np.ndarray:
     """3x3 rotation matrices of unit quaternions given as rows (x, y, z, w), all at once:
     R = (2w^2 - 1) I + 2 v v^T + 2 w [v]x, in few numpy calls (this runs every other cycle)."""
     v, w = q[:, :3], q[:, 3:]
-    r = 2.0 * (v[:, :, None] * v[:, None, :] + ((w * v) @ _CROSS).reshape(-1, 3, 3))
+    r = 2.0 * (v[:, :, None] * v[:, None, :] + slip.cross_matrices(w * v))
     r += (2.0 * w * w - 1.0)[:, :, None] * np.eye(3)
     return r

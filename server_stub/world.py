@@ -32,6 +32,8 @@ _GOAL_THICKNESS = 0.02
 _WALL_GAP_X = 10.0
 _WALL_GAP_Y = 15.0
 _WALL_SIZE = 1.0
+#: Half side of the ground box (m): the field, the gap to the walls and the walls themselves.
+_GROUND_HALF = FIELD_LENGTH / 2 + _WALL_GAP_Y + _WALL_SIZE + 4.0
 _SOLVERS = {"dantzig": pb.CONSTRAINT_SOLVER_LCP_DANTZIG, "pgs": pb.CONSTRAINT_SOLVER_LCP_SI}
 
 
@@ -95,8 +97,12 @@ class World:
 
     def _build_field(self) -> None:
         c = self._client
-        plane = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=c)
-        self._ground = pb.createMultiBody(0.0, plane, physicsClientId=c)
+        # The ground is a thick box, not a plane: Bullet's box-box collider gives all 4 corners
+        # of a flat foot at once, as ODE's box-plane collider does, while its convex-plane one
+        # adds one point per step, so with one step per cycle a standing robot rocked on 2.
+        ground = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[_GROUND_HALF, _GROUND_HALF, 1.0],
+                                         physicsClientId=c)
+        self._ground = pb.createMultiBody(0.0, ground, basePosition=(0.0, 0.0, -1.0), physicsClientId=c)
         boxes = _static_boxes()
         shapes = pb.createCollisionShapeArray(
             [pb.GEOM_BOX] * len(boxes), halfExtents=[b[0] for b in boxes],

@@ -98,6 +98,19 @@ def test_standing_feet_carry_the_weight(standing):
         assert abs(centre[0]) <= 0.04 + 1e-6 and abs(centre[1]) <= 0.08 + 1e-6
 
 
+def test_a_flat_foot_touches_at_its_four_sole_corners_and_holds_still(world):
+    """As ODE's box-plane collider gives them, all at once; Bullet's plane collider added one
+    corner per step, and a robot stepped once per cycle rocked on two of them for ever."""
+    robot = world.add_robot()
+    robot.beam(5.0, -2.0, 30.0)
+    settle(world, 1.0)
+    for _ in range(25):
+        world.step()
+        loaded = [c for c in pb.getContactPoints(bodyA=robot.body_id, physicsClientId=world._client) if c[9] > 0.0]
+        assert len(loaded) == 8
+        assert max(abs(g) for g in robot.gyro()) < 0.1
+
+
 def test_frp_absent_without_contact(world):
     robot = world.add_robot()  # appears in the air
     world.step()
