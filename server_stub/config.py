@@ -19,10 +19,12 @@ class PhysicsConfig:
     #: 10-14 or none, beams 0 or 1 step late, heading +-1 deg, anywhere on the own half, first
     #: beam after 2-4 steps); "ok" = no fall and 3.0 m +-15%. Flail probe = 336 robots driven
     #: by random motor speeds for 20 s (falling, lying, kicking); "blow-up" = torso over 5 m/s.
-    #: With this model: walk 72/72 ok (3.01-3.35 m, drift <= 0.58 m), flail 0 blow-ups (torso
-    #: <= 2.6 m/s). 2 and 3 steps per cycle walked worse with the same model (19/24 ok, 5 falls)
-    #: and cost 1.8x / 2.6x the time. Before (plane ground, per-point damper): 3 steps per
-    #: cycle were needed, 24/24 ok, 0.41 ms a walking cycle against 0.25 now.
+    #: (``python bench/probe_physics.py walk|flail``.) With this model: walk 72/72 ok over three
+    #: draws of starts (2.99-3.35 m, sideways <= 0.63 m), flail 0 blow-ups in 336 (torso
+    #: <= 2.6 m/s). 2 and 3 steps per cycle walked worse with the same model (19/24 and 13/24 ok,
+    #: 5 and 10 falls) and cost 1.7x / 2.4x the time. The model before this one (plane ground,
+    #: a damper per point) needed 3 steps per cycle to walk 24/24, for the same time per cycle
+    #: as this one's single step takes with its slip solve (bench_physics: 45x either way).
     sub_steps: int = 1
     gravity: float = -9.81
 

@@ -1,0 +1,98 @@
+"""The probes behind the choices in ``server_stub/config.py``: how a physics setting walks and
+whether it keeps a flailing robot on the ground.
+
+    python bench/probe_physics.py walk [--seed 7] [name=value ...]
+    python bench/probe_physics.py flail [--seed 0] [--sigma 3] [name=value ...]
+
+``walk``: the real calibration gait (``server_stub.calibration_walk``) from 24 perturbed starts
+(repeated beam at cycle 10-14 or none, beams 0 or 1 step late, heading +-1 deg, anywhere on the
+own half, first beam after 2-4 steps); "ok" = no fall and 3.0 m +-15% in 15 s, as the real server
+walked 2.91-3.14 m. ``flail``: 24 robots driven by random motor speeds (normal, ``--sigma`` rad/s,
+new every 0.2 s) for 20 s; a torso faster than 5 m/s counts as a blow-up. ``name=value`` overrides
+a ``PhysicsConfig`` field (JSON value), e.g. ``sub_steps=3 slip=0.006``. Uses both cores.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import random
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import numpy as np  # noqa: E402
+
+from protocol.nao import JOINTS  # noqa: E402
+from server_stub import calibration_walk  # noqa: E402
+from server_stub.config import PhysicsConfig  # noqa: E402
+from server_stub.world import World  # noqa: E402
+
+RUNS = 24
+
+
+def _starts(seed: int) -> list[dict]:
+    rng = random.Random(seed)
+    starts = [dict(rebeam_cycle=rng.choice([10, 11, 12, 13, 14, None]), beam_delay=rng.choice([0, 1]),
+                   beam=(round(rng.uniform(-13, -1), 2), round(rng.uniform(-8, 8), 2), round(rng.uniform(-1, 1), 2)),
+                   cycles_before_beam=rng.choice([2, 3, 4])) for _ in range(RUNS)]
+    starts[0] = {}  # the README's own start
+    return starts
+
+
+def _walk(job: tuple[dict, dict]) -> tuple[float, float, bool]:
+    overrides, start = job
+    with World(dataclasses.replace(PhysicsConfig(), **overrides)) as world:
+        world.set_ball((0.0, 9.0, 0.042))  # out of the way of starts near the centre
+        result = calibration_walk.run(world, **start)
+    return result.dx, result.dy, result.fell
+
+
+def _flail(job: tuple[dict, int, float]) -> float:
+    overrides, seed, sigma = job
+    rng = np.random.default_rng(seed)
+    fastest = 0.0
+    with World(dataclasses.replace(PhysicsConfig(), **overrides)) as world:
+        robot = world.add_robot()
+        robot.beam(0.0, 0.0, 0.0)
+        for cycle in range(1000):
+            if cycle % 10 == 0:
+                for joint in JOINTS:
+                    robot.command(joint.effector, float(rng.normal(0.0, sigma)))
+            world.step()
+            fastest = max(fastest, float(np.linalg.norm(robot._velocity)))
+    return fastest
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("probe", choices=("walk", "flail"))
+    p.add_argument("--seed", type=int, default=None, help="walk: start draw (7); flail: first robot's seed (0)")
+    p.add_argument("--sigma", type=float, default=3.0, help="flail: spread of the random motor speeds, rad/s")
+    p.add_argument("overrides", nargs="*", metavar="name=value")
+    args = p.parse_args()
+    overrides = {}
+    for item in args.overrides:
+        name, _, value = item.partition("=")
+        if name not in {f.name for f in dataclasses.fields(PhysicsConfig)}:
+            p.error(f"{name!r} is not a PhysicsConfig field")
+        overrides[name] = json.loads(value)
+    with ProcessPoolExecutor(2) as pool:
+        if args.probe == "walk":
+            results = list(pool.map(_walk, [(overrides, s) for s in _starts(7 if args.seed is None else args.seed)]))
+            ok = sum(1 for dx, _, fell in results if not fell and 2.55 <= dx <= 3.45)
+            walked = [dx for dx, _, fell in results if not fell]
+            print(f"{overrides or 'defaults'}: {ok}/{RUNS} ok, {sum(f for *_, f in results)} falls, "
+                  f"{min(walked, default=0):.2f}-{max(walked, default=0):.2f} m, "
+                  f"sideways up to {max(abs(dy) for _, dy, _ in results):.2f} m")
+        else:
+            first = 0 if args.seed is None else args.seed
+            speeds = list(pool.map(_flail, [(overrides, first + k, args.sigma) for k in range(RUNS)]))
+            print(f"{overrides or 'defaults'}: {sum(s > 5.0 for s in speeds)}/{RUNS} blow-ups, "
+                  f"fastest torso {max(speeds):.2f} m/s, median {sorted(speeds)[RUNS // 2]:.2f} m/s")
+
+
+if __name__ == "__main__":
+    main()
