@@ -22,6 +22,7 @@ such robots explode, so those points get a damper sized by their own link's mass
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -110,13 +111,18 @@ class Pose:
     anchors: np.ndarray  # (hinges, 3)
     axes: np.ndarray  # (hinges, 3) unit hinge axes
 
+    @cached_property
+    def axis_x_anchor(self) -> np.ndarray:
+        """axis x anchor per hinge: the torque of F at p about a hinge is axis . (p x F) minus
+        this . F, so levers need not be formed point by point."""
+        return (cross_matrices(self.axes) @ self.anchors[:, :, None])[:, :, 0]
+
 
 def hinge_torques(points: np.ndarray, forces: np.ndarray, chains: np.ndarray, pose: Pose) -> np.ndarray:
     """Torque about every hinge of the forces at ``points``, each counted on the hinges its
     row of ``chains`` (points x hinges) marks: axis . ((p - anchor) x F)."""
     moments = (cross_matrices(points) @ forces[:, :, None])[:, :, 0]   # p x F
-    axis_x_anchor = (cross_matrices(pose.axes) @ pose.anchors[:, :, None])[:, :, 0]
-    per_point = pose.axes @ moments.T - axis_x_anchor @ forces.T      # (hinges, points)
+    per_point = pose.axes @ moments.T - pose.axis_x_anchor @ forces.T  # (hinges, points)
     return (per_point * chains.T).sum(axis=1)
 
 
@@ -139,12 +145,13 @@ def contact_forces(skeleton: Skeleton, pose: Pose, parts: np.ndarray, points: np
     chains = skeleton.chains[parts]
     held = ~(chains & yielding).any(axis=1)
     forces = np.zeros_like(points)
+    torque = np.zeros_like(last_torque)
     for _ in range(2):
         if not held.any():
             break
         forces[held] = slip_forces(points[held], normals[held], velocities[held], com, mass, inertia, slip, h)
-        change = hinge_torques(points, forces, chains & held[:, None], pose) - last_torque
-        over = np.abs(motor_load - change) > skeleton.torque_limit
+        torque = hinge_torques(points, forces, chains & held[:, None], pose)
+        over = np.abs(motor_load - (torque - last_torque)) > skeleton.torque_limit
         overloaded = held & (chains & over).any(axis=1)
         if not overloaded.any():
             break
@@ -153,5 +160,7 @@ def contact_forces(skeleton: Skeleton, pose: Pose, parts: np.ndarray, points: np
         loose = parts[~held]
         share = skeleton.masses[loose] / np.array([np.count_nonzero(loose == p) for p in loose])
         forces[~held] = loose_slip_forces(normals[~held], velocities[~held], share, slip, h)
-    forces = at_most_stopping(forces, normals, velocities, slip)
-    return forces, hinge_torques(points, forces, chains, pose)
+    capped = at_most_stopping(forces, normals, velocities, slip)
+    if held.all() and np.array_equal(capped, forces):
+        return forces, torque  # the usual case: the held points' torques are all there is
+    return capped, hinge_torques(points, capped, chains, pose)
