@@ -150,6 +150,7 @@ class Robot:
             total[2] += force[2]
 
     def _state_for_slip(self) -> slip.Pose:
+        """Every part's and hinge's place and motion now, as the slip model takes them."""
         client = self._client
         position, orientation = pb.getBasePositionAndOrientation(self._body, physicsClientId=client)
         velocity, spin = pb.getBaseVelocity(self._body, physicsClientId=client)
@@ -161,21 +162,20 @@ class Robot:
                          + [st[0] + st[1] + st[4] + st[6] + st[7] for st in states])
         rotations = _rotation_matrices(table[:, 3:7])
         return slip.Pose(table[:, :3], rotations, table[:, 10:13], table[:, 13:16], table[1:, 7:10],
-                         (rotations[1:] @ self._axes[:, :, None])[:, :, 0])
+                         (rotations[1:] @ self._skeleton.local_axes[:, :, None])[:, :, 0])
 
     def _skeleton_of(self) -> slip.Skeleton:
         """Masses and principal moments of the parts (torso first), each hinge's axis in its
-        link's frame (kept in ``_axes``), and which hinges lie between each part and the torso."""
+        link's frame, and which hinges lie between each part and the torso."""
         client, body = self._client, self._body
         dynamics = [pb.getDynamicsInfo(body, link, physicsClientId=client) for link in [-1] + self._indices]
         infos = [pb.getJointInfo(body, i, physicsClientId=client) for i in self._indices]
-        self._axes = np.array([info[13] for info in infos])
         chains = np.zeros((_N + 1, _N), dtype=bool)
         for link, info in zip(self._indices, infos):
             chains[link + 1] = chains[info[16] + 1]
             chains[link + 1, link] = True
         return slip.Skeleton(np.array([d[0] for d in dynamics]), np.array([d[2] for d in dynamics]),
-                             chains, self._config.motor_torque)
+                             np.array([info[13] for info in infos]), chains, self._config.motor_torque)
 
     def _after_substep(self) -> None:
         self._invalidate()
@@ -354,7 +354,7 @@ def _to_local(r: tuple[float, ...], v) -> tuple[float, float, float]:
 
 def _rotation_matrices(q: np.ndarray) -> np.ndarray:
     """3x3 rotation matrices of unit quaternions given as rows (x, y, z, w), all at once:
-    R = (2w^2 - 1) I + 2 v v^T + 2 w [v]x, in few numpy calls (this runs every other cycle)."""
+    R = (2w^2 - 1) I + 2 v v^T + 2 w [v]x, in few numpy calls (the slip model needs them every step)."""
     v, w = q[:, :3], q[:, 3:]
     r = 2.0 * (v[:, :, None] * v[:, None, :] + slip.cross_matrices(w * v))
     r += (2.0 * w * w - 1.0)[:, :, None] * np.eye(3)

@@ -95,6 +95,7 @@ class Skeleton:
 
     masses: np.ndarray  # (parts,)
     principal_moments: np.ndarray  # (parts, 3), in each part's own axes
+    local_axes: np.ndarray  # (hinges, 3) each hinge's axis in its child part's axes
     #: (parts, hinges): True where the hinge lies between that part and the torso
     chains: np.ndarray
     torque_limit: float

@@ -130,6 +130,7 @@ def test_hinge_torques_count_a_force_on_every_hinge_up_its_chain_only():
 
 def _skeleton(limit: float = 10.0) -> slip.Skeleton:
     return slip.Skeleton(np.array([4.0, 0.5, 0.2]), np.array([[0.03, 0.03, 0.02], [1e-3] * 3, [1e-3] * 3]),
+                         np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
                          np.array([[False, False], [True, False], [True, True]]), limit)
 
 
