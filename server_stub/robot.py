@@ -265,26 +265,33 @@ class Robot:
         return _to_local(self._base_pose()[1], world)
 
     def foot_pressure(self) -> dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]]:
-        """FRP per foot in contact: (centre of pressure, total contact force), both in the foot's
-        frame (origin at the foot centre, so the sole is z = -0.01). The centre is the contact
-        points' mean weighted by normal force; the force includes the slip (friction) force.
-        Feet without contact are absent, as the server omits them."""
+        """FRP per foot that touches: (centre of pressure, total contact force), both in the
+        foot's frame (origin at the foot centre, so the sole is z = -0.01). The centre is the
+        contact points' mean weighted by normal force (plain mean when none carries load); the
+        force includes the slip (friction) force. As on the real server, a foot that touches is
+        reported even with no load on it (ODE makes a contact for touching geometry; the real
+        walk shows 7% of its FRPs under 1 N), and a foot that does not is absent."""
         sums: dict[int, list[float]] = {}
         for c in self._contacts():
             normal = c[9]
-            if normal <= 0.0 or c[3] not in self._foot_keys:
+            if not (normal > 0.0 or c[8] <= 0.0) or c[3] not in self._foot_keys:
                 continue
-            s = sums.setdefault(c[3], [0.0] * 7)
+            s = sums.setdefault(c[3], [0.0] * 11)
             (nx, ny, nz), (ax, ay, az), (bx, by, bz) = c[7], c[11], c[13]
             f1, f2 = c[10], c[12]
             s[0] += normal * nx + f1 * ax + f2 * bx
             s[1] += normal * ny + f1 * ay + f2 * by
             s[2] += normal * nz + f1 * az + f2 * bz
             px, py, pz = c[5]
-            s[3] += normal * px
-            s[4] += normal * py
-            s[5] += normal * pz
-            s[6] += normal
+            weight = max(normal, 0.0)
+            s[3] += weight * px
+            s[4] += weight * py
+            s[5] += weight * pz
+            s[6] += weight
+            s[7] += px
+            s[8] += py
+            s[9] += pz
+            s[10] += 1.0
         if not sums:
             return {}
         links = sorted(sums)
@@ -293,14 +300,15 @@ class Robot:
         result = {}
         for link, state in zip(links, states):
             s = sums[link]
-            slip = self._slip_force.get(link, (0.0, 0.0, 0.0))
-            s[0] += slip[0]
-            s[1] += slip[1]
-            s[2] += slip[2]
+            drag = self._slip_force.get(link, (0.0, 0.0, 0.0))
+            force = (s[0] + drag[0], s[1] + drag[1], s[2] + drag[2])
+            if s[6] > 0.0:
+                point = (s[3] / s[6], s[4] / s[6], s[5] / s[6])
+            else:
+                point = (s[7] / s[10], s[8] / s[10], s[9] / s[10])
             (ox, oy, oz), rotation = state[0], pb.getMatrixFromQuaternion(state[1])
-            centre = (s[3] / s[6] - ox, s[4] / s[6] - oy, s[5] / s[6] - oz)
-            result[self._foot_keys[link]] = (_to_local(rotation, centre),
-                                             _to_local(rotation, (s[0], s[1], s[2])))
+            centre = (point[0] - ox, point[1] - oy, point[2] - oz)
+            result[self._foot_keys[link]] = (_to_local(rotation, centre), _to_local(rotation, force))
         return result
 
     def head_pose(self) -> tuple[tuple[float, float, float], np.ndarray]:

@@ -59,6 +59,14 @@ def test_calibration_walk_goes_as_far_as_on_the_real_server(fixtures_dir):
                    for r in real]
     assert min(real_phases) >= 70
     assert _single_support_phases(result.feet) == pytest.approx(sum(real_phases) / 3, abs=5)
+    # Both feet report FRP in 11.6-12.0% of the real walk's cycles (a touching foot counts even
+    # with no load on it); ours, without that rule, showed under 1%.
+    real_double = [sum(len(set(_FRP.findall(line))) == 2 for line in
+                       (folder / f"run{r['run']}_perceptions.txt").read_text()
+                       .splitlines()[28:28 + calibration_walk.WALK_CYCLES]) / calibration_walk.WALK_CYCLES
+                   for r in real]
+    ours_double = sum(len(feet) == 2 for feet in result.feet) / len(result.feet)
+    assert ours_double == pytest.approx(sum(real_double) / 3, abs=0.03)
     # The torso rides at the real height while walking (monitor track, mean 0.377 m).
     real_z = [float(row.split("\t")[3]) for r in real
               for row in (folder / f"run{r['run']}_torso_track.tsv").read_text().splitlines()[1:]]
