@@ -18,6 +18,7 @@ import pybullet as pb
 from protocol.nao import JOINTS
 from server_stub import nao_model, slip
 from server_stub.config import PhysicsConfig
+from server_stub.rotations import rotation_matrices
 
 _N = len(JOINTS)
 _EFFECTOR_INDEX: dict[str, int] = {j.effector: i for i, j in enumerate(JOINTS)}
@@ -160,9 +161,7 @@ class Robot:
         # velocity (3), spin (3)
         table = np.array([position + orientation + position + velocity + spin]
                          + [st[0] + st[1] + st[4] + st[6] + st[7] for st in states])
-        rotations = _rotation_matrices(table[:, 3:7])
-        return slip.Pose(table[:, :3], rotations, table[:, 10:13], table[:, 13:16], table[1:, 7:10],
-                         (rotations[1:] @ self._skeleton.local_axes[:, :, None])[:, :, 0])
+        return slip.Pose(table[:, :3], table[:, 3:7], table[:, 10:13], table[:, 13:16], table[1:, 7:10])
 
     def _skeleton_of(self) -> slip.Skeleton:
         """Masses and principal moments of the parts (torso first), each hinge's axis in its
@@ -332,7 +331,7 @@ class Robot:
             poses[:, 3, 3] = 1.0
             poses[0, :3, :3] = np.reshape(rotation, (3, 3))
             poses[0, :3, 3] = position
-            poses[1:, :3, :3] = _rotation_matrices(np.array([s[1] for s in states]))
+            poses[1:, :3, :3] = rotation_matrices(np.array([s[1] for s in states]))
             poses[1:, :3, 3] = [s[0] for s in states]
             self._parts = list(zip(self._part_names, poses))
         return self._parts
@@ -358,12 +357,3 @@ def _to_local(r: tuple[float, ...], v) -> tuple[float, float, float]:
     x, y, z = v
     return (r[0] * x + r[3] * y + r[6] * z, r[1] * x + r[4] * y + r[7] * z,
             r[2] * x + r[5] * y + r[8] * z)
-
-
-def _rotation_matrices(q: np.ndarray) -> np.ndarray:
-    """3x3 rotation matrices of unit quaternions given as rows (x, y, z, w), all at once:
-    R = (2w^2 - 1) I + 2 v v^T + 2 w [v]x, in few numpy calls (the slip model needs them every step)."""
-    v, w = q[:, :3], q[:, 3:]
-    r = 2.0 * (v[:, :, None] * v[:, None, :] + slip.cross_matrices(w * v))
-    r += (2.0 * w * w - 1.0)[:, :, None] * np.eye(3)
-    return r

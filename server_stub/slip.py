@@ -18,75 +18,199 @@ three sub-steps per cycle and still depended on how many points a foot had.
 The rigid-body damper holds only while the motors hold. A point behind a motor at its torque
 limit (a flailing or fallen robot's limb) has far less mass behind it; treating it as rigid made
 such robots explode, so those points get a damper sized by their own link's mass instead.
+
+This runs for every robot every cycle, on a handful of points, where numpy's per-call cost
+dominated (about 40 calls, 0.2 ms a cycle); the kernels are compiled with numba (cached on disk
+after the first run) and written as plain loops.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
+from numba import njit
 
-#: v @ _CROSS, reshaped to (3, 3), is the cross-product matrix [v]x of a row vector v.
-_CROSS = np.zeros((3, 3, 3))
-for _i, _j, _k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-    _CROSS[_i, _k, _j], _CROSS[_i, _j, _k] = 1.0, -1.0
-_CROSS = _CROSS.reshape(3, 9)
-_EYE = np.eye(3)
+from server_stub.rotations import rotation_matrix
 
-
-def cross_matrices(v: np.ndarray) -> np.ndarray:
-    """[v]x for each row of an (n, 3) array, as (n, 3, 3): [v]x u = v x u."""
-    return (v @ _CROSS).reshape(-1, 3, 3)
+@njit(cache=True)
+def _cross(a, b):
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
-def composite_body(masses: np.ndarray, centres: np.ndarray, rotations: np.ndarray,
-                   principal_moments: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+@njit(cache=True)
+def _mm(a, b):
+    """a b for 3x3 matrices (numba's @ needs SciPy's BLAS)."""
+    out = np.zeros((3, 3))
+    for i in range(3):
+        for j in range(3):
+            for k in range(3):
+                out[i, j] += a[i, k] * b[k, j]
+    return out
+
+
+@njit(cache=True)
+def _mm_t(a, b):
+    """a b^T for 3x3 matrices."""
+    out = np.zeros((3, 3))
+    for i in range(3):
+        for j in range(3):
+            for k in range(3):
+                out[i, j] += a[i, k] * b[j, k]
+    return out
+
+
+@njit(cache=True)
+def _mv(a, v):
+    return np.array([a[0, 0] * v[0] + a[0, 1] * v[1] + a[0, 2] * v[2],
+                     a[1, 0] * v[0] + a[1, 1] * v[1] + a[1, 2] * v[2],
+                     a[2, 0] * v[0] + a[2, 1] * v[1] + a[2, 2] * v[2]])
+
+
+@njit(cache=True)
+def _solve_symmetric_positive(a, b):
+    """x with a x = b for a symmetric positive definite ``a`` (Cholesky; a is overwritten)."""
+    n = b.shape[0]
+    for j in range(n):
+        d = a[j, j]
+        for k in range(j):
+            d -= a[j, k] * a[j, k]
+        d = np.sqrt(d)
+        a[j, j] = d
+        for i in range(j + 1, n):
+            s = a[i, j]
+            for k in range(j):
+                s -= a[i, k] * a[j, k]
+            a[i, j] = s / d
+    x = b.copy()
+    for i in range(n):
+        for k in range(i):
+            x[i] -= a[i, k] * x[k]
+        x[i] /= a[i, i]
+    for i in range(n - 1, -1, -1):
+        for k in range(i + 1, n):
+            x[i] -= a[k, i] * x[k]
+        x[i] /= a[i, i]
+    return x
+
+
+@njit(cache=True)
+def composite_body(masses, centres, rotations, principal_moments):
     """(mass, centre of mass, inertia about it) of parts welded together. ``centres`` (n, 3)
     and ``rotations`` (n, 3, 3) give each part's centre and axes in a common frame, in which the
     result is expressed; ``principal_moments`` (n, 3) are the parts' own diagonal inertias."""
-    mass = float(masses.sum())
-    com = masses @ centres / mass
-    d = centres - com
-    own = ((rotations * principal_moments[:, None, :]) @ rotations.transpose(0, 2, 1)).sum(axis=0)
-    spread = (d.T * masses) @ d
-    return mass, com, own + np.trace(spread) * _EYE - spread
+    n = masses.shape[0]
+    mass = 0.0
+    com = np.zeros(3)
+    for i in range(n):
+        mass += masses[i]
+        com += masses[i] * centres[i]
+    com /= mass
+    inertia = np.zeros((3, 3))
+    for i in range(n):
+        d = centres[i] - com
+        spread = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+        for a in range(3):
+            for b in range(3):
+                own = 0.0
+                for k in range(3):
+                    own += rotations[i, a, k] * principal_moments[i, k] * rotations[i, b, k]
+                inertia[a, b] += own - masses[i] * d[a] * d[b]
+            inertia[a, a] += masses[i] * spread
+    return mass, com, inertia
 
 
-def slip_forces(points: np.ndarray, normals: np.ndarray, velocities: np.ndarray, com: np.ndarray,
-                mass: float, inertia: np.ndarray, slip: float, h: float) -> np.ndarray:
+@njit(cache=True)
+def slip_forces(points, normals, velocities, com, mass, inertia, slip, h):
     """Force (n, 3) at each contact point that solves v + h A F = -slip F in the contact planes.
 
     ``points``, unit ``normals`` and ``velocities`` (of the robot's material at each point) are
     (n, 3); ``com``, ``mass`` and ``inertia`` (world frame) describe the rigid body the points
     belong to. Forces have no normal component (the constraint solver handles that direction):
-    with P the projector onto each contact plane, (slip I + h P A P) F = -P v.
+    with P the projector onto each contact plane, (slip I + h P A P) F = -P v, where
+    A = 1 / mass (for the push) + [r]x I^-1 [r]x^T (for the turn, r from the centre of mass).
     """
-    n = len(points)
-    plane = _EYE - normals[:, :, None] * normals[:, None, :]      # (n, 3, 3) projectors
-    turn = (plane @ cross_matrices(points - com)).reshape(3 * n, 3)  # P [r]x: the levers
-    shift = plane.reshape(3 * n, 3)                               # P: point velocity per m/s
-    system = (h / mass) * (shift @ shift.T) + (h * turn) @ np.linalg.solve(inertia, turn.T)
-    system.flat[:: 3 * n + 1] += slip
-    return np.linalg.solve(system, -(plane @ velocities[:, :, None]).reshape(3 * n)).reshape(n, 3)
+    n = points.shape[0]
+    inv = _inverse3(inertia)
+    plane = np.empty((n, 3, 3))
+    lever = np.empty((n, 3, 3))  # P [r]x
+    rhs = np.empty(3 * n)
+    for i in range(n):
+        r = points[i] - com
+        rx = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+        for a in range(3):
+            for b in range(3):
+                plane[i, a, b] = (1.0 if a == b else 0.0) - normals[i, a] * normals[i, b]
+        lever[i] = _mm(plane[i], rx)
+        pv = _mv(plane[i], velocities[i])
+        for a in range(3):
+            rhs[3 * i + a] = -pv[a]
+    system = np.empty((3 * n, 3 * n))
+    for i in range(n):
+        li = _mm(lever[i], inv)
+        for j in range(n):
+            block = (h / mass) * _mm_t(plane[i], plane[j]) + h * _mm_t(li, lever[j])
+            for a in range(3):
+                for b in range(3):
+                    system[3 * i + a, 3 * j + b] = block[a, b]
+    for k in range(3 * n):
+        system[k, k] += slip
+    return _solve_symmetric_positive(system, rhs).reshape(n, 3)
 
 
-def loose_slip_forces(normals: np.ndarray, velocities: np.ndarray, masses: np.ndarray,
-                      slip: float, h: float) -> np.ndarray:
+@njit(cache=True)
+def _inverse3(m):
+    c0 = _cross(m[1], m[2])
+    c1 = _cross(m[2], m[0])
+    c2 = _cross(m[0], m[1])
+    det = m[0, 0] * c0[0] + m[0, 1] * c0[1] + m[0, 2] * c0[2]
+    out = np.empty((3, 3))
+    for a in range(3):
+        out[a, 0] = c0[a] / det
+        out[a, 1] = c1[a] / det
+        out[a, 2] = c2[a] / det
+    return out
+
+
+@njit(cache=True)
+def _tangential(v, normal):
+    return v - (v[0] * normal[0] + v[1] * normal[1] + v[2] * normal[2]) * normal
+
+
+@njit(cache=True)
+def loose_slip_forces(normals, velocities, masses, slip, h):
     """The same damper for points that each move on their own with ``masses`` (n,) behind them:
     F = -P v / (slip + h / m), what an implicit damper leaves after a step of h."""
-    tangential = velocities - (velocities * normals).sum(axis=1)[:, None] * normals
-    return -tangential / (slip + h / masses)[:, None]
+    out = np.empty_like(velocities)
+    for i in range(velocities.shape[0]):
+        out[i] = -_tangential(velocities[i], normals[i]) / (slip + h / masses[i])
+    return out
 
 
-def at_most_stopping(forces: np.ndarray, normals: np.ndarray, velocities: np.ndarray,
-                     slip: float) -> np.ndarray:
+@njit(cache=True)
+def at_most_stopping(forces, normals, velocities, slip):
     """``forces`` scaled down, point by point, to at most |v| / slip: the force the damper puts
     on a point stopped dead. The rigid-body solve can ask more of a point whose neighbours move
     differently (limbs driven apart by their motors), which the articulated robot cannot take."""
-    tangential = velocities - (velocities * normals).sum(axis=1)[:, None] * normals
-    limit = np.sqrt((tangential * tangential).sum(axis=1)) / slip
-    size = np.sqrt((forces * forces).sum(axis=1))
-    return forces * np.minimum(1.0, limit / np.maximum(size, 1e-12))[:, None]
+    out = forces.copy()
+    for i in range(forces.shape[0]):
+        limit = np.sqrt(np.sum(_tangential(velocities[i], normals[i]) ** 2)) / slip
+        size = np.sqrt(np.sum(forces[i] ** 2))
+        if size > limit:
+            out[i] *= limit / size
+    return out
+
+
+@njit(cache=True)
+def hinge_torques(points, forces, chains, anchors, axes):
+    """Torque about every hinge (world ``anchors``, unit ``axes``) of the forces at ``points``,
+    each counted on the hinges its row of ``chains`` (points x hinges) marks:
+    axis . ((p - anchor) x F)."""
+    torque = np.zeros(anchors.shape[0])
+    for k in range(points.shape[0]):
+        for j in range(anchors.shape[0]):
+            if chains[k, j]:
+                torque[j] += np.sum(axes[j] * _cross(points[k] - anchors[j], forces[k]))
+    return torque
 
 
 @dataclass(frozen=True)
@@ -106,25 +230,10 @@ class Pose:
     """A robot at the start of a step, every vector in the world frame."""
 
     centres: np.ndarray  # (parts, 3) centres of mass
-    rotations: np.ndarray  # (parts, 3, 3) columns = the part's axes
+    orientations: np.ndarray  # (parts, 4) unit quaternions (x, y, z, w)
     velocities: np.ndarray  # (parts, 3) of the centres
     spins: np.ndarray  # (parts, 3) angular velocities
     anchors: np.ndarray  # (hinges, 3)
-    axes: np.ndarray  # (hinges, 3) unit hinge axes
-
-    @cached_property
-    def axis_x_anchor(self) -> np.ndarray:
-        """axis x anchor per hinge: the torque of F at p about a hinge is axis . (p x F) minus
-        this . F, so levers need not be formed point by point."""
-        return (cross_matrices(self.axes) @ self.anchors[:, :, None])[:, :, 0]
-
-
-def hinge_torques(points: np.ndarray, forces: np.ndarray, chains: np.ndarray, pose: Pose) -> np.ndarray:
-    """Torque about every hinge of the forces at ``points``, each counted on the hinges its
-    row of ``chains`` (points x hinges) marks: axis . ((p - anchor) x F)."""
-    moments = (cross_matrices(points) @ forces[:, :, None])[:, :, 0]   # p x F
-    per_point = pose.axes @ moments.T - pose.axis_x_anchor @ forces.T  # (hinges, points)
-    return (per_point * chains.T).sum(axis=1)
 
 
 def contact_forces(skeleton: Skeleton, pose: Pose, parts: np.ndarray, points: np.ndarray,
@@ -139,29 +248,57 @@ def contact_forces(skeleton: Skeleton, pose: Pose, parts: np.ndarray, points: np
     limit (a motor balances the change of external torque with its own) are let go and the rest
     solved again once.
     """
-    spin = cross_matrices(pose.spins[parts]) @ (points - pose.centres[parts])[:, :, None]
-    velocities = pose.velocities[parts] + spin[:, :, 0]
-    mass, com, inertia = composite_body(skeleton.masses, pose.centres, pose.rotations,
-                                        skeleton.principal_moments)
-    chains = skeleton.chains[parts]
-    held = ~(chains & yielding).any(axis=1)
-    forces = np.zeros_like(points)
-    torque = np.zeros_like(last_torque)
+    return _contact_forces(skeleton.masses, skeleton.principal_moments, skeleton.local_axes,
+                           skeleton.chains, skeleton.torque_limit, pose.centres, pose.orientations,
+                           pose.velocities, pose.spins, pose.anchors, parts, points, normals,
+                           motor_load, yielding, last_torque, slip, h)
+
+
+@njit(cache=True)
+def _contact_forces(masses, principal_moments, local_axes, all_chains, torque_limit, centres,
+                    orientations, part_velocities, spins, anchors, parts, points, normals,
+                    motor_load, yielding, last_torque, slip, h):
+    n = points.shape[0]
+    rotations = np.empty((centres.shape[0], 3, 3))
+    for i in range(centres.shape[0]):
+        rotations[i] = rotation_matrix(orientations[i])
+    axes = np.empty_like(local_axes)
+    for j in range(local_axes.shape[0]):
+        axes[j] = _mv(rotations[j + 1], local_axes[j])
+    velocities = np.empty((n, 3))
+    for k in range(n):
+        p = parts[k]
+        velocities[k] = part_velocities[p] + _cross(spins[p], points[k] - centres[p])
+    mass, com, inertia = composite_body(masses, centres, rotations, principal_moments)
+    chains = all_chains[parts]
+    held = np.ones(n, dtype=np.bool_)
+    for k in range(n):
+        if np.any(chains[k] & yielding):
+            held[k] = False
+    forces = np.zeros((n, 3))
     for _ in range(2):
-        if not held.any():
+        which = np.nonzero(held)[0]
+        if which.size == 0:
             break
-        forces[held] = slip_forces(points[held], normals[held], velocities[held], com, mass, inertia, slip, h)
-        torque = hinge_torques(points, forces, chains & held[:, None], pose)
-        over = np.abs(motor_load - (torque - last_torque)) > skeleton.torque_limit
-        overloaded = held & (chains & over).any(axis=1)
-        if not overloaded.any():
+        solved = slip_forces(points[which], normals[which], velocities[which], com, mass, inertia, slip, h)
+        for i in range(which.size):
+            forces[which[i]] = solved[i]
+        torque = hinge_torques(points[which], solved, chains[which], anchors, axes)
+        over = np.abs(motor_load - (torque - last_torque)) > torque_limit
+        overloaded = False
+        for k in which:
+            if np.any(chains[k] & over):
+                held[k] = False
+                overloaded = True
+        if not overloaded:
             break
-        held &= ~overloaded
-    if not held.all():
-        loose = parts[~held]
-        share = skeleton.masses[loose] / np.array([np.count_nonzero(loose == p) for p in loose])
-        forces[~held] = loose_slip_forces(normals[~held], velocities[~held], share, slip, h)
+    for k in range(n):
+        if not held[k]:
+            count = 0
+            for i in range(n):
+                if not held[i] and parts[i] == parts[k]:
+                    count += 1
+            share = np.array([masses[parts[k]] / count])
+            forces[k] = loose_slip_forces(normals[k:k + 1], velocities[k:k + 1], share, slip, h)[0]
     capped = at_most_stopping(forces, normals, velocities, slip)
-    if held.all() and np.array_equal(capped, forces):
-        return forces, torque  # the usual case: the held points' torques are all there is
-    return capped, hinge_torques(points, capped, chains, pose)
+    return capped, hinge_torques(points, capped, chains, anchors, axes)

@@ -361,10 +361,10 @@ def test_part_poses_cover_every_part(standing):
 @settings(max_examples=50, deadline=None)
 @given(st.lists(st.floats(-1.0, 1.0), min_size=4, max_size=4).filter(lambda q: sum(c * c for c in q) > 0.01))
 def test_part_rotations_match_pybullet_for_any_orientation(q):
-    from server_stub.robot import _rotation_matrices
+    from server_stub.rotations import rotation_matrices
 
     q = np.array(q) / np.linalg.norm(q)
-    ours = _rotation_matrices(q[None, :])[0]
+    ours = rotation_matrices(q[None, :])[0]
     assert ours == pytest.approx(np.reshape(pb.getMatrixFromQuaternion(q.tolist()), (3, 3)), abs=1e-12)
 
 

@@ -112,19 +112,21 @@ def _two_hinge_pose() -> slip.Pose:
     shank-like part below that on hinge 1 (at z -0.3, about y)."""
     parts = 3
     return slip.Pose(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -0.2], [0.0, 0.0, -0.4]]),
-                     np.stack([np.eye(3)] * parts), np.zeros((parts, 3)), np.zeros((parts, 3)),
-                     np.array([[0.0, 0.0, -0.1], [0.0, 0.0, -0.3]]),
-                     np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]))
+                     np.tile([0.0, 0.0, 0.0, 1.0], (parts, 1)), np.zeros((parts, 3)), np.zeros((parts, 3)),
+                     np.array([[0.0, 0.0, -0.1], [0.0, 0.0, -0.3]]))
+
+
+_AXES = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # of the two hinges above, in the world
 
 
 def test_hinge_torques_count_a_force_on_every_hinge_up_its_chain_only():
     pose = _two_hinge_pose()
     point = np.array([[0.0, 0.0, -0.5]])
     force = np.array([[2.0, 3.0, 0.0]])
-    below_both = slip.hinge_torques(point, force, np.array([[True, True]]), pose)
+    below_both = slip.hinge_torques(point, force, np.array([[True, True]]), pose.anchors, _AXES)
     # about x at z -0.1: lever (0, 0, -0.4) x (2, 3, 0) = (1.2, -0.8, 0); about y at -0.3: -0.4
     assert below_both == pytest.approx([1.2, -0.4])
-    below_first = slip.hinge_torques(point, force, np.array([[True, False]]), pose)
+    below_first = slip.hinge_torques(point, force, np.array([[True, False]]), pose.anchors, _AXES)
     assert below_first == pytest.approx([1.2, 0.0])
 
 
@@ -157,7 +159,7 @@ def test_a_point_whose_force_would_overload_a_motor_is_let_go():
                                          np.zeros(2), np.array([False, False]), np.zeros(2), SLIP, H)
     assert forces == pytest.approx(slip.loose_slip_forces(normals, pose.velocities[2][None, :],
                                                            np.array([0.2]), SLIP, H))
-    assert torque == pytest.approx(slip.hinge_torques(points, forces, np.array([[True, True]]), pose))
+    assert torque == pytest.approx(slip.hinge_torques(points, forces, np.array([[True, True]]), pose.anchors, _AXES))
     strong, _ = slip.contact_forces(_skeleton(limit=1000.0), pose, np.array([2]), points, normals,
                                     np.zeros(2), np.array([False, False]), np.zeros(2), SLIP, H)
     assert np.linalg.norm(strong) > 1.5 * np.linalg.norm(forces)  # held when the motors can take it

@@ -1,0 +1,25 @@
+"""Quaternions to rotation matrices, compiled: the stub turns every body part's orientation into a
+matrix every cycle (the slip model) and every other cycle (the monitor), a few dozen at a time."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def rotation_matrix(q: np.ndarray) -> np.ndarray:
+    """The 3x3 rotation of a unit quaternion (x, y, z, w), pybullet's order: columns are the
+    turned x, y and z axes."""
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+@njit(cache=True)
+def rotation_matrices(qs: np.ndarray) -> np.ndarray:
+    """``rotation_matrix`` of each row of an (n, 4) array, as (n, 3, 3)."""
+    out = np.empty((qs.shape[0], 3, 3))
+    for i in range(qs.shape[0]):
+        out[i] = rotation_matrix(qs[i])
+    return out
