@@ -20,11 +20,11 @@ class PhysicsConfig:
     #: beam after 2-4 steps); "ok" = no fall and 3.0 m +-15%. Flail probe = 336 robots driven
     #: by random motor speeds for 20 s (falling, lying, kicking); "blow-up" = torso over 5 m/s.
     #: (``python bench/probe_physics.py walk|flail``.) With this model: walk 72/72 ok over three
-    #: draws of starts (2.99-3.35 m, sideways <= 0.63 m), flail 0 blow-ups in 336 (torso
+    #: draws of starts (2.97-3.35 m, sideways <= 0.85 m), flail 0 blow-ups in 336 (torso
     #: <= 2.6 m/s). 2 and 3 steps per cycle walked worse with the same model (19/24 and 13/24 ok,
     #: 5 and 10 falls) and cost 1.7x / 2.4x the time. The model before this one (plane ground,
-    #: a damper per point) needed 3 steps per cycle to walk 24/24, for the same time per cycle
-    #: as this one's single step takes with its slip solve (bench_physics: 45x either way).
+    #: a damper per point) needed 3 steps per cycle to walk 24/24 and ran at 45x in
+    #: bench_physics; this one runs at 77x (its slip solve compiled, ``server_stub.slip``).
     sub_steps: int = 1
     gravity: float = -9.81
 
