@@ -40,10 +40,15 @@ class ServerAddress:
         return f"{self.host}:{self.agent_port}:{self.monitor_port}"
 
 
+#: Seconds a stub may take to print its ports: its first start after installing also compiles the
+#: physics kernels (numba, ~13 s alone, longer with every worker doing it at once).
+START_TIMEOUT = 60.0
+
+
 class StubProcess:
     """A ``server_stub`` in sync mode, real time off, on free loopback ports, owned by one worker."""
 
-    def __init__(self, seed: int = 0, start_timeout: float = 30.0) -> None:
+    def __init__(self, seed: int = 0, start_timeout: float = START_TIMEOUT) -> None:
         self.seed = seed
         self.start_timeout = start_timeout
         self._process: subprocess.Popen[str] | None = None
