@@ -49,17 +49,6 @@ def _mm(a, b):
 
 
 @njit(cache=True)
-def _mm_t(a, b):
-    """a b^T for 3x3 matrices."""
-    out = np.zeros((3, 3))
-    for i in range(3):
-        for j in range(3):
-            for k in range(3):
-                out[i, j] += a[i, k] * b[j, k]
-    return out
-
-
-@njit(cache=True)
 def _mv(a, v):
     return np.array([a[0, 0] * v[0] + a[0, 1] * v[1] + a[0, 2] * v[2],
                      a[1, 0] * v[0] + a[1, 1] * v[1] + a[1, 2] * v[2],
@@ -148,7 +137,7 @@ def slip_forces(points, normals, velocities, com, mass, inertia, slip, h):
     for i in range(n):
         li = _mm(lever[i], inv)
         for j in range(n):
-            block = (h / mass) * _mm_t(plane[i], plane[j]) + h * _mm_t(li, lever[j])
+            block = (h / mass) * _mm(plane[i], plane[j].T) + h * _mm(li, lever[j].T)
             for a in range(3):
                 for b in range(3):
                     system[3 * i + a, 3 * j + b] = block[a, b]
