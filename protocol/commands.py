@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
-from protocol.nao import NAO_HETERO_RSG, NAO_RSG, ROBOT_TYPES
+from protocol.nao import JOINTS, NAO_HETERO_RSG, NAO_RSG, ROBOT_TYPES
 from protocol.numbers import number_text
 
 #: Longest ``say`` message the server relays (rcssserver3d's say effector rule).
@@ -41,16 +41,20 @@ def beam(x: float, y: float, rot: float) -> str:
     return f"(beam {number_text(x)} {number_text(y)} {number_text(rot)})"
 
 
+#: The NAO's effector names: valid atoms, so the every-cycle command needs no check of them.
+_EFFECTORS = frozenset(j.effector for j in JOINTS)
+
+
 def hinge_velocities(velocities: Mapping[str, float]) -> str:
     """``(lle3 0.1880)(lle4 -0.1880)``: target motor speeds in rad/s, 4 decimals, in mapping order.
 
     Values are not clipped here: the server clips to the speed cap itself (section 3)."""
-    parts = []
     for name, value in velocities.items():
         if not math.isfinite(value):
             raise ValueError(f"velocity of {name} is not finite: {value!r}")
-        parts.append(f"({_check_atom(name, 'effector name')} {value:.4f})")
-    return "".join(parts)
+        if name not in _EFFECTORS:
+            _check_atom(name, "effector name")
+    return "".join([f"({name} {value:.4f})" for name, value in velocities.items()])
 
 
 def syn() -> str:

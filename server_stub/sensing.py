@@ -12,6 +12,7 @@ from server_stub.config import ServerConfig
 from server_stub.game import Game
 from server_stub.monitor_scene import GameHeader, MonitorScene, RobotView
 from server_stub.perception_text import GameStateText, format_hear, format_perception
+from server_stub import vision
 from server_stub.vision import PLAYER_PARTS, SeenRobot, VisionSensor
 from server_stub.world import World
 
@@ -28,6 +29,7 @@ class Sensing:
         self._said: list[tuple[AgentState, str]] = []
         self._audible: list[tuple[AgentState, str]] = []
         self._seen: list[SeenRobot] | None = None
+        vision.warm_up()
 
     # ----- agents -----
     def add_robot(self, state: AgentState) -> None:

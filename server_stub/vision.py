@@ -24,6 +24,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 Vec3 = tuple[float, float, float]
 
@@ -110,10 +111,10 @@ class VisionSensor:
         self._n_lines = len(FIELD_LINES)
         h, v = math.radians(config.half_cone_h_deg), math.radians(config.half_cone_v_deg)
         # Inward normals of the 4 sides of the view pyramid (head frame x right, y fwd, z up).
-        self._planes_t = np.array([
+        self._planes_t = np.ascontiguousarray(np.array([
             [math.cos(h), math.sin(h), 0.0], [-math.cos(h), math.sin(h), 0.0],
             [0.0, math.sin(v), -math.cos(v)], [0.0, math.sin(v), math.cos(v)],
-        ]).T
+        ]).T)
 
     def see(self, camera_pos: Vec3, camera_rot: np.ndarray, side: str, ball: Vec3,
             robots: Sequence[SeenRobot]) -> str:
@@ -122,7 +123,6 @@ class VisionSensor:
         (``mypos``, ``myorien``, ``ballpos``); ``robots`` includes the observer itself."""
         cam = np.asarray(camera_pos, dtype=float)
         rot = np.asarray(camera_rot, dtype=float)
-        # One batch: landmarks, ball, every robot part, then the ends of the visible lines.
         owners: list[tuple[int, str]] = []
         moving = [ball]
         for i, robot in enumerate(robots):
@@ -133,12 +133,11 @@ class VisionSensor:
                     moving.append(pos)
         n_land = len(LANDMARKS)
         n_points = n_land + len(moving)
-        head = self._to_head(np.concatenate([self._fixed, np.array(moving, dtype=float)]), cam, rot)
-        line_a, line_b = self._clip_lines(head[n_land:n_land + self._n_lines],
-                                          head[n_land + self._n_lines:n_land + 2 * self._n_lines])
-        n_lines = len(line_a)
-        exact = self._polar(np.concatenate([head[:n_land], head[n_land + 2 * self._n_lines:], line_a, line_b]))
-        visible = self._in_view(exact[:n_points]).tolist()   # the cone cuts before the noise
+        c = self._cfg
+        exact, visible, n_lines = _view(self._fixed, np.array(moving, dtype=float), cam, rot, self._offset,
+                                        self._planes_t, n_land, self._n_lines, c.min_distance,
+                                        c.half_cone_h_deg, c.half_cone_v_deg)
+        visible = visible.tolist()   # the cone cuts before the noise
         polar = self._with_noise(exact)
 
         out = ["(See"]
@@ -157,21 +156,6 @@ class VisionSensor:
         out.append(")")
         return "".join(out)
 
-    def _to_head(self, world: np.ndarray, cam: np.ndarray, rot: np.ndarray) -> np.ndarray:
-        return (world - cam) @ rot + self._offset
-
-    @staticmethod
-    def _polar(rel: np.ndarray) -> np.ndarray:
-        """(d, h, v) per row of head-frame points."""
-        x, y, z = rel[:, 0], rel[:, 1], rel[:, 2]
-        flat = np.hypot(x, y)
-        out = np.empty_like(rel)
-        out[:, 0] = np.hypot(flat, z)
-        out[:, 1] = np.arctan2(-x, y)
-        out[:, 2] = np.arctan2(z, flat)
-        out[:, 1:] *= 180.0 / math.pi
-        return out
-
     def _with_noise(self, polar: np.ndarray) -> np.ndarray:
         if not self._noise:
             return polar
@@ -181,11 +165,6 @@ class VisionSensor:
         noisy = polar + e * scale
         noisy[:, 0] = polar[:, 0] * (1.0 + e[:, 0] * (c.distance_sigma_percent / 100.0))
         return noisy
-
-    def _in_view(self, polar: np.ndarray) -> np.ndarray:
-        c = self._cfg
-        return ((polar[:, 0] >= c.min_distance) & (np.abs(polar[:, 1]) <= c.half_cone_h_deg)
-                & (np.abs(polar[:, 2]) <= c.half_cone_v_deg))
 
     def _players(self, robots: Sequence[SeenRobot], owners: list[tuple[int, str]],
                  flat: list[float], visible: list[bool]) -> list[str]:
@@ -206,18 +185,76 @@ class VisionSensor:
                 f" (myorien {heading:.2f})"
                 f" (ballpos {s * ball[0]:.2f} {s * ball[1]:.2f} {ball[2]:.2f})")
 
-    def _clip_lines(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Ends (head frame) of the field lines from ``a`` to ``b`` cut to the view pyramid. Each
-        line is a + t (b - a), t in [0, 1]; every side plane bounds t from below or above (the
-        plane's signed distance is linear in t), and a line is visible where the bounds leave an
-        interval."""
-        da, db = a @ self._planes_t, b @ self._planes_t          # (lines, planes)
-        a_out, b_out = da < 0.0, db < 0.0
-        diff = da - db
-        diff[diff == 0.0] = 1.0  # a line parallel to a plane: its crossing is never used
-        cross = da / diff
-        t0 = np.where(a_out & ~b_out, cross, 0.0).max(axis=1)
-        t1 = np.where(b_out & ~a_out, cross, 1.0).min(axis=1)
-        keep = ~(a_out & b_out).any(axis=1) & (t0 <= t1)
-        a, step = a[keep], b[keep] - a[keep]
-        return a + t0[keep, None] * step, a + t1[keep, None] * step
+
+@njit(cache=True)
+def _polar_row(x: float, y: float, z: float, out: np.ndarray, k: int) -> None:
+    """(distance, horizontal deg, vertical deg) of one head-frame point into ``out[k]``."""
+    flat = np.hypot(x, y)
+    out[k, 0] = np.hypot(flat, z)
+    out[k, 1] = np.arctan2(-x, y) * (180.0 / np.pi)
+    out[k, 2] = np.arctan2(z, flat) * (180.0 / np.pi)
+
+
+@njit(cache=True)
+def _view(fixed: np.ndarray, moving: np.ndarray, cam: np.ndarray, rot: np.ndarray, offset: np.ndarray,
+          planes_t: np.ndarray, n_land: int, n_lines: int, min_distance: float, half_h: float,
+          half_v: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """The camera's exact view, before noise, in one compiled pass (numpy took ~30 small calls).
+
+    ``fixed`` holds the landmarks, then the field lines' starts, then their ends; ``moving`` the
+    ball and the robots' parts. Returns (polar rows: landmarks, moving points, then the starts and
+    the ends of the visible line pieces; which points lie in the view cone; how many lines show).
+
+    Points are moved to the head frame (x right, y forward, z up) with the robot's calibration
+    offset. Each line a + t (b - a), t in [0, 1], is cut to the view pyramid: the signed distance
+    to each side plane is linear in t, so every plane bounds t from below or above, and the line
+    shows where the bounds leave an interval."""
+    n_fixed = fixed.shape[0]
+    total = n_fixed + moving.shape[0]
+    head = np.empty((total, 3))
+    for i in range(total):
+        src = fixed[i] if i < n_fixed else moving[i - n_fixed]
+        dx, dy, dz = src[0] - cam[0], src[1] - cam[1], src[2] - cam[2]
+        for j in range(3):
+            head[i, j] = dx * rot[0, j] + dy * rot[1, j] + dz * rot[2, j] + offset[j]
+    n_points = n_land + moving.shape[0]
+    kept_a = np.empty((n_lines, 3))
+    kept_b = np.empty((n_lines, 3))
+    shown = 0
+    for line in range(n_lines):
+        a = head[n_land + line]
+        b = head[n_land + n_lines + line]
+        t0, t1, outside = 0.0, 1.0, False
+        for p in range(planes_t.shape[1]):
+            da = a[0] * planes_t[0, p] + a[1] * planes_t[1, p] + a[2] * planes_t[2, p]
+            db = b[0] * planes_t[0, p] + b[1] * planes_t[1, p] + b[2] * planes_t[2, p]
+            if da < 0.0 and db < 0.0:
+                outside = True
+            elif da < 0.0:
+                t0 = max(t0, da / (da - db))
+            elif db < 0.0:
+                t1 = min(t1, da / (da - db))
+        if outside or t0 > t1:
+            continue
+        for j in range(3):
+            step = b[j] - a[j]
+            kept_a[shown, j] = a[j] + t0 * step
+            kept_b[shown, j] = a[j] + t1 * step
+        shown += 1
+    polar = np.empty((n_points + 2 * shown, 3))
+    visible = np.empty(n_points, dtype=np.bool_)
+    for k in range(n_points):
+        i = k if k < n_land else k - n_land + n_land + 2 * n_lines
+        _polar_row(head[i, 0], head[i, 1], head[i, 2], polar, k)
+        visible[k] = (polar[k, 0] >= min_distance and abs(polar[k, 1]) <= half_h
+                      and abs(polar[k, 2]) <= half_v)
+    for k in range(shown):
+        _polar_row(kept_a[k, 0], kept_a[k, 1], kept_a[k, 2], polar, n_points + k)
+        _polar_row(kept_b[k, 0], kept_b[k, 1], kept_b[k, 2], polar, n_points + shown + k)
+    return polar, visible, shown
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's disk cache) the view kernel now rather than in the first
+    vision cycle of a run."""
+    VisionSensor(np.random.default_rng(0)).see((0.0, 0.0, 0.5), np.eye(3), "left", (1.0, 0.0, 0.04), ())
