@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import math
 import sys
 from pathlib import Path
 
@@ -11,57 +10,34 @@ from agent.config import AgentConfig
 from agent.errors import AgentError
 from agent.nao_agent import NaoAgent
 from gait import GaitFileError, load_gait
+from protocol.cli_values import checked, number, port, positive_float, whole
 from protocol.nao import ROBOT_TYPES
 
 
-def _port(text: str) -> int:
-    value = int(text)
-    if not 1 <= value <= 65535:
-        raise argparse.ArgumentTypeError(f"port must be 1-65535, got {value}")
-    return value
-
-
-def _finite(text: str) -> float:
-    value = float(text)
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
-    return value
-
-
-def _positive(text: str) -> float:
-    value = _finite(text)
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
-    return value
-
-
 def _unum(text: str) -> int:
-    value = int(text)
-    if not 0 <= value <= 11:
-        raise argparse.ArgumentTypeError(f"unum must be 0-11 (0 = next free), got {value}")
-    return value
+    value = whole(text)
+    return checked(value, 0 <= value <= 11, f"unum must be 0-11 (0 = next free), got {value}")
 
 
 def _team(text: str) -> str:
-    if not text or len(text) > 15 or not all(c.isalnum() or c in "_-" for c in text):
-        raise argparse.ArgumentTypeError(f"team name must be 1-15 letters, digits, '_' or '-', got {text!r}")
-    return text
+    ok = 0 < len(text) <= 15 and all(c.isalnum() or c in "_-" for c in text)
+    return checked(text, ok, f"team name must be 1-15 letters, digits, '_' or '-', got {text!r}")
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m agent", description=__doc__)
     p.add_argument("--host", default="127.0.0.1", help="server address (default 127.0.0.1)")
-    p.add_argument("--port", type=_port, default=3100, help="agent port (default 3100)")
+    p.add_argument("--port", type=port, default=3100, help="agent port (default 3100)")
     p.add_argument("--team", type=_team, default="GALA", help="team name (default GALA)")
     p.add_argument("--unum", type=_unum, default=1, help="uniform number, 0 = next free (default 1)")
     p.add_argument("--gait", type=Path, help="gait parameter file (default: the shipped gait)")
-    p.add_argument("--beam", nargs=3, type=_finite, metavar=("X", "Y", "DEG"), default=(0.0, 0.0, 0.0),
+    p.add_argument("--beam", nargs=3, type=number, metavar=("X", "Y", "DEG"), default=(0.0, 0.0, 0.0),
                    help="beam pose before kick-off (default 0 0 0)")
     p.add_argument("--sync", action="store_true", help="server runs in sync mode: end every reply with (syn)")
-    p.add_argument("--duration", type=_positive, help="seconds of walking after the gait starts, then exit")
+    p.add_argument("--duration", type=positive_float, help="seconds of walking after the gait starts, then exit")
     p.add_argument("--type", dest="robot_type", type=int, choices=ROBOT_TYPES, default=0, help="robot type 0-4")
     p.add_argument("--start-now", action="store_true", help="walk right after settling, without waiting for PlayOn")
-    p.add_argument("--timeout", type=_positive, default=10.0, help="seconds to wait for the server (default 10)")
+    p.add_argument("--timeout", type=positive_float, default=10.0, help="seconds to wait for the server (default 10)")
     p.add_argument("-v", "--verbose", action="store_true", help="log the handshake and gait start")
     return p
 

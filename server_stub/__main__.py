@@ -7,21 +7,8 @@ import os
 import signal
 import sys
 
+from protocol.cli_values import listening_port, positive_float, whole
 from server_stub.config import ServerConfig
-
-
-def _port(text: str) -> int:
-    value = int(text)
-    if not 0 <= value <= 65535:
-        raise argparse.ArgumentTypeError(f"port must be 0-65535 (0 = any free port), got {value}")
-    return value
-
-
-def _positive(text: str) -> float:
-    value = float(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
-    return value
 
 
 def _interrupt(*_: object) -> None:
@@ -32,16 +19,16 @@ def _interrupt(*_: object) -> None:
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m server_stub", description=__doc__)
     p.add_argument("--host", default="127.0.0.1", help="listen address (default 127.0.0.1)")
-    p.add_argument("--agent-port", type=_port, default=3100, help="agent port (default 3100; 0 = free port)")
-    p.add_argument("--monitor-port", type=_port, default=3200, help="monitor/trainer port (default 3200; 0 = free port)")
+    p.add_argument("--agent-port", type=listening_port, default=3100, help="agent port (default 3100; 0 = free port)")
+    p.add_argument("--monitor-port", type=listening_port, default=3200, help="monitor/trainer port (default 3200; 0 = free port)")
     p.add_argument("--sync", action="store_true", help="step once every agent has sent (syn)")
     p.add_argument("--realtime", action=argparse.BooleanOptionalAction, default=None,
                    help="pace cycles at 50 Hz (default: on, off with --sync)")
     p.add_argument("--sense-mypos", action="store_true", help="add mypos/myorien/ballpos to vision")
     p.add_argument("--vision-noise", action=argparse.BooleanOptionalAction, default=True,
                    help="noise on vision (default on, as on the real server)")
-    p.add_argument("--seed", type=int, default=0, help="seed of every random choice (vision noise)")
-    p.add_argument("--agent-timeout", type=_positive, default=10.0,
+    p.add_argument("--seed", type=whole, default=0, help="seed of every random choice (vision noise)")
+    p.add_argument("--agent-timeout", type=positive_float, default=10.0,
                    help="sync mode: disconnect an agent silent this many wall seconds (default 10)")
     p.add_argument("--exit-with-parent", action="store_true",
                    help="exit when the process that started the server dies (for optimizer workers)")
