@@ -244,7 +244,7 @@ def _view(fixed: np.ndarray, moving: np.ndarray, cam: np.ndarray, rot: np.ndarra
     polar = np.empty((n_points + 2 * shown, 3))
     visible = np.empty(n_points, dtype=np.bool_)
     for k in range(n_points):
-        i = k if k < n_land else k - n_land + n_land + 2 * n_lines
+        i = k if k < n_land else k + 2 * n_lines  # the moving points follow the line ends
         _polar_row(head[i, 0], head[i, 1], head[i, 2], polar, k)
         visible[k] = (polar[k, 0] >= min_distance and abs(polar[k, 1]) <= half_h
                       and abs(polar[k, 2]) <= half_v)
