@@ -214,14 +214,10 @@ def test_field_lines_are_cut_to_the_view_pyramid(x, y, z, heading, pitch):
     """Against brute force: a line is reported iff some of its points lie in the pyramid, and the
     reported piece runs from the first to the last such point (checked by sampling each line)."""
     sensor = VisionSensor(np.random.default_rng(0), noise=False)
-    a, p = math.radians(heading), math.radians(pitch)
-    forward = np.array([math.cos(a) * math.cos(p), math.sin(a) * math.cos(p), math.sin(p)])
-    up = np.array([-math.cos(a) * math.sin(p), -math.sin(a) * math.sin(p), math.cos(p)])
-    rot = np.column_stack([np.cross(forward, up), forward, up])
+    rot = _pose((x, y, z), heading, pitch)[:3, :3]
     cam = np.array([x, y, z])
-    text = sensor.see(tuple(cam), rot, "left", (50.0, 50.0, 0.0), [])
-    reported = [tuple(float(v) for v in m) for m in re.findall(
-        r"\(L \(pol ([-\d.]+) ([-\d.]+) ([-\d.]+)\) \(pol ([-\d.]+) ([-\d.]+) ([-\d.]+)\)\)", text)]
+    reported = parse_perception("(time (now 0.00))" + sensor.see(
+        (x, y, z), rot, "left", (50.0, 50.0, 0.0), [])).vision.lines
     expected = []
     t = np.linspace(0.0, 1.0, 4001)
     for start, end in FIELD_LINES:
@@ -232,18 +228,14 @@ def test_field_lines_are_cut_to_the_view_pyramid(x, y, z, heading, pitch):
     # lines that only graze the pyramid may fall on either side of the sampling
     assert abs(len(reported) - len(expected)) <= 1
     for ends in reported:
-        for d, h, v in (ends[:3], ends[3:]):
-            assert abs(h) <= 60.01 and abs(v) <= 60.01 and d > 0.0
+        for end in ends:
+            assert abs(end.horizontal) <= 60.01 and abs(end.vertical) <= 60.01 and end.distance > 0.0
     for first, last in expected:
-        def pol(q):
-            flat = math.hypot(q[0], q[1])
-            return (math.hypot(flat, q[2]), math.degrees(math.atan2(-q[0], q[1])), math.degrees(math.atan2(q[2], flat)))
-        want = pol(first) + pol(last)
-        length = np.linalg.norm(last - first)
-        if length < 0.05:
+        if np.linalg.norm(last - first) < 0.05:
             continue  # a sliver: sampling and exact cut may disagree on whether it shows
-        assert any(abs(r[0] - want[0]) < 0.03 + 0.01 * want[0] and abs(r[3] - want[3]) < 0.03 + 0.01 * want[3]
-                   for r in reported), (want, reported)
+        want = (np.linalg.norm(first), np.linalg.norm(last))  # distances from the camera
+        assert any(abs(a.distance - want[0]) < 0.03 + 0.01 * want[0]
+                   and abs(b.distance - want[1]) < 0.03 + 0.01 * want[1] for a, b in reported), (want, reported)
 
 
 # ---------------------------------------------------------------------------------------------
