@@ -155,8 +155,7 @@ class Robot:
         client = self._client
         position, orientation = pb.getBasePositionAndOrientation(self._body, physicsClientId=client)
         velocity, spin = pb.getBaseVelocity(self._body, physicsClientId=client)
-        states = pb.getLinkStates(self._body, self._indices, computeLinkVelocity=1,
-                                  computeForwardKinematics=1, physicsClientId=client)
+        states = self._link_states()
         # per part, torso first: centre (3), orientation (4), frame origin = hinge anchor (3),
         # velocity (3), spin (3)
         table = np.array([position + orientation + position + velocity + spin]
@@ -188,6 +187,7 @@ class Robot:
         self._pose: tuple[tuple[float, ...], tuple[float, ...]] | None = None
         self._contact_points: tuple | None = None
         self._parts: list[tuple[str, np.ndarray]] | None = None
+        self._links: list[tuple] | None = None
 
     # ----- placing -----
     def beam(self, x: float, y: float, heading_deg: float) -> None:
@@ -223,6 +223,14 @@ class Robot:
             self._joints = (np.array([s[0] for s in states]), np.array([s[1] for s in states]),
                             np.array([s[3] for s in states]))
         return self._joints
+
+    def _link_states(self) -> list[tuple]:
+        """pybullet's state of every link (pose and velocity), cached until the next step: the
+        cameras, the monitor and the next step's slip model all read the same state."""
+        if self._links is None:
+            self._links = pb.getLinkStates(self._body, self._indices, computeLinkVelocity=1,
+                                           computeForwardKinematics=1, physicsClientId=self._client)
+        return self._links
 
     def _contacts(self) -> tuple:
         """Every contact point of this robot after the last sub-step (pybullet's tuples)."""
@@ -293,12 +301,10 @@ class Robot:
             s[10] += 1.0
         if not sums:
             return {}
-        links = sorted(sums)
-        states = pb.getLinkStates(self._body, links, computeForwardKinematics=True,
-                                  physicsClientId=self._client)
+        states = self._link_states()
         result = {}
-        for link, state in zip(links, states):
-            s = sums[link]
+        for link in sorted(sums):
+            state, s = states[link], sums[link]
             drag = self._slip_force.get(link, (0.0, 0.0, 0.0))
             force = (s[0] + drag[0], s[1] + drag[1], s[2] + drag[2])
             if s[6] > 0.0:
@@ -325,8 +331,7 @@ class Robot:
         and for other robots' cameras; computed once per step (both ask every few cycles)."""
         if self._parts is None:
             position, rotation = self._base_pose()
-            states = pb.getLinkStates(self._body, self._indices, computeForwardKinematics=True,
-                                      physicsClientId=self._client)
+            states = self._link_states()
             poses = np.zeros((len(self._part_names), 4, 4))
             poses[:, 3, 3] = 1.0
             poses[0, :3, :3] = np.reshape(rotation, (3, 3))
@@ -338,14 +343,9 @@ class Robot:
 
     def part_positions(self, names: Sequence[str]) -> dict[str, tuple[float, float, float]]:
         """World centres of the named parts (not the torso): what other robots' cameras need
-        every third cycle, at a fraction of ``part_poses``' cost when that is not cached."""
-        if self._parts is not None:
-            poses = dict(self._parts)
-            return {name: tuple(poses[name][:3, 3].tolist()) for name in names}
-        links = [self._link_index[name] for name in names]
-        states = pb.getLinkStates(self._body, links, computeForwardKinematics=True,
-                                  physicsClientId=self._client)
-        return {name: state[0] for name, state in zip(names, states)}
+        every third cycle, without building ``part_poses``' matrices."""
+        states = self._link_states()
+        return {name: states[self._link_index[name]][0] for name in names}
 
     @property
     def body_id(self) -> int:
