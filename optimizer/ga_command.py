@@ -16,8 +16,7 @@ from typing import Any
 
 from gait import GENE_BOUNDS, repair_genes
 from optimizer.command_line import (
-    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, positive_int, prepare_run, probability,
-    run_session, write_gait,
+    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, prepare_run, run_session, write_gait,
 )
 from optimizer.driver import Driver
 from optimizer.evaluation import stable_seed
@@ -25,6 +24,7 @@ from optimizer.ga import GAResult, GARun
 from optimizer.report import plot_ga_convergence
 from optimizer.run_folder import write_json
 from optimizer.search_config import DE_JONG, GREFENSTETTE, PAPER_GALA_BEST, GAConfig, RatePreset
+from protocol.cli_values import positive_int, probability
 
 PRESETS: dict[str, RatePreset] = {"dejong": DE_JONG, "grefenstette": GREFENSTETTE, "gala": PAPER_GALA_BEST}
 

@@ -18,8 +18,7 @@ from typing import Any
 
 from gait import GENE_BOUNDS, repair_genes
 from optimizer.command_line import (
-    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, positive_int, prepare_run, probability,
-    run_session, write_gait,
+    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, prepare_run, run_session, write_gait,
 )
 from optimizer.driver import Driver
 from optimizer.evaluation import stable_seed
@@ -30,6 +29,7 @@ from optimizer.report import TableRow, plot_ga_convergence, plot_gala_convergenc
     write_table_markdown
 from optimizer.run_folder import RunFolder, write_json
 from optimizer.search_config import GAConfig, GALAConfig
+from protocol.cli_values import positive_int, probability
 
 #: The paper's protocol (section VI).
 PAPER: dict[str, Any] = {
