@@ -25,6 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
 
+from protocol.cli_values import positive_float, whole  # noqa: E402
 from protocol.nao import JOINTS  # noqa: E402
 from server_stub import calibration_walk  # noqa: E402
 from server_stub.config import PhysicsConfig  # noqa: E402
@@ -69,8 +70,8 @@ def _flail(job: tuple[dict, int, float]) -> float:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("probe", choices=("walk", "flail"))
-    p.add_argument("--seed", type=int, default=None, help="walk: start draw (7); flail: first robot's seed (0)")
-    p.add_argument("--sigma", type=float, default=3.0, help="flail: spread of the random motor speeds, rad/s")
+    p.add_argument("--seed", type=whole, default=None, help="walk: start draw (7); flail: first robot's seed (0)")
+    p.add_argument("--sigma", type=positive_float, default=3.0, help="flail: spread of the random motor speeds, rad/s")
     p.add_argument("overrides", nargs="*", metavar="name=value")
     args = p.parse_args()
     overrides = {}
