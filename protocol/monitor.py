@@ -12,8 +12,8 @@ Grammar read (facts sheet section 9)::
                carrying '(SLT ...)' only if it moved
 
 A full scene is read token by token once (it comes on connect and when robots appear or leave).
-A delta is not parsed into a tree: the reader counts ``(nd`` openings between ``(SLT`` entries
-with ``str.count`` to know which node each transform belongs to, and decodes only the torso ones.
+A delta is not parsed into a tree: the reader steps over ``(nd`` openings with ``str.find`` to
+the torsos' nodes and decodes only their ``SLT``s.
 """
 from __future__ import annotations
 
@@ -58,7 +58,6 @@ _SCENE_MARK = re.compile(r"\((RSG|RDS) \d+ \d+\)")
 _HEADER = re.compile(r"\((?:\(\w+(?: [^\s()]+)*\))*\)")
 _PREDICATE = re.compile(r"\((\w+)((?: [^\s()]+)*)\)")
 _SCENE_TOKEN = re.compile(r"\((nd|SLT|load|resetMaterials)?([^()]*)|\)")
-_SLT = re.compile(r"\(SLT ([^()]*)\)")
 _BODY_MESH = re.compile(r"models/naobody(\d+)\.obj")
 _MATERIAL_NUMBER = re.compile(r"matNum(\d*)")
 _MATERIAL_SIDE = {"matLeft": "left", "matRight": "right"}
@@ -110,7 +109,7 @@ class MonitorReader:
         self._team_right: str | None = None
         self._node_count: int | None = None
         self._robots: list[_Robot] = []
-        self._by_torso: dict[int, _Robot] = {}
+        self._torsos: list[tuple[int, _Robot]] = []  # by node index, the order deltas list them
 
     def feed(self, msg: str | bytes) -> MonitorState:
         """Read one monitor message (grammar in the module docstring)."""
@@ -198,7 +197,7 @@ class MonitorReader:
             raise ProtocolError(len(text), "')' (the full scene ends inside a node)", "end of message")
         self._node_count = len(parents)
         self._robots = [self._robot(node, robot_type, materials, parents, slts) for node, robot_type, materials in meshes]
-        self._by_torso = {robot.torso: robot for robot in self._robots}
+        self._torsos = sorted(((robot.torso, robot) for robot in self._robots), key=lambda item: item[0])
 
     @staticmethod
     def _robot(
@@ -219,12 +218,14 @@ class MonitorReader:
         return robot
 
     def _apply_delta(self, text: str, start: int) -> None:
-        """Assign each ``(SLT ...)`` to the node opened last before it, by counting ``(nd``.
+        """Give each torso the ``(SLT ...)`` that follows its node's opening, if any.
 
-        The node count is not required to match the last full scene: a monitor that missed
-        messages (``monitor_full_run.txt`` has a cut after line 1) sees a delta for a scene that
-        lost a trailing node, and index order still holds for the nodes before the change. Only
-        balance is checked, which catches truncation.
+        Nodes are found by counting ``(nd`` openings with ``str.find`` up to the last torso, and
+        a transform's ``SLT`` is the first one before the next opening; nothing else of the delta
+        is read. The node count is not required to match the last full scene: a monitor that
+        missed messages (``monitor_full_run.txt`` has a cut after line 1) sees a delta for a scene
+        that lost a trailing node, and index order still holds for the nodes before the change.
+        Only balance is checked, which catches truncation.
         """
         if self._node_count is None:
             raise ProtocolError(start, "a full scene (RSG) before the first delta (RDS)")
@@ -232,12 +233,14 @@ class MonitorReader:
         closed = text.count(")", start)
         if opened != closed:
             raise ProtocolError(len(text), f"{opened - closed} more ')' to balance the delta", "end of message")
-        node = -1
-        counted_to = start
-        by_torso = self._by_torso
-        for slt in _SLT.finditer(text, start):
-            node += text.count("(nd", counted_to, slt.start())
-            counted_to = slt.start()
-            robot = by_torso.get(node)
-            if robot is not None:
-                robot.pose = _pose(slt.group(1), slt.start())
+        node, at = -1, start - 3
+        for torso, robot in self._torsos:
+            while node < torso:
+                at = text.find("(nd", at + 3)
+                if at < 0:
+                    return
+                node += 1
+            following = text.find("(nd", at + 3)
+            slt = text.find("(SLT ", at + 3, len(text) if following < 0 else following)
+            if slt >= 0:
+                robot.pose = _pose(text[slt + 5:text.find(")", slt)], slt)
