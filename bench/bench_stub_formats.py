@@ -28,12 +28,9 @@ def _us(fn, number: int) -> float:
 
 
 def _robot(rng: np.random.Generator, k: int) -> RobotView:
-    parts = []
-    for name in _PARTS:
-        m = np.eye(4)
-        m[:3, 3] = (k, 0.0, 0.4) + rng.normal(0, 0.1, 3)
-        parts.append((name, m))
-    return RobotView("left" if k % 2 == 0 else "right", k // 2 + 1, 0, parts)
+    poses = np.tile(np.eye(4), (len(_PARTS), 1, 1))
+    poses[:, :3, 3] = (k, 0.0, 0.4) + rng.normal(0, 0.1, (len(_PARTS), 3))
+    return RobotView("left" if k % 2 == 0 else "right", k // 2 + 1, 0, tuple(_PARTS), poses)
 
 
 def main() -> None:

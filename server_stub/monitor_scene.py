@@ -13,7 +13,8 @@ Shapes copied from the real server's traffic (facts sheet section 9; ``monitor_m
 
 A delta lists the same nodes in the same depth-first order, stripped; a transform carries its
 ``SLT`` only when one of its 16 numbers moved by more than 0.005 since it was last sent. ``SLT``
-is column-major, numbers printed with 6 significant digits (``%g``, as the server's float output).
+is column-major, numbers printed with 6 significant digits (``%g``, as the server's float output;
+the moving transforms' by the compiled ``server_stub.number_text``, the same characters).
 
 The static part is a small stand-in for the real one (lights, field, goals, corner flags), the same
 shape but fewer meshes. Each robot is one identity transform holding one transform per body part
@@ -30,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from protocol.nao import PLAY_MODES
+from server_stub.number_text import g_rows
 
 Vec3 = tuple[float, float, float]
 
@@ -75,13 +77,14 @@ class GameHeader:
 @dataclass(frozen=True)
 class RobotView:
     """One robot for the monitor. ``team`` is the side ('left'/'right', None before ``init``);
-    ``parts``: (part name as in ``server_stub.nao_model``, 4x4 world pose with columns = part's
-    right, forward, up axes and centre), torso included."""
+    ``part_names`` as in ``server_stub.nao_model``, torso included; ``poses`` (n x 4 x 4) their
+    world poses in that order, columns = the part's right, forward, up axes and centre."""
 
     team: str | None
     unum: int | None
     robot_type: int
-    parts: Sequence[tuple[str, np.ndarray]]
+    part_names: Sequence[str]
+    poses: np.ndarray
 
 
 # ---------------------------------------------------------------------------------------------
@@ -193,7 +196,7 @@ class _Movers:
 
     def full(self, poses: np.ndarray) -> str:
         self.sent = poses.copy()
-        return "".join(f"(nd TRF {_slt(row)}{c.full})" for row, c in zip(poses.tolist(), self.children))
+        return "".join(f"(nd TRF (SLT {numbers}){c.full})" for numbers, c in zip(g_rows(poses), self.children))
 
     def __post_init__(self) -> None:
         self._still = "".join(f"(nd{c.delta})" for c in self.children)
@@ -203,13 +206,13 @@ class _Movers:
         if not moved.any():
             return self._still
         self.sent[moved] = poses[moved]
-        rows = poses.tolist()
-        return "".join(f"(nd {_slt(rows[i])}{c.delta})" if m else f"(nd{c.delta})"
-                       for i, (m, c) in enumerate(zip(moved.tolist(), self.children)))
+        numbers = iter(g_rows(poses[moved]))
+        return "".join(f"(nd (SLT {next(numbers)}){c.delta})" if m else f"(nd{c.delta})"
+                       for m, c in zip(moved.tolist(), self.children))
 
 
-def _column_major(poses: Sequence[np.ndarray]) -> np.ndarray:
-    return np.asarray(poses, dtype=float).transpose(0, 2, 1).reshape(-1, 16)
+def _column_major(poses: np.ndarray) -> np.ndarray:
+    return poses.transpose(0, 2, 1).reshape(-1, 16)
 
 
 def _ball_pose(ball: Vec3) -> np.ndarray:
@@ -243,7 +246,7 @@ class MonitorScene:
 
     @staticmethod
     def _key(robot: RobotView) -> tuple:
-        return (robot.team, robot.unum, robot.robot_type, tuple(name for name, _ in robot.parts))
+        return (robot.team, robot.unum, robot.robot_type, tuple(robot.part_names))
 
     def needs_full(self, robots: Sequence[RobotView]) -> bool:
         """True when the robots (or their team, number, type, parts) differ from the last full."""
@@ -259,13 +262,13 @@ class MonitorScene:
         values = self._header_values(header)
         self._sent_header = values
         items = "".join(f"({k} {v})" for k, v in values.items() if v is not None)
-        self._robots = [_Movers([_part_children(name, r.team, r.unum, r.robot_type) for name, _ in r.parts],
+        self._robots = [_Movers([_part_children(name, r.team, r.unum, r.robot_type) for name in r.part_names],
                                 self._cfg.slt_threshold) for r in robots]
         self._keys = [self._key(r) for r in robots]
         scene = [_STATIC.full, self._ball.full(_ball_pose(ball))]
         for movers, robot in zip(self._robots, robots):
             scene.append(f"(nd TRF {_slt(_IDENTITY.T.ravel())}"
-                         f"{movers.full(_column_major([m for _, m in robot.parts]))})")
+                         f"{movers.full(_column_major(robot.poses))})")
         return f"({self._fixed_header}(time {header.time:g}){items})(RSG 0 1)({''.join(scene)})"
 
     def delta(self, header: GameHeader, robots: Sequence[RobotView], ball: Vec3) -> str:
@@ -279,5 +282,5 @@ class MonitorScene:
         self._sent_header = values
         scene = [_STATIC.delta, self._ball.delta(_ball_pose(ball))]
         for movers, robot in zip(self._robots, robots):
-            scene.append(f"(nd{movers.delta(_column_major([m for _, m in robot.parts]))})")
+            scene.append(f"(nd{movers.delta(_column_major(robot.poses))})")
         return f"((time {header.time:g}){changed})(RDS 0 1)({''.join(scene)})"

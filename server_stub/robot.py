@@ -18,7 +18,7 @@ import pybullet as pb
 from protocol.nao import JOINTS
 from server_stub import nao_model, slip
 from server_stub.config import PhysicsConfig
-from server_stub.rotations import rotation_matrices
+from server_stub.rotations import body_poses
 
 _N = len(JOINTS)
 _EFFECTOR_INDEX: dict[str, int] = {j.effector: i for i, j in enumerate(JOINTS)}
@@ -55,7 +55,7 @@ class Robot:
         self._indices = list(range(_N))
         self._caps = [float(c) for c in nao_model.speed_caps(robot_type)]
         names = [pb.getJointInfo(body, i, physicsClientId=client)[12].decode() for i in self._indices]
-        self._part_names = ["torso"] + names
+        self._part_names = ("torso", *names)
         self._link_index = {name: i for i, name in enumerate(names)}
         self._head_link = self._link_index["head"]
         #: Tangential slip force applied to each link in the last sub-step (see _before_substep).
@@ -186,7 +186,7 @@ class Robot:
         self._joints: tuple[np.ndarray, np.ndarray] | None = None
         self._pose: tuple[tuple[float, ...], tuple[float, ...]] | None = None
         self._contact_points: tuple | None = None
-        self._parts: list[tuple[str, np.ndarray]] | None = None
+        self._parts: np.ndarray | None = None
         self._links: list[tuple] | None = None
 
     # ----- placing -----
@@ -326,19 +326,18 @@ class Robot:
         rotation = np.array(pb.getMatrixFromQuaternion(state[1])).reshape(3, 3)
         return tuple(float(c) for c in state[0]), rotation
 
-    def part_poses(self) -> list[tuple[str, np.ndarray]]:
-        """Every body part's world pose (4x4, part centre and axes), torso first, for the monitor
-        and for other robots' cameras; computed once per step (both ask every few cycles)."""
+    @property
+    def part_names(self) -> tuple[str, ...]:
+        """Every body part, torso first: the order of ``part_poses``."""
+        return self._part_names
+
+    def part_poses(self) -> np.ndarray:
+        """Every body part's world pose (n x 4 x 4: part centre and axes), in ``part_names``
+        order, for the monitor; computed once per step."""
         if self._parts is None:
             position, rotation = self._base_pose()
-            states = self._link_states()
-            poses = np.zeros((len(self._part_names), 4, 4))
-            poses[:, 3, 3] = 1.0
-            poses[0, :3, :3] = np.reshape(rotation, (3, 3))
-            poses[0, :3, 3] = position
-            poses[1:, :3, :3] = rotation_matrices(np.array([s[1] for s in states]))
-            poses[1:, :3, 3] = [s[0] for s in states]
-            self._parts = list(zip(self._part_names, poses))
+            links = np.array([s[0] + s[1] for s in self._link_states()])
+            self._parts = body_poses(np.array(position), np.array(rotation).reshape(3, 3), links)
         return self._parts
 
     def part_positions(self, names: Sequence[str]) -> dict[str, tuple[float, float, float]]:

@@ -12,7 +12,7 @@ from server_stub.config import ServerConfig
 from server_stub.game import Game
 from server_stub.monitor_scene import GameHeader, MonitorScene, RobotView
 from server_stub.perception_text import GameStateText, format_hear, format_perception
-from server_stub import vision
+from server_stub import number_text, vision
 from server_stub.vision import PLAYER_PARTS, SeenRobot, VisionSensor
 from server_stub.world import World
 
@@ -30,6 +30,7 @@ class Sensing:
         self._audible: list[tuple[AgentState, str]] = []
         self._seen: list[SeenRobot] | None = None
         vision.warm_up()
+        number_text.warm_up()
 
     # ----- agents -----
     def add_robot(self, state: AgentState) -> None:
@@ -87,7 +88,8 @@ class Sensing:
 
     # ----- monitors -----
     def monitor_views(self, states: Sequence[AgentState]) -> list[RobotView]:
-        return [RobotView(s.side, s.unum, s.robot_type, s.robot.part_poses()) for s in states if s.robot is not None]
+        return [RobotView(s.side, s.unum, s.robot_type, s.robot.part_names, s.robot.part_poses())
+                for s in states if s.robot is not None]
 
     def monitor_header(self, game: Game) -> GameHeader:
         return GameHeader(game.time, game.play_mode, game.half, game.score_left, game.score_right,

@@ -258,9 +258,9 @@ _PART_NAMES = ["torso", "neck", "head", "rshoulder", "rupperarm", "relbow", "rlo
 
 
 def _robot(team, unum, torso, heading=0.0, pitch=0.0, robot_type=0) -> RobotView:
-    parts = [(name, _pose(np.asarray(torso) + [0.01 * k, 0.0, 0.0], heading, pitch))
-             for k, name in enumerate(_PART_NAMES)]
-    return RobotView(team, unum, robot_type, parts)
+    poses = np.array([_pose(np.asarray(torso) + [0.01 * k, 0.0, 0.0], heading, pitch)
+                      for k in range(len(_PART_NAMES))])
+    return RobotView(team, unum, robot_type, tuple(_PART_NAMES), poses)
 
 
 def test_full_header_equals_the_real_header(fixtures_dir):
@@ -301,7 +301,7 @@ def test_monitor_reader_reads_back_full_and_deltas():
         msg = scene.delta(GameHeader(t, "PlayOn", team_left="A", team_right="B", score_left=k // 4),
                           robots, (0.1 * k, 0, 0.042))
         state = reader.feed(msg)
-        torso = robots[0].parts[0][1]
+        torso = robots[0].poses[0]
         assert state.robots[0].position == pytest.approx(tuple(torso[:3, 3]), abs=1e-5)
         assert state.robots[0].up[2] == pytest.approx(torso[2, 2], abs=1e-5)
         assert state.robots[1].position == pytest.approx((2.0, 1.0, 0.38), abs=1e-5)
@@ -319,11 +319,10 @@ def test_delta_sends_only_what_moved():
     assert "SLT" not in still and still.startswith("((time 0.02))(RDS 0 1)(")
     assert still.count("(nd") == full.split("(RSG 0 1)")[1].count("(nd")
     # Move only the torso by 4 mm, then by 6 mm in total: only the second is sent.
-    parts = list(robot.parts)
     for dz, sent in ((0.004, 0), (0.006, 1)):
-        moved = parts[0][1].copy()
-        moved[2, 3] += dz
-        view = RobotView(None, None, 0, [(parts[0][0], moved)] + parts[1:])
+        moved = robot.poses.copy()
+        moved[0, 2, 3] += dz
+        view = RobotView(None, None, 0, robot.part_names, moved)
         text = scene.delta(GameHeader(0.04, "PlayOn"), [view], (0, 0, 0.042))
         assert text.count("(SLT") == sent
     assert text.startswith("((time 0.04))")  # play mode was already sent
@@ -337,7 +336,7 @@ def test_slt_numbers_print_like_the_server():
     m = np.eye(4)
     m[0, 1], m[1, 0] = -4.37114e-08, 1.5e-20
     m[:3, 3] = (-1.0, 2.12738e-11, 0.396076)
-    text = scene.full(GameHeader(0.0, "BeforeKickOff"), [RobotView("left", 1, 0, [("torso", m)])], (0, 0, 0.042))
+    text = scene.full(GameHeader(0.0, "BeforeKickOff"), [RobotView("left", 1, 0, ["torso"], m[None])], (0, 0, 0.042))
     assert "(SLT 1 1.5e-20 0 0 -4.37114e-08 1 0 0 0 0 1 0 -1 2.12738e-11 0.396076 1)" in text
 
 

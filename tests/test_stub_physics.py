@@ -169,7 +169,7 @@ def _torso_frame(robot, world_point):
 
 
 def _part(robot, name):
-    return dict(robot.part_poses())[name]
+    return dict(zip(robot.part_names, robot.part_poses()))[name]
 
 
 def _drive(world, robot, effector, velocity, cycles):
@@ -347,7 +347,7 @@ def test_ball_rests_on_the_ground_and_can_be_set(world):
 def test_part_poses_cover_every_part(standing):
     _, robot = standing
     fresh = robot.part_positions(["head", "rfoot", "llowerarm"])  # before part_poses is cached
-    poses = dict(robot.part_poses())
+    poses = dict(zip(robot.part_names, robot.part_poses()))
     for name, position in fresh.items():
         assert position == pytest.approx(poses[name][:3, 3], abs=1e-12)
         assert robot.part_positions([name])[name] == pytest.approx(position, abs=1e-12)
