@@ -97,10 +97,16 @@ class Hear:
     message: str
 
 
-@dataclass(slots=True)
+@dataclass(slots=True, eq=False)
 class Perception:
     """One cycle's message. ``joints`` in degrees by perceptor name; ``frp`` has no key for a foot
-    without contact; ``unknown`` holds the raw text of perceptors this reader does not know."""
+    without contact; ``unknown`` holds the raw text of perceptors this reader does not know.
+
+    ``vision`` is read from the message on first use: a ``See`` costs the fast path ten times the
+    rest of the message, and an agent that only walks never looks at it. Its layout (which entries)
+    is checked when the message is parsed, its numbers on first use, which raises ``ProtocolError``
+    for a bad one, naming its place in the message.
+    """
 
     time: float
     game: GameState
@@ -108,9 +114,24 @@ class Perception:
     acc: Vec3 | None
     joints: dict[str, float]
     frp: dict[str, ForceResistance]
-    vision: Vision | None
+    #: the Vision, or (message, start, end) of its unread See
+    _vision: Vision | tuple[str, int, int] | None = field(repr=False)
     hear: list[Hear]
     unknown: list[str]
+
+    @property
+    def vision(self) -> Vision | None:
+        """``See`` (vision cycles only), None in the other cycles."""
+        if isinstance(self._vision, tuple):
+            self._vision = _read_vision_later(*self._vision)
+        return self._vision
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Perception):
+            return NotImplemented
+        return ((self.time, self.game, self.gyro, self.acc, self.joints, self.frp, self.vision, self.hear, self.unknown)
+                == (other.time, other.game, other.gyro, other.acc, other.joints, other.frp, other.vision,
+                    other.hear, other.unknown))
 
 
 def parse_perception(msg: str | bytes) -> Perception:
@@ -140,12 +161,21 @@ _ATOM = r"[^\s()]+"
 _VEC = rf"({_N}) ({_N}) ({_N})"
 _POL = rf"\(pol {_VEC}\)"
 _POL_NC = rf"\(pol {_N} {_N} {_N}\)"
-#: Lines first: they are the most frequent entry, and trying them first halves the match time.
-_SEE = (
-    rf"\(See(?: \((?:L {_POL_NC} {_POL_NC}|[A-Z]\w* {_POL_NC}"
-    rf"|P \(team {_ATOM}\) \(id \d+\)(?: \([a-z]\w* {_POL_NC}\))*"
-    rf"|mypos {_N} {_N} {_N}|myorien {_N}|ballpos {_N} {_N} {_N})\))*\)"
-)
+
+
+def _see(number: str, integer: str) -> str:
+    """``See`` with the given patterns for numbers. Lines first: they are the most frequent
+    entry, and trying them first halves the match time."""
+    pol = rf"\(pol {number} {number} {number}\)"
+    return (rf"\(See(?: \((?:L {pol} {pol}|[A-Z]\w* {pol}"
+            rf"|P \(team {_ATOM}\) \(id {integer}\)(?: \([a-z]\w* {pol}\))*"
+            rf"|mypos {number} {number} {number}|myorien {number}|ballpos {number} {number} {number})\))*\)")
+
+
+#: Parsing a message checks only the layout of its See (numbers as any text without parentheses
+#: or spaces): checking each number took 30 times as long. ``_SEE`` checks them on first use.
+_SEE_LAYOUT = _see(_ATOM, _ATOM)
+_SEE = re.compile(_see(_N, r"\d+"))
 #: time, GS, GYR, ACC; groups 1-13.
 _HEADER = (
     rf"\(time \(now ({_N})\)\)"
@@ -168,7 +198,7 @@ _PERCEPTORS = [j.perceptor for j in JOINTS]
 #: See after hj2, FRP rf after rlj5, FRP lf after llj5 (section 5).
 _TYPICAL = re.compile(
     _HEADER
-    + "".join(map(_hj, _PERCEPTORS[:2])) + rf"(?P<see>{_SEE})?"
+    + "".join(map(_hj, _PERCEPTORS[:2])) + rf"(?P<see>{_SEE_LAYOUT})?"
     + "".join(map(_hj, _PERCEPTORS[2:15])) + _frp("rf") + _hj(_PERCEPTORS[15])
     + "".join(map(_hj, _PERCEPTORS[16:21])) + _frp("lf") + _hj(_PERCEPTORS[21])
 )
@@ -181,7 +211,7 @@ _JOINTS_AND_FEET = (
     rf"|\(FRP \(n {_ATOM}\) \(c {_N} {_N} {_N}\) \(f {_N} {_N} {_N}\)\))*"
 )
 #: Known perceptors in any order after the header, at most one See (group 14).
-_KNOWN = re.compile(_HEADER + rf"{_JOINTS_AND_FEET}(?:({_SEE}){_JOINTS_AND_FEET})?")
+_KNOWN = re.compile(_HEADER + rf"{_JOINTS_AND_FEET}(?:({_SEE_LAYOUT}){_JOINTS_AND_FEET})?")
 _HJ = re.compile(rf"\(HJ \(n ({_ATOM})\) \(ax ({_N})\)\)")
 _FRP = re.compile(rf"\(FRP \(n ({_ATOM})\) \(c {_VEC}\) \(f {_VEC}\)\)")
 # Extraction runs only on text a validating expression accepted, so these can be loose (and faster).
@@ -213,9 +243,11 @@ def _foot(g: tuple[str | None, ...], i: int) -> ForceResistance | None:
 
 
 def _perception_from_header(
-    g: tuple[str | None, ...], joints: dict[str, float], frp: dict[str, ForceResistance], see: str | None
+    g: tuple[str | None, ...], joints: dict[str, float], frp: dict[str, ForceResistance],
+    see: tuple[str, int, int] | None,
 ) -> Perception:
-    """Assemble a ``Perception`` from ``_HEADER``'s groups and the already collected rest."""
+    """Assemble a ``Perception`` from ``_HEADER``'s groups and the already collected rest;
+    ``see``: (message, start, end) of the See, read on first use."""
     game = GameState(
         None if g[1] is None else int(g[1]), g[2],
         None if g[3] is None else int(g[3]), None if g[4] is None else int(g[4]),
@@ -223,8 +255,22 @@ def _perception_from_header(
     )
     gyro = None if g[7] is None else _vec3(g[7], g[8], g[9])  # type: ignore[arg-type]
     acc = None if g[10] is None else _vec3(g[10], g[11], g[12])  # type: ignore[arg-type]
-    vision = None if see is None else _read_vision_fast(see)
-    return Perception(float(g[0]), game, gyro, acc, joints, frp, vision, [], [])  # type: ignore[arg-type]
+    return Perception(float(g[0]), game, gyro, acc, joints, frp, see, [], [])  # type: ignore[arg-type]
+
+
+def _span(m: re.Match[str], group: str | int) -> tuple[str, int, int] | None:
+    start, end = m.span(group)
+    return None if start < 0 else (m.string, start, end)
+
+
+def _read_vision_later(text: str, start: int, end: int) -> Vision:
+    """A See whose layout the fast path accepted: read it here if its numbers have the server's
+    form, else by the slow path, which reads other forms (1e5, +1) or names the first bad one."""
+    if _SEE.fullmatch(text, start, end) is None:
+        vision = _parse_slow(text).vision
+        assert vision is not None  # the message has a See
+        return vision
+    return _read_vision_fast(text[start:end])
 
 
 def _parse_typical(m: re.Match[str]) -> Perception:
@@ -236,14 +282,14 @@ def _parse_typical(m: re.Match[str]) -> Perception:
         foot = _foot(g, _TYPICAL_INDEX[key])
         if foot is not None:
             frp[key] = foot
-    return _perception_from_header(g, joints, frp, g[_TYPICAL_INDEX["see"]])
+    return _perception_from_header(g, joints, frp, _span(m, "see"))
 
 
 def _parse_known(text: str, m: re.Match[str]) -> Perception:
     g = m.groups()
     joints = {name: float(ax) for name, ax in _HJ.findall(text)}
     frp = {found[0]: _foot(found, 1) for found in _FRP.findall(text)}
-    return _perception_from_header(g, joints, frp, g[_HEADER_GROUPS])  # type: ignore[arg-type]
+    return _perception_from_header(g, joints, frp, _span(m, _HEADER_GROUPS + 1))
 
 
 def _last(pattern: re.Pattern[str], key: str, body: str) -> tuple[str, ...] | None:
