@@ -8,7 +8,8 @@ and ``d.ddddde+XX`` otherwise, trailing zeros and a bare point dropped, ``-0`` f
 Rounding to 6 digits must match C's, which rounds the exact binary value half to even. The
 kernel scales by an exact power of ten (one rounding, ~1e-10 of a unit in the 6th digit), so its
 rounding can only differ when the scaled value lies within that of a rounding boundary; rows with
-a number that close to one (or not finite, or beyond 1e+-17) are printed by Python instead.
+a number that close to one (or not finite, or outside about 1e-17 ... 1e27, where the powers of
+ten stop being exact) are printed by Python instead.
 """
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ from numba import njit
 _POW10 = np.array([10.0 ** k for k in range(23)])
 #: scaled values this close to a rounding boundary go to Python (the kernel's error is ~1e-10)
 _MARGIN = 1e-7
-_MAX_CHARS = 14  # "-1.23457e-100" and a separator
+_MAX_CHARS = 13  # "-1.23457e-17" and a separator
 
 
 @njit(cache=True)
@@ -38,7 +39,7 @@ def _put_g(value: float, buf: np.ndarray, pos: int, pow10: np.ndarray) -> int:
     # decimal exponent from the binary one (log10(2) = 0.30103); the loop fixes it by one
     exponent = int(math.floor((math.frexp(a)[1] - 1) * 0.30102999566398120))
     scaled = 0.0
-    for _ in range(3):  # log10 may be off by one near powers of ten
+    for _ in range(3):  # the estimate may be off by one
         k = 5 - exponent
         if abs(k) > 22:
             return -1
@@ -96,11 +97,8 @@ def _put_g(value: float, buf: np.ndarray, pos: int, pow10: np.ndarray) -> int:
     buf[pos] = 101  # 'e'
     buf[pos + 1] = 45 if exponent < 0 else 43  # '-' / '+'
     pos += 2
-    e = abs(exponent)
-    if e >= 100:
-        buf[pos] = 48 + e // 100
-        pos += 1
-    buf[pos] = 48 + (e // 10) % 10
+    e = abs(exponent)  # two digits: exponents past +-22 went to Python above
+    buf[pos] = 48 + e // 10
     buf[pos + 1] = 48 + e % 10
     return pos + 2
 

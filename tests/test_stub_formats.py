@@ -16,6 +16,7 @@ from protocol.monitor import MonitorReader
 from protocol.nao import JOINTS, PLAY_MODES
 from protocol.perception import parse_perception
 from server_stub.monitor_scene import GameHeader, MonitorScene, RobotView
+from server_stub.number_text import g_rows
 from server_stub.perception_text import GameStateText, format_hear, format_perception
 from server_stub.vision import FIELD_LINES, SeenRobot, VisionSensor
 
@@ -338,6 +339,31 @@ def test_slt_numbers_print_like_the_server():
     m[:3, 3] = (-1.0, 2.12738e-11, 0.396076)
     text = scene.full(GameHeader(0.0, "BeforeKickOff"), [RobotView("left", 1, 0, ["torso"], m[None])], (0, 0, 0.042))
     assert "(SLT 1 1.5e-20 0 0 -4.37114e-08 1 0 0 0 0 1 0 -1 2.12738e-11 0.396076 1)" in text
+
+
+#: ties at the 7th digit (C rounds them half to even), powers of ten, the ends of fixed notation
+_EDGE_NUMBERS = [0.0, -0.0, 1e-4, 1e-5, 99999.5, 999999.5, 1234565.0, 1234575.0, 123457.5, 9999995.0,
+                 0.5, 2.5, 1e22, 1e-17, 1e-18, math.nan, math.inf, -math.inf, 123456.5, 0.000123456,
+                 9.999995, 1e100, -2.5e-300]
+_SCALED = st.builds(lambda m, e: m * 10.0 ** e, st.floats(-10, 10), st.integers(-30, 30))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.one_of(st.floats(allow_nan=True, allow_infinity=True), _SCALED, st.floats(-40, 40),
+                          st.sampled_from(_EDGE_NUMBERS), st.integers(-10**7, 10**7).map(lambda n: n / 2.0)),
+                min_size=1, max_size=50))
+def test_compiled_g_prints_what_python_prints(numbers):
+    """The monitor's compiled %g (6 digits, C's rounding of the exact binary value) against
+    Python's own %g, which uses C's rules: every kind of double, ties and powers of ten included.
+    One number per row: a row with a number the kernel leaves to Python is printed by Python."""
+    assert g_rows(np.array(numbers)[:, None]) == ["%g" % v for v in numbers]
+
+
+def test_compiled_g_on_a_walking_robots_numbers():
+    rng = np.random.default_rng(3)
+    values = np.concatenate([rng.uniform(-1, 1, (500, 16)), rng.normal(0, 10, (500, 16)),
+                             rng.normal(0, 1, (500, 16)) * 10.0 ** rng.integers(-20, 20, (500, 1))])
+    assert g_rows(values) == [" ".join("%g" % v for v in row) for row in values.tolist()]
 
 
 def test_robot_delta_has_the_real_shape(fixtures_dir):
