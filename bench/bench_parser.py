@@ -1,8 +1,8 @@
 """Perception parser speed on every real perception, side by side with ``sexpdata``.
 
 Run: ``python bench/bench_parser.py`` (from the repository root). Prints per-message times:
-typical = median over all messages, and the mean for messages with and without vision; the
-comparator is ``sexpdata.loads("(" + msg + ")")`` (a tree only, no typed result) on the same
+typical = median over all messages, and the mean for messages with and without vision, for
+``parse_perception`` alone and with its lazily read ``.vision`` used; the comparator is ``sexpdata.loads("(" + msg + ")")`` (a tree only, no typed result) on the same
 messages in the same run. Also times the monitor reader on ``monitor_full_run.txt``.
 """
 from __future__ import annotations
@@ -52,16 +52,19 @@ def main() -> None:
     print(f"{len(messages)} perceptions from {len(files)} files, {sum(has_vision)} with vision")
 
     ours = summary(per_message_seconds(parse_perception, messages, repeats=5), has_vision)
+    # a See is read on first use of .vision; this row pays for it in every message
+    with_see = summary(per_message_seconds(lambda m: parse_perception(m).vision, messages, repeats=5), has_vision)
     theirs = summary(
         per_message_seconds(lambda m: sexpdata.loads("(" + m + ")"), messages, repeats=2), has_vision
     )
     print(f"{'':24}{'typical (median)':>18}{'mean vision':>14}{'mean no vision':>16}")
-    for name, (median, vision, plain) in (("parse_perception", ours), ("sexpdata.loads", theirs)):
+    for name, (median, vision, plain) in (("parse_perception", ours), ("  and .vision read", with_see),
+                                          ("sexpdata.loads", theirs)):
         print(f"{name:24}{median * 1e6:15.1f} us{vision * 1e6:11.1f} us{plain * 1e6:13.1f} us")
     print(f"typical rate: {1 / ours[0]:,.0f} perceptions/s on one core")
     print(
-        "speed-up over sexpdata: typical {:.1f}x, vision {:.1f}x, no vision {:.1f}x".format(
-            *(t / o for t, o in zip(theirs, ours))
+        "speed-up over sexpdata, .vision read: typical {:.1f}x, vision {:.1f}x, no vision {:.1f}x".format(
+            *(t / o for t, o in zip(theirs, with_see))
         )
     )
 
