@@ -6,15 +6,19 @@ final GA with (crossover, optimal mutation) runs ``--generations`` generations a
 best fitness. ``--budget quick`` is a first look in a few minutes.
 
 Writes, as each row finishes: table1.csv and table1.md, gala-pc0.8.png (Fig. 6), ga-pc0.8.png
-(Fig. 7), best_gait-pc0.8.json and best_gait.json (the best over all rows), results.json; and
-episodes.jsonl as each episode finishes (what ``--resume DIR`` continues from).
+(Fig. 7), best_gait-pc0.8.json and best_gait.json (the final GAs' best: Table I's gaits),
+fastest_gait.json (the farthest walk without a fall of every episode so far, the learning phase
+included), results.json; and episodes.jsonl as each episode finishes (what ``--resume DIR``
+continues from).
 """
 from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
+
+import numpy as np
 
 from gait import GENE_BOUNDS, repair_genes
 from optimizer.command_line import (
@@ -110,8 +114,17 @@ def scheme(settings: dict[str, Any], config: GALAConfig) -> LearningScheme:
     return LinearRewardPenalty(la.reward_step, la.penalty_step)
 
 
+def fastest_episode(records: Mapping[str, Mapping[str, Any]]) -> dict[str, Any] | None:
+    """The farthest walk that did not fall, of every logged episode. Table I takes each row's
+    best from a fresh final GA, as the paper does; the continuing population of the learning phase
+    evaluates ten times as many gaits and often walks farther (pc 0.8, seed 1: 8.53 m against the
+    final GA's 5.59 m), and a user wants that gait too."""
+    walks = [r for r in records.values() if r["status"] == "ok" and not r["fell"]]
+    return dict(max(walks, key=lambda r: r["fitness"])) if walks else None
+
+
 def write_outputs(folder: RunFolder, settings: dict[str, Any], results: list[GALAResult],
-                  bests: list[dict[str, Any] | None]) -> None:
+                  bests: list[dict[str, Any] | None], fastest: dict[str, Any] | None) -> None:
     """Every result file, for the rows finished so far (rewritten after each row)."""
     path = folder.path
     rows = [TableRow.from_gala(r, None if b is None else b["distance"], None if b is None else b["mean_speed"])
@@ -121,7 +134,12 @@ def write_outputs(folder: RunFolder, settings: dict[str, Any], results: list[GAL
     write_json(path / "results.json", {
         "settings": settings,
         "rows": [{**r.to_dict(), "best_episode": b} for r, b in zip(results, bests)],
+        "fastest_episode": fastest,
     })
+    if fastest is not None:
+        write_gait(path / "fastest_gait.json", np.array(fastest["genes"]),
+                   f"farthest walk without a fall of the GALA run ({fastest['key']}): "
+                   f"{fastest['distance']:.2f} m in {fastest['time']:.1f} s")
     latest, best = results[-1], bests[-1]
     tag = f"pc{latest.crossover:g}"
     plot_gala_convergence(latest, path / f"gala-{tag}.png")
@@ -159,8 +177,11 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             result: GALAResult = driver.run(search)
             results.append(result)
             bests.append(best_episode(driver.log.records, f"{tag}/final/", result.best_genes, result.best_fitness))
-            write_outputs(run.folder, run.settings, results, bests)
-        return (run.folder.path / "table1.md").read_text() + f"results in {run.folder.path}"
+            write_outputs(run.folder, run.settings, results, bests, fastest_episode(driver.log.records))
+        fastest = fastest_episode(driver.log.records)
+        found = "" if fastest is None else (f"farthest walk without a fall: {fastest['distance']:.2f} m in "
+                                            f"{fastest['time']:g} s ({fastest['key']}), in fastest_gait.json\n")
+        return (run.folder.path / "table1.md").read_text() + found + f"results in {run.folder.path}"
 
     return run_session(run, len(rates) * planned_episodes(config), body, make_evaluator=make_evaluator,
                        quiet=args.quiet)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from gait import load_gait
+from gait import TFSParams, load_gait
 
 REPO = Path(__file__).resolve().parents[1]
 TINY = ["--crossover", "0.8", "--population", "4", "--iterations", "3", "--generations", "2",
@@ -57,6 +57,9 @@ def test_tiny_gala_on_the_stub_writes_every_output(tmp_path: Path) -> None:
     assert best == load_gait(out / "best_gait-pc0.8.json")
     results = json.loads((out / "results.json").read_text())
     assert json.dumps(results)  # parses and re-serialises
+    fastest = max((r for r in records if not r["fell"]), key=lambda r: r["fitness"])  # seed 7: one walk stands
+    assert load_gait(out / "fastest_gait.json") == TFSParams.from_array(fastest["genes"])
+    assert results["fastest_episode"]["key"] == fastest["key"]
 
 
 @pytest.mark.slow

@@ -10,6 +10,7 @@ import pytest
 
 from gait import load_gait
 from optimizer import episode_command, ga_command, gala_command
+from optimizer.evaluation import EpisodeOutcome
 from optimizer.ga import GARun
 from optimizer.gala import GALA
 from optimizer.report import read_table_csv
@@ -97,6 +98,26 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
     assert "| 0.80 |" in capsys.readouterr().out
 
 
+def test_the_farthest_walk_without_a_fall_is_kept(tmp_path: Path, capsys) -> None:
+    class FallingWhenFast(FakeEvaluator):
+        """The farther half of the walks end in a fall."""
+
+        def evaluate(self, tasks):
+            for outcome in super().evaluate(tasks):
+                fell = outcome.result["fitness"] > 25.0
+                yield EpisodeOutcome(outcome.task, outcome.worker, {**outcome.result, "fell": fell})
+
+    out = tmp_path / "run"
+    argv = ["--crossover", "0.8", *SMALL, "--seed", "4", "--out", str(out)]
+    assert gala_command.main(argv, make_evaluator=lambda s: FallingWhenFast()) == 0
+    records = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
+    assert any(r["fell"] for r in records) and any(not r["fell"] for r in records)
+    fastest = max((r for r in records if not r["fell"]), key=lambda r: r["fitness"])
+    assert json.loads((out / "results.json").read_text())["fastest_episode"] == fastest
+    assert list(vars(load_gait(out / "fastest_gait.json")).values()) == fastest["genes"]
+    assert f"{fastest['distance']:.2f} m" in capsys.readouterr().out
+
+
 def test_a_killed_gala_run_resumes_to_the_same_files(tmp_path: Path) -> None:
     argv = ["--crossover", "0.8", "--crossover", "0.5", *SMALL, "--seed", "11"]
     assert gala_command.main([*argv, "--out", str(tmp_path / "whole")], make_evaluator=lambda s: FakeEvaluator()) == 0
@@ -105,7 +126,7 @@ def test_a_killed_gala_run_resumes_to_the_same_files(tmp_path: Path) -> None:
     resumed = FakeEvaluator()
     assert gala_command.main(["--resume", str(tmp_path / "cut"), "--quiet"], make_evaluator=lambda s: resumed) == 0
     assert len(resumed.evaluated) == len((tmp_path / "whole" / "episodes.jsonl").read_text().splitlines()) - 30
-    for name in ("results.json", "table1.csv", "table1.md", "best_gait.json"):
+    for name in ("results.json", "table1.csv", "table1.md", "best_gait.json", "fastest_gait.json"):
         assert (tmp_path / "cut" / name).read_text() == (tmp_path / "whole" / name).read_text(), name
 
 
