@@ -9,12 +9,17 @@ Workers are started and warmed up (one episode each) before the clock starts.
 With ``--gait FILE`` every episode walks that gait instead (one that does not fall gives the cost
 of full 15-s episodes, what a converged population evaluates).
 
+With one worker it also prints the CPU time per walked cycle of the stub server (s) and of the
+worker, i.e. the agent and the episode's judge (w), read from /proc: two workers on two cores
+run at most at 2/(s + w), so s/(s + w) bounds the parallel efficiency.
+
 Run: ``python bench/bench_episodes.py [--episodes 60] [--gait FILE] [--agent-mode inprocess|process] [--dask]``
 (``--dask`` also runs the 2-worker case on a Dask LocalCluster and prints its overhead).
 """
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -25,6 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from gait import GENE_BOUNDS, load_gait, repair_genes  # noqa: E402
 from optimizer.episode import EpisodeConfig  # noqa: E402
+from protocol.nao import CYCLE  # noqa: E402
 from optimizer.evaluation import EpisodeRunnerFactory, EpisodeTask, ProcessPoolEvaluator  # noqa: E402
 
 
@@ -43,22 +49,50 @@ def _evaluator(workers: int, config: EpisodeConfig, dask: bool):
     return ProcessPoolEvaluator(factory, workers, task_timeout=2 * config.episode_timeout + 30)
 
 
+def cpu_seconds() -> dict[str, float]:
+    """CPU seconds (user + system) so far of this process's descendants, by kind: the stub
+    servers and the workers (agent and judge). Linux only (/proc); empty elsewhere."""
+    tree: dict[int, tuple[int, float, str]] = {}
+    for entry in Path("/proc").glob("[0-9]*"):
+        try:
+            stat = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            command = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:
+            continue
+        tree[int(entry.name)] = (int(stat[1]), (int(stat[11]) + int(stat[12])) / os.sysconf("SC_CLK_TCK"), command)
+    totals: dict[str, float] = {}
+    stack = [os.getpid()]
+    while stack:
+        parent = stack.pop()
+        for pid, (ppid, cpu, command) in tree.items():
+            if ppid == parent:
+                kind = "stub" if "server_stub" in command else "worker"
+                totals[kind] = totals.get(kind, 0.0) + cpu
+                stack.append(pid)
+    return totals
+
+
 def measure(workers: int, genes: list[tuple[float, ...]], config: EpisodeConfig, dask: bool = False) -> dict[str, float]:
     pool = _evaluator(workers, config, dask)
     try:
         warm = [EpisodeTask(f"warm/i{k}", g, k) for k, g in enumerate(gaits(workers, seed=99))]
         list(pool.evaluate(warm))
         tasks = [EpisodeTask(f"bench/i{k:03d}", g, k) for k, g in enumerate(genes)]
+        cpu_before = cpu_seconds()
         start = time.perf_counter()
         outcomes = list(pool.evaluate(tasks))
         wall = time.perf_counter() - start
+        cpu_after = cpu_seconds()
     finally:
         pool.close()
     walked = sum(float(o.result["time"]) for o in outcomes)
     failed = sum(o.result["status"] != "ok" for o in outcomes)
+    cycles = walked / CYCLE
+    cpu = {f"{kind}_ms_per_cycle": (spent - cpu_before.get(kind, 0.0)) / cycles * 1e3
+           for kind, spent in cpu_after.items()}
     return {"wall": wall, "episodes_per_hour": len(tasks) / wall * 3600,
             "equivalents_per_hour": walked / config.walk_time / wall * 3600,
-            "mean_walked": walked / len(tasks), "failed": failed}
+            "mean_walked": walked / len(tasks), "failed": failed, **cpu}
 
 
 def main() -> None:
@@ -80,6 +114,11 @@ def main() -> None:
               f"equivalents/h (mean {r['mean_walked']:.2f} s walked per episode, {r['failed']} failed)")
     efficiency = results[2]["equivalents_per_hour"] / (2 * results[1]["equivalents_per_hour"])
     print(f"parallel efficiency with 2 workers: {efficiency:.0%}")
+    one = results[1]
+    if "stub_ms_per_cycle" in one and "worker_ms_per_cycle" in one:
+        s, w = one["stub_ms_per_cycle"], one["worker_ms_per_cycle"]
+        print(f"CPU per walked cycle, 1 worker: stub server s = {s:.3f} ms, worker (agent + judge) w = {w:.3f} ms; "
+              f"two workers share 2 cores, so efficiency is at most s/(s+w) = {s / (s + w):.0%}")
     if args.dask:
         d = measure(2, genes, config, dask=True)
         overhead = d["wall"] / results[2]["wall"] - 1
