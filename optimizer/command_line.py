@@ -24,7 +24,7 @@ from optimizer.driver import BarProgress, Driver, ResumeMismatch
 from optimizer.episode import EpisodeConfig, ServerAddress
 from optimizer.evaluation import EpisodeRunnerFactory, EvaluationError, Evaluator, ProcessPoolEvaluator
 from optimizer.run_folder import RunFolder, RunFolderError, new_run_path
-from protocol.cli_values import positive_float, positive_int, probability
+from protocol.cli_values import number, positive_float, positive_int, probability
 
 #: Exit status of an interrupted run (the shell's convention for SIGINT).
 EXIT_INTERRUPTED = 130
@@ -52,10 +52,13 @@ def existing_run(text: str) -> RunFolder:
 
 
 def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
-    """How one episode is run: ``--walk-time`` and ``--agent-mode`` (default None: resolved later,
-    so a resumed run can tell a given flag from a default)."""
+    """How one episode is run: ``--walk-time``, ``--start`` and ``--agent-mode`` (default None:
+    resolved later, so a resumed run can tell a given flag from a default)."""
     parser.add_argument("--walk-time", type=positive_float, default=None,
                         help="seconds of walking per episode (eq. 9; default 15)")
+    parser.add_argument("--start", type=number, nargs=3, default=None, metavar=("X", "Y", "DEG"),
+                        help="where each walk starts: field position (m) and heading (deg, 0 = +x); "
+                             "the distance is measured from it along the heading (default 0 0 0)")
     parser.add_argument("--agent-mode", choices=("inprocess", "process"), default=None,
                         help="run the agent inside the worker or as its own process (default inprocess)")
 
@@ -88,7 +91,12 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 #: Defaults of the episode settings every command stores.
-EPISODE_DEFAULTS: dict[str, Any] = {"walk_time": 15.0, "agent_mode": "inprocess"}
+EPISODE_DEFAULTS: dict[str, Any] = {"walk_time": 15.0, "start": [0.0, 0.0, 0.0], "agent_mode": "inprocess"}
+
+
+def episode_config(walk_time: float, start: Sequence[float], agent_mode: str) -> EpisodeConfig:
+    x, y, heading = start
+    return EpisodeConfig(walk_time=walk_time, start=(x, y), heading=heading, agent_mode=agent_mode)
 
 
 def _flag(name: str, value: Any) -> str:
@@ -122,6 +130,7 @@ class EvaluationSetup:
     """What an evaluator is made from (everything but the search)."""
 
     walk_time: float
+    start: tuple[float, float, float]
     agent_mode: str
     servers: tuple[ServerAddress, ...]
     workers: int
@@ -133,7 +142,7 @@ class EvaluationSetup:
 def pool_evaluator(setup: EvaluationSetup) -> Evaluator:
     """The local evaluator: one worker process per core (or per server), each with one runner;
     or, with ``--scheduler`` / ``--dask-local``, a Dask cluster (``optimizer.dask_evaluation``)."""
-    config = EpisodeConfig(walk_time=setup.walk_time, agent_mode=setup.agent_mode)
+    config = episode_config(setup.walk_time, setup.start, setup.agent_mode)
     if setup.scheduler is not None or setup.dask_local is not None:
         try:
             from optimizer.dask_evaluation import DaskEvaluator
@@ -194,7 +203,9 @@ def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, comma
     else:
         seed = folder.manifest["seed"]
         folder.note_resume(argv, runtime)
-    setup = EvaluationSetup(settings["walk_time"], settings["agent_mode"], servers, workers, seed,
+    # runs made before --start existed started at the origin
+    start = tuple(settings.get("start", EPISODE_DEFAULTS["start"]))
+    setup = EvaluationSetup(settings["walk_time"], start, settings["agent_mode"], servers, workers, seed,
                             args.scheduler, args.dask_local)
     return Run(command, folder, settings, seed, setup, resumed=stored is not None)
 

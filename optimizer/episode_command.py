@@ -3,6 +3,7 @@
     python -m optimizer.episode                          # the shipped gait, on the embedded stub
     python -m optimizer.episode --gait runs/gala-.../best_gait.json --server 127.0.0.1:3100:3200
     python -m optimizer.episode --json                   # one JSON object: distance, fell, time, fitness, ...
+    python -m optimizer.episode --start -5 2 10          # start at x -5, y 2, heading 10 deg
 
 Exit status 0 when the episode ran (whatever the gait did), 1 when it could not be run.
 """
@@ -14,8 +15,8 @@ import sys
 from collections.abc import Sequence
 
 from gait import DEFAULT_GAIT_PATH, GaitFileError, TFSParams, load_gait
-from optimizer.command_line import EPISODE_DEFAULTS, add_episode_arguments, server_address
-from optimizer.episode import EpisodeConfig, EpisodeRunner
+from optimizer.command_line import EPISODE_DEFAULTS, add_episode_arguments, episode_config, server_address
+from optimizer.episode import EpisodeRunner
 
 
 def gait_file(text: str) -> TFSParams:
@@ -41,8 +42,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     params = args.gait or load_gait(DEFAULT_GAIT_PATH)
-    config = EpisodeConfig(walk_time=args.walk_time or EPISODE_DEFAULTS["walk_time"],
-                           agent_mode=args.agent_mode or EPISODE_DEFAULTS["agent_mode"])
+    config = episode_config(args.walk_time or EPISODE_DEFAULTS["walk_time"], args.start or EPISODE_DEFAULTS["start"],
+                            args.agent_mode or EPISODE_DEFAULTS["agent_mode"])
     with EpisodeRunner(config, args.server, seed=args.seed) as runner:
         result = runner.evaluate(params)
     if args.json:

@@ -36,6 +36,18 @@ def test_episode_scores_eq9_and_is_reproducible(runner: EpisodeRunner) -> None:
     assert (second.distance, second.fell, second.time) == (first.distance, first.fell, first.time)
 
 
+def test_a_walk_from_another_start_is_measured_from_it(runner: EpisodeRunner) -> None:
+    """Beamed to (-6, 3) facing +y, the robot walks as from the origin, and the distance is taken
+    along its heading from that point (a beam or a judge that ignored the start would give ~0 or
+    ~-3 m)."""
+    at_origin = runner.evaluate(load_gait())
+    with EpisodeRunner(EpisodeConfig(walk_time=3.0, start=(-6.0, 3.0), heading=90.0)) as other:
+        turned = other.evaluate(load_gait())
+    assert turned.status == "ok" and not turned.fell
+    assert at_origin.distance > 0.3
+    assert turned.distance == pytest.approx(at_origin.distance, abs=0.1)
+
+
 def test_a_gait_that_collapses_is_scored_at_its_fall(runner: EpisodeRunner) -> None:
     collapse = load_gait().as_array()
     collapse[0], collapse[2], collapse[3] = 40.0, 40.0, 40.0  # hip far forward, big swings

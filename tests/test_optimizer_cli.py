@@ -10,6 +10,7 @@ import pytest
 
 from gait import load_gait
 from optimizer import episode_command, ga_command, gala_command
+from optimizer.episode import EpisodeResult
 from optimizer.evaluation import EpisodeOutcome
 from optimizer.ga import GARun
 from optimizer.gala import GALA
@@ -59,6 +60,8 @@ def test_resume_needs_a_run_folder_and_the_same_settings(tmp_path: Path, capsys)
     assert "conflicts" in err
     err = refused(gala_command.main, ["--resume", str(out), "--no-elitism"], capsys)
     assert "--no-elitism conflicts with the run's --elitism" in err
+    err = refused(gala_command.main, ["--resume", str(out), "--start", "-5", "0", "0"], capsys)
+    assert "--start -5.0 0.0 0.0 conflicts with the run's --start 0.0 0.0 0.0" in err
     assert "is a gala run, not a ga run" in refused(ga_command.main, ["--resume", str(out)], capsys)
     assert "already holds a run" in refused(gala_command.main, ["--out", str(out)], capsys)
     assert "not allowed with" in refused(gala_command.main, ["--out", "x", "--resume", str(out)], capsys)
@@ -76,7 +79,7 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
             "--server", "127.0.0.1:3100:3200", "--server", "127.0.0.1:3101:3201", "--walk-time", "5"]
     assert gala_command.main(argv, make_evaluator=fake) == 0
     assert setups[0].workers == 2 and [s.agent_port for s in setups[0].servers] == [3100, 3101]
-    assert setups[0].walk_time == 5.0 and setups[0].seed == 9
+    assert setups[0].walk_time == 5.0 and setups[0].seed == 9 and setups[0].start == (0.0, 0.0, 0.0)
 
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["settings"]["crossover"] == [0.8, 0.3] and manifest["settings"]["population"] == 6
@@ -176,11 +179,34 @@ def test_planned_episodes_match_what_the_searches_ask(restart: bool, elitism: bo
     assert len(asked) == ga_command.planned_episodes(ga)
 
 
+def test_episode_command_takes_a_start(monkeypatch, capsys) -> None:
+    configs = []
+
+    class Runner:
+        def __init__(self, config, server, seed):
+            configs.append(config)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            pass
+
+        def evaluate(self, params):
+            return EpisodeResult(1.0, False, 15.0, 10.0, 1 / 15)
+
+    monkeypatch.setattr(episode_command, "EpisodeRunner", Runner)
+    assert episode_command.main(["--start", "-6", "3.5", "90", "--json"]) == 0
+    assert (configs[0].start, configs[0].heading) == ((-6.0, 3.5), 90.0)
+    assert json.loads(capsys.readouterr().out)["distance"] == 1.0
+
+
 def test_episode_command_refuses_a_bad_gait_file_or_server(tmp_path: Path, capsys) -> None:
     bad = tmp_path / "gait.json"
     bad.write_text("{}")
     for argv, flag in ((["--gait", str(bad)], "--gait"), (["--server", "nowhere"], "--server"),
-                       (["--agent-mode", "thread"], "--agent-mode")):
+                       (["--agent-mode", "thread"], "--agent-mode"), (["--start", "1", "2"], "--start"),
+                       (["--start", "1", "2", "nan"], "--start")):
         with pytest.raises(SystemExit) as exit_info:
             episode_command.main(argv)
         assert exit_info.value.code == 2
