@@ -15,7 +15,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from protocol.nao import JOINTS  # noqa: E402
 from server_stub.monitor_scene import GameHeader, MonitorScene, RobotView  # noqa: E402
-from server_stub.rotations import rotation_matrices  # noqa: E402
+from server_stub.rotations import body_poses  # noqa: E402
 from server_stub.perception_text import GameStateText, format_perception  # noqa: E402
 from server_stub.vision import SeenRobot, VisionSensor  # noqa: E402
 
@@ -31,9 +31,9 @@ def _us(fn, number: int) -> float:
 def _robot(rng: np.random.Generator, k: int) -> RobotView:
     # turned every which way, as a walking robot's parts are: all 16 numbers of each pose vary
     quaternions = rng.normal(size=(len(_PARTS), 4))
-    poses = np.tile(np.eye(4), (len(_PARTS), 1, 1))
-    poses[:, :3, :3] = rotation_matrices(quaternions / np.linalg.norm(quaternions, axis=1, keepdims=True))
-    poses[:, :3, 3] = (k, 0.0, 0.4) + rng.normal(0, 0.1, (len(_PARTS), 3))
+    links = np.hstack([(k, 0.0, 0.4) + rng.normal(0, 0.1, (len(_PARTS), 3)),
+                       quaternions / np.linalg.norm(quaternions, axis=1, keepdims=True)])
+    poses = body_poses(links[0, :3], np.eye(3), links)[1:]
     return RobotView("left" if k % 2 == 0 else "right", k // 2 + 1, 0, tuple(_PARTS), poses)
 
 

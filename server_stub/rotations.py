@@ -1,5 +1,5 @@
 """Quaternions to rotation matrices, compiled: the stub turns every body part's orientation into a
-matrix every cycle (the slip model) and every other cycle (the monitor), a few dozen at a time."""
+matrix every cycle (the slip model) and every other cycle (the monitor's body-part poses)."""
 from __future__ import annotations
 
 import numpy as np
@@ -17,15 +17,6 @@ def rotation_matrix(q: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def rotation_matrices(qs: np.ndarray) -> np.ndarray:
-    """``rotation_matrix`` of each row of an (n, 4) array, as (n, 3, 3)."""
-    out = np.empty((qs.shape[0], 3, 3))
-    for i in range(qs.shape[0]):
-        out[i] = rotation_matrix(qs[i])
-    return out
-
-
-@njit(cache=True)
 def body_poses(base_position: np.ndarray, base_rotation: np.ndarray, links: np.ndarray) -> np.ndarray:
     """4x4 world poses, base first, then one per row of ``links`` (x, y, z, qx, qy, qz, qw):
     a robot's body parts for the monitor, in one pass."""
@@ -38,3 +29,8 @@ def body_poses(base_position: np.ndarray, base_rotation: np.ndarray, links: np.n
     for i in range(out.shape[0]):
         out[i, 3, 3] = 1.0
     return out
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's disk cache) the kernels before the first step needs them."""
+    body_poses(np.zeros(3), np.eye(3), np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]]))

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from server_stub.rotations import rotation_matrices, rotation_matrix
+from server_stub.rotations import rotation_matrix
 
 @njit(cache=True)
 def _cross(a, b):
@@ -306,4 +306,3 @@ def warm_up() -> None:
                 np.zeros((2, 3)), np.zeros((2, 3)), np.array([[0.0, 0.0, 0.1]]))
     contact_forces(skeleton, pose, np.array([1]), np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]),
                    np.zeros(1), np.zeros(1, dtype=bool), np.zeros(1), 0.005, 0.02)
-    rotation_matrices(np.array([[0.0, 0.0, 0.0, 1.0]]))

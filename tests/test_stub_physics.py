@@ -361,11 +361,14 @@ def test_part_poses_cover_every_part(standing):
 @settings(max_examples=50, deadline=None)
 @given(st.lists(st.floats(-1.0, 1.0), min_size=4, max_size=4).filter(lambda q: sum(c * c for c in q) > 0.01))
 def test_part_rotations_match_pybullet_for_any_orientation(q):
-    from server_stub.rotations import rotation_matrices
+    from server_stub.rotations import body_poses
 
     q = np.array(q) / np.linalg.norm(q)
-    ours = rotation_matrices(q[None, :])[0]
-    assert ours == pytest.approx(np.reshape(pb.getMatrixFromQuaternion(q.tolist()), (3, 3)), abs=1e-12)
+    base = np.reshape(pb.getMatrixFromQuaternion([0.1, 0.2, 0.3, 0.927]), (3, 3))
+    ours = body_poses(np.array([1.0, 2.0, 3.0]), base, np.array([[4.0, 5.0, 6.0, *q]]))
+    assert ours[1, :3, :3] == pytest.approx(np.reshape(pb.getMatrixFromQuaternion(q.tolist()), (3, 3)), abs=1e-12)
+    assert ours[1, :3, 3].tolist() == [4.0, 5.0, 6.0] and ours[0, :3, 3].tolist() == [1.0, 2.0, 3.0]
+    assert (ours[0, :3, :3] == base).all() and ours[:, 3].tolist() == [[0.0, 0.0, 0.0, 1.0]] * 2
 
 
 def test_robots_can_be_added_and_removed(world):
