@@ -133,6 +133,24 @@ def test_a_killed_gala_run_resumes_to_the_same_files(tmp_path: Path) -> None:
         assert (tmp_path / "cut" / name).read_text() == (tmp_path / "whole" / name).read_text(), name
 
 
+def test_a_run_made_before_start_existed_resumes_from_the_origin(tmp_path: Path) -> None:
+    out = tmp_path / "old"
+    argv = ["--crossover", "0.8", *SMALL, "--seed", "5"]
+    with pytest.raises(Killed):
+        gala_command.main([*argv, "--out", str(out)], make_evaluator=lambda s: FakeEvaluator(10))
+    manifest = json.loads((out / "manifest.json").read_text())
+    del manifest["settings"]["start"]  # what an earlier version wrote
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    setups = []
+
+    def fake(setup):
+        setups.append(setup)
+        return FakeEvaluator()
+
+    assert gala_command.main(["--resume", str(out), "--quiet"], make_evaluator=fake) == 0
+    assert setups[0].start == (0.0, 0.0, 0.0)
+
+
 def test_an_interrupted_run_says_how_to_resume(tmp_path: Path, capsys) -> None:
     class Interrupted(FakeEvaluator):
         def evaluate(self, tasks):
