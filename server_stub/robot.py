@@ -155,11 +155,7 @@ class Robot:
         client = self._client
         position, orientation = pb.getBasePositionAndOrientation(self._body, physicsClientId=client)
         velocity, spin = pb.getBaseVelocity(self._body, physicsClientId=client)
-        states = self._link_states()
-        # per part, torso first: centre (3), orientation (4), frame origin = hinge anchor (3),
-        # velocity (3), spin (3)
-        table = np.array([position + orientation + position + velocity + spin]
-                         + [st[0] + st[1] + st[4] + st[6] + st[7] for st in states])
+        table = np.vstack([position + orientation + position + velocity + spin, self._link_table()])
         return slip.Pose(table[:, :3], table[:, 3:7], table[:, 10:13], table[:, 13:16], table[1:, 7:10])
 
     def _skeleton_of(self) -> slip.Skeleton:
@@ -188,6 +184,7 @@ class Robot:
         self._contact_points: tuple | None = None
         self._parts: np.ndarray | None = None
         self._links: list[tuple] | None = None
+        self._table: np.ndarray | None = None
 
     # ----- placing -----
     def beam(self, x: float, y: float, heading_deg: float) -> None:
@@ -231,6 +228,14 @@ class Robot:
             self._links = pb.getLinkStates(self._body, self._indices, computeLinkVelocity=1,
                                            computeForwardKinematics=1, physicsClientId=self._client)
         return self._links
+
+    def _link_table(self) -> np.ndarray:
+        """``_link_states`` as one array, a row per link: centre (3), orientation (4), frame origin
+        = hinge anchor (3), velocity (3), spin (3); built once per step for the slip model and the
+        monitor's poses."""
+        if self._table is None:
+            self._table = np.array([st[0] + st[1] + st[4] + st[6] + st[7] for st in self._link_states()])
+        return self._table
 
     def _contacts(self) -> tuple:
         """Every contact point of this robot after the last sub-step (pybullet's tuples)."""
@@ -318,11 +323,7 @@ class Robot:
 
     def head_pose(self) -> tuple[tuple[float, float, float], np.ndarray]:
         """Head centre (the camera, and ``mypos``) and its 3x3 rotation (columns = head axes)."""
-        return self._link_pose(self._head_link)
-
-    def _link_pose(self, link: int) -> tuple[tuple[float, float, float], np.ndarray]:
-        state = pb.getLinkState(self._body, link, computeForwardKinematics=True,
-                                physicsClientId=self._client)
+        state = self._link_states()[self._head_link]
         rotation = np.array(pb.getMatrixFromQuaternion(state[1])).reshape(3, 3)
         return tuple(float(c) for c in state[0]), rotation
 
@@ -336,8 +337,7 @@ class Robot:
         order, for the monitor; computed once per step."""
         if self._parts is None:
             position, rotation = self._base_pose()
-            links = np.array([s[0] + s[1] for s in self._link_states()])
-            self._parts = body_poses(np.array(position), np.array(rotation).reshape(3, 3), links)
+            self._parts = body_poses(np.array(position), np.array(rotation).reshape(3, 3), self._link_table())
         return self._parts
 
     def part_positions(self, names: Sequence[str]) -> dict[str, tuple[float, float, float]]:

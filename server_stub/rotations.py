@@ -18,13 +18,14 @@ def rotation_matrix(q: np.ndarray) -> np.ndarray:
 
 @njit(cache=True)
 def body_poses(base_position: np.ndarray, base_rotation: np.ndarray, links: np.ndarray) -> np.ndarray:
-    """4x4 world poses, base first, then one per row of ``links`` (x, y, z, qx, qy, qz, qw):
-    a robot's body parts for the monitor, in one pass."""
+    """4x4 world poses, base first, then one per row of ``links``, which starts with the centre
+    and orientation (x, y, z, qx, qy, qz, qw; more columns are ignored): a robot's body parts for
+    the monitor, in one pass."""
     out = np.zeros((links.shape[0] + 1, 4, 4))
     out[0, :3, :3] = base_rotation
     out[0, :3, 3] = base_position
     for i in range(links.shape[0]):
-        out[i + 1, :3, :3] = rotation_matrix(links[i, 3:])
+        out[i + 1, :3, :3] = rotation_matrix(links[i, 3:7])
         out[i + 1, :3, 3] = links[i, :3]
     for i in range(out.shape[0]):
         out[i, 3, 3] = 1.0
