@@ -177,8 +177,8 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             result: GALAResult = driver.run(search)
             results.append(result)
             bests.append(best_episode(driver.log.records, f"{tag}/final/", result.best_genes, result.best_fitness))
-            write_outputs(run.folder, run.settings, results, bests, fastest_episode(driver.log.records))
-        fastest = fastest_episode(driver.log.records)
+            fastest = fastest_episode(driver.log.records)
+            write_outputs(run.folder, run.settings, results, bests, fastest)
         found = "" if fastest is None else (f"farthest walk without a fall: {fastest['distance']:.2f} m in "
                                             f"{fastest['time']:g} s ({fastest['key']}), in fastest_gait.json\n")
         return (run.folder.path / "table1.md").read_text() + found + f"results in {run.folder.path}"
