@@ -15,11 +15,20 @@ _FLAT_MESSAGE = re.compile(rb"(?:\s*\([A-Za-z]\w* [^()\s]+\)|\s*\(syn\))*\s*")
 _FLAT_COMMAND = re.compile(rb"\(([A-Za-z]\w*)(?: ([^()\s]+))?\)")
 
 
+def flat_commands(frame: bytes) -> list[tuple[bytes, bytes]] | None:
+    """The ``(name, value)`` pairs of a message made only of one-argument commands and ``(syn)``
+    (whose value is ``b""``), undecoded: every cycle's effector message takes this path, so the
+    server reads it without building lists or strings. None for any other message."""
+    if _FLAT_MESSAGE.fullmatch(frame):
+        return _FLAT_COMMAND.findall(frame)
+    return None
+
+
 def read_commands(frame: bytes) -> list[list]:
     """Commands as ``[name, arg, ...]`` lists (sub-expressions as nested lists)."""
-    if _FLAT_MESSAGE.fullmatch(frame):
-        return [[name.decode(), value.decode()] if value else [name.decode()]
-                for name, value in _FLAT_COMMAND.findall(frame)]
+    pairs = flat_commands(frame)
+    if pairs is not None:
+        return [[name.decode(), value.decode()] if value else [name.decode()] for name, value in pairs]
     return [expr if isinstance(expr, list) else [expr] for expr in parse_sexp(frame)]
 
 

@@ -16,7 +16,7 @@ import numpy as np
 import pybullet as pb
 
 from protocol.nao import JOINTS
-from server_stub import nao_model, slip
+from server_stub import motors, nao_model, slip
 from server_stub.config import PhysicsConfig
 from server_stub.rotations import body_poses
 
@@ -61,10 +61,12 @@ class Robot:
         #: Tangential slip force applied to each link in the last sub-step (see _before_substep).
         self._slip_force: dict[int, list[float]] = {}
         self._foot_keys = {names.index(part): key for key, part in nao_model.FOOT_PARTS.items()}
-        self._requested: dict[int, float] = {}  # joint index -> rad/s, commands since the last step
-        self._pending: dict[int, float] = {}  # commands to apply at the start of the next step
+        # rad/s by joint index, NaN where no command came
+        self._requested = np.full(_N, np.nan)  # commands since the last step
+        self._pending = np.full(_N, np.nan)  # commands to apply at the start of the next step
         self._motor = np.zeros(_N)  # sticky motor target velocities, rad/s
-        self._sent: tuple[np.ndarray, np.ndarray] | None = None
+        #: targets and forces Bullet was last given (none before the first step)
+        self._sent: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros(0))
         self._yielding = np.zeros(_N, dtype=bool)  # motors at their torque limit in the last step
         self._motor_load = np.zeros(_N)  # torque each motor applied in the last step (stops: 0)
         self._slip_torque = np.zeros(_N)  # torque of the last step's slip forces about each hinge
@@ -80,55 +82,35 @@ class Robot:
         Unknown effector -> KeyError; non-finite -> ValueError. The value is clipped to the
         joint's speed cap now and applied (or dropped) in the step after the next one.
         """
-        index = _EFFECTOR_INDEX[effector]
+        self.command_joint(_EFFECTOR_INDEX[effector], velocity)
+
+    def command_joint(self, index: int, velocity: float) -> None:
+        """``command`` for the joint at ``index`` in ``protocol.nao.JOINTS`` order: the server's
+        path for the 22 hinge commands of every cycle, without the name lookup."""
         if not math.isfinite(velocity):
-            raise ValueError(f"velocity for {effector} must be finite, got {velocity!r}")
+            raise ValueError(f"velocity for {JOINTS[index].effector} must be finite, got {velocity!r}")
         cap = self._caps[index]
         self._requested[index] = min(cap, max(-cap, velocity))
 
     def _before_step(self) -> None:
-        """Apply last interval's commands (the latency rule) and set this step's motors."""
+        """Apply last interval's commands (the latency rule) and set this step's motors
+        (``server_stub.motors``)."""
         angles, rates, torques = self._joint_state()
-        if self._sent is not None:  # a motor at its torque limit yields (a stop never does)
-            motors = self._sent[1] <= self._config.motor_torque
-            self._yielding = (np.abs(torques) >= 0.99 * self._config.motor_torque) & motors
-            self._motor_load = np.where(motors, torques, 0.0)
-        inside = (angles > _MIN) & (angles < _MAX)
-        due = self._pending if self._delay else self._requested
-        for index, velocity in due.items():
-            if inside[index]:
-                self._motor[index] = velocity
         if self._delay:
-            self._pending = self._requested
-        self._requested = {}
-
-        target = self._motor.copy()
-        force = np.full(_N, self._config.motor_torque)
-        if not inside.all():
-            self._stop(angles, rates, target, force)
-        sent = self._sent
-        if sent is None or not (np.array_equal(sent[0], target) and np.array_equal(sent[1], force)):
+            due, self._pending = self._pending, self._requested
+        else:
+            due = self._requested
+        self._requested = np.full(_N, np.nan)
+        cfg = self._config
+        last_target, last_force = self._sent
+        target, force, self._yielding, self._motor_load, changed = motors.motor_step(
+            angles, rates, torques, _MIN, _MAX, due, self._motor, last_target, last_force,
+            cfg.motor_torque, cfg.stop_erp, cfg.stop_bounce, cfg.cycle, _STOP_FORCE)
+        if changed:
             pb.setJointMotorControlArray(self._body, self._indices, pb.VELOCITY_CONTROL,
-                                         targetVelocities=target, forces=force,
+                                         targetVelocities=target.tolist(), forces=force.tolist(),
                                          physicsClientId=self._client)
             self._sent = (target, force)
-
-    def _stop(self, angles: np.ndarray, rates: np.ndarray, target: np.ndarray,
-              force: np.ndarray) -> None:
-        """ODE's joint stop for joints that start the step past a limit: drive back at the larger
-        of the ERP correction and the bounced incoming speed (facts section 3: hj1 at 100 rad/s
-        into +120 alternates 119.5 / 126.5 deg)."""
-        cfg = self._config
-        over = angles - _MAX
-        under = _MIN - angles
-        for i in np.nonzero((over >= 0) | (under >= 0))[0]:
-            if over[i] >= 0:
-                back = max(cfg.stop_erp * over[i] / cfg.cycle, cfg.stop_bounce * max(rates[i], 0.0))
-                target[i] = -back
-            else:
-                back = max(cfg.stop_erp * under[i] / cfg.cycle, cfg.stop_bounce * max(-rates[i], 0.0))
-                target[i] = back
-            force[i] = _STOP_FORCE
 
     def _before_substep(self) -> None:
         """Force-dependent slip (facts section 4; ``server_stub.slip``) at every contact point

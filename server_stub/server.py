@@ -24,9 +24,9 @@ import socket
 import time
 
 from protocol.errors import ProtocolError
-from protocol.nao import CYCLE, JOINT_BY_EFFECTOR, NAO_HETERO_RSG, NAO_RSG, ROBOT_TYPES
+from protocol.nao import CYCLE, JOINTS, NAO_HETERO_RSG, NAO_RSG, ROBOT_TYPES
 from protocol.sexp import parse_sexp
-from server_stub.agent_commands import has_syn, read_commands
+from server_stub.agent_commands import flat_commands, has_syn, read_commands
 from server_stub.clients import AgentState, Client
 from server_stub.config import PhysicsConfig, ServerConfig
 from server_stub.game import Game, GameError, beam_pose
@@ -39,6 +39,8 @@ log = logging.getLogger("server_stub")
 #: Where a new robot appears (facts section 6): in the air, it falls until beamed.
 #: Placement after ``repos``: the robot's last beam pose, or its side's default spot.
 _DEFAULT_REPOS = {"left": (-5.0, 0.0, 0.0), "right": (5.0, 0.0, 180.0)}
+#: Hinge effector name as it arrives on the wire -> its index in ``JOINTS`` (``Robot.command_joint``).
+_HINGE_INDEX = {joint.effector.encode(): index for index, joint in enumerate(JOINTS)}
 
 
 class StubServer:
@@ -262,22 +264,35 @@ class StubServer:
         self._scene_changed = False
 
     def _on_agent_frame(self, client: Client, state: AgentState, frame: bytes) -> None:
+        robot = state.robot
+        pairs = flat_commands(frame) if robot is not None else None
+        if pairs is not None:  # the common case, every cycle: hinge commands read with no detour
+            for name, value in pairs:
+                index = _HINGE_INDEX.get(name)
+                if index is None:
+                    self._apply_safely(client, state, name.decode(), [value.decode()] if value else [])
+                    continue
+                try:
+                    robot.command_joint(index, float(value))
+                except ValueError:  # again by the general path, for its warning
+                    self._apply_safely(client, state, name.decode(), [value.decode()])
+            return
         try:
             expressions = read_commands(frame)
         except ProtocolError as exc:
             client.warn(f"message ignored, it does not parse: {exc}", "parse")
             return
-        robot = state.robot
         for expr in expressions:
             name = expr[0] if expr and isinstance(expr[0], str) else None
-            try:
-                if robot is not None and len(expr) == 2 and name in JOINT_BY_EFFECTOR:
-                    robot.command(name, float(expr[1]))  # the common case, every cycle: no detour
-                    continue
-                self._apply_agent_command(client, state, name, expr[1:])
-            except (GameError, ValueError, KeyError, IndexError, TypeError) as exc:
-                problem = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
-                client.warn(f"({name} ...) ignored: {problem}", f"{name}:{type(exc).__name__}")
+            self._apply_safely(client, state, name, expr[1:])
+
+    def _apply_safely(self, client: Client, state: AgentState, name: str | None, args: list) -> None:
+        """One command; a bad one is ignored with one warning naming the client and the problem."""
+        try:
+            self._apply_agent_command(client, state, name, args)
+        except (GameError, ValueError, KeyError, IndexError, TypeError) as exc:
+            problem = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+            client.warn(f"({name} ...) ignored: {problem}", f"{name}:{type(exc).__name__}")
 
     def _apply_agent_command(self, client: Client, state: AgentState, name: str | None, args: list) -> None:
         if name is None:

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pybullet as pb
 
-from server_stub import nao_model, rotations, slip
+from server_stub import motors, nao_model, rotations, slip
 from server_stub.config import PhysicsConfig
 from server_stub.robot import Robot
 
@@ -81,6 +81,7 @@ class World:
         self._build_field()
         slip.warm_up()
         rotations.warm_up()
+        motors.warm_up()
 
     def _configure_engine(self) -> None:
         cfg = self.config

@@ -99,17 +99,17 @@ def test_two_teams_and_removal_of_a_disconnected_robot(stub: StubProcess) -> Non
 
 
 @pytest.mark.parametrize(
-    "bad",
+    ("bad", "warning"),
     [
-        b"(lle3 0.5",                       # unbalanced
-        b"(lle3 fast)(syn)",                # a word where a number belongs
-        b"(xyz9 1.0)(syn)",                 # unknown effector
-        b"(lle3 nan)(syn)",                 # non-finite
-        b"(scene rsg/agent/nao/other.rsg)(syn)",  # unknown scene
-        b"(beam 1e400 0 0)(syn)",           # absurd
+        (b"(lle3 0.5", "does not parse"),                                        # unbalanced
+        (b"(lle3 fast)(syn)", "(lle3 ...) ignored: could not convert string to float: 'fast'"),
+        (b"(xyz9 1.0)(syn)", "(xyz9 ...) ignored: xyz9"),                         # unknown effector
+        (b"(lle3 nan)(syn)", "(lle3 ...) ignored: velocity for lle3 must be finite"),
+        (b"(scene rsg/agent/nao/other.rsg)(syn)", "(scene ...) ignored: robot already created"),
+        (b"(beam 1e400 0 0)(syn)", "(beam ...) ignored"),                        # absurd
     ],
 )
-def test_bad_commands_are_ignored_and_the_client_goes_on(stub: StubProcess, bad: bytes) -> None:
+def test_bad_commands_are_ignored_and_the_client_goes_on(stub: StubProcess, bad: bytes, warning: str) -> None:
     client = RawClient(stub.agent_port)
     _handshake(client)
     client.send(bad)
@@ -121,7 +121,9 @@ def test_bad_commands_are_ignored_and_the_client_goes_on(stub: StubProcess, bad:
         client.send("(syn)")
     assert joint(client.receive(), "hj1") > 1.0  # the good command after the bad one worked
     client.close()
-    assert "Traceback" not in stub.stop()
+    log = stub.stop()
+    assert "Traceback" not in log
+    assert [line for line in log.splitlines() if warning in line and "agent 127.0.0.1:" in line], log
 
 
 def test_oversized_prefix_and_a_client_vanishing_mid_frame_do_not_hurt_others(stub: StubProcess) -> None:
