@@ -135,8 +135,8 @@ class Robot:
     def _state_for_slip(self) -> slip.Pose:
         """Every part's and hinge's place and motion now, as the slip model takes them."""
         client = self._client
-        position, orientation = pb.getBasePositionAndOrientation(self._body, physicsClientId=client)
-        velocity, spin = pb.getBaseVelocity(self._body, physicsClientId=client)
+        position, _, orientation = self._base_pose()
+        velocity, spin = self._base_motion()
         table = np.vstack([position + orientation + position + velocity + spin, self._link_table()])
         return slip.Pose(table[:, :3], table[:, 3:7], table[:, 10:13], table[:, 13:16], table[1:, 7:10])
 
@@ -158,11 +158,12 @@ class Robot:
 
     def _after_step(self) -> None:
         self._prev_velocity = self._velocity
-        self._velocity = pb.getBaseVelocity(self._body, physicsClientId=self._client)[0]
+        self._velocity = self._base_motion()[0]
 
     def _invalidate(self) -> None:
         self._joints: tuple[np.ndarray, np.ndarray] | None = None
-        self._pose: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+        self._pose: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]] | None = None
+        self._motion: tuple[tuple[float, ...], tuple[float, ...]] | None = None
         self._contact_points: tuple | None = None
         self._parts: np.ndarray | None = None
         self._links: list[tuple] | None = None
@@ -225,13 +226,20 @@ class Robot:
             self._contact_points = pb.getContactPoints(bodyA=self._body, physicsClientId=self._client)
         return self._contact_points
 
-    def _base_pose(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
-        """(position, rotation as 9 floats, row-major), cached until the next step."""
+    def _base_pose(self) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
+        """(position, rotation as 9 floats row-major, quaternion), cached until the next step."""
         if self._pose is None:
             position, orientation = pb.getBasePositionAndOrientation(
                 self._body, physicsClientId=self._client)
-            self._pose = (position, pb.getMatrixFromQuaternion(orientation))
+            self._pose = (position, pb.getMatrixFromQuaternion(orientation), orientation)
         return self._pose
+
+    def _base_motion(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """(velocity, angular velocity) of the torso in the world, cached until the next step:
+        the accelerometer, the gyro and the next step's slip model read the same state."""
+        if self._motion is None:
+            self._motion = pb.getBaseVelocity(self._body, physicsClientId=self._client)
+        return self._motion
 
     def joint_angles(self) -> dict[str, float]:
         """Hinge angles in degrees by perceptor name (hj1 ... llj6), in JOINTS order."""
@@ -246,7 +254,7 @@ class Robot:
 
     def gyro(self) -> tuple[float, float, float]:
         """Torso angular velocity in the torso frame, deg/s (GYR)."""
-        omega = pb.getBaseVelocity(self._body, physicsClientId=self._client)[1]
+        omega = self._base_motion()[1]
         x, y, z = _to_local(self._base_pose()[1], omega)
         return (math.degrees(x), math.degrees(y), math.degrees(z))
 
@@ -318,7 +326,7 @@ class Robot:
         """Every body part's world pose (n x 4 x 4: part centre and axes), in ``part_names``
         order, for the monitor; computed once per step."""
         if self._parts is None:
-            position, rotation = self._base_pose()
+            position, rotation, _ = self._base_pose()
             self._parts = body_poses(np.array(position), np.array(rotation).reshape(3, 3), self._link_table())
         return self._parts
 
