@@ -11,7 +11,10 @@ of full 15-s episodes, what a converged population evaluates).
 
 With one worker it also prints the CPU time per walked cycle of the stub server (s) and of the
 worker, i.e. the agent and the episode's judge (w), read from /proc: two workers on two cores
-run at most at 2/(s + w), so s/(s + w) bounds the parallel efficiency.
+run at most at 2/(s + w), so s/(s + w) bounds the parallel efficiency: one worker alone already
+uses the second core for its agent while its server steps. So it also measures one worker held
+to one core (``sched_setaffinity``; stub and agent take turns on it), the baseline of "one worker
+per core", and prints the 2-worker rate against twice that as well.
 
 Run: ``python bench/bench_episodes.py [--episodes 60] [--gait FILE] [--agent-mode inprocess|process] [--dask]``
 (``--dask`` also runs the 2-worker case on a Dask LocalCluster and prints its overhead).
@@ -95,6 +98,19 @@ def measure(workers: int, genes: list[tuple[float, ...]], config: EpisodeConfig,
             "mean_walked": walked / len(tasks), "failed": failed, **cpu}
 
 
+def measure_on_one_core(genes: list[tuple[float, ...]], config: EpisodeConfig) -> dict[str, float] | None:
+    """``measure`` with one worker whose processes (they inherit this process's CPU set) all run
+    on one core: the per-core baseline. Unmeasured (None) where the CPU set cannot be set."""
+    if not hasattr(os, "sched_setaffinity"):
+        return None
+    cores = os.sched_getaffinity(0)
+    os.sched_setaffinity(0, {min(cores)})
+    try:
+        return measure(1, genes, config)
+    finally:
+        os.sched_setaffinity(0, cores)
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__)
     p.add_argument("--episodes", type=int, default=60)
@@ -108,12 +124,18 @@ def main() -> None:
     else:
         genes, what = [tuple(load_gait(args.gait).as_array())] * args.episodes, f"x {args.gait.name}"
     results = {n: measure(n, genes, config) for n in (1, 2)}
+    pinned = measure_on_one_core(genes, config)
     for n, r in results.items():
         print(f"{n} worker(s), {args.episodes} {what} ({args.agent_mode}): {r['wall']:.1f} s wall, "
               f"{r['episodes_per_hour']:.0f} episodes/h, {r['equivalents_per_hour']:.0f} 15-s-episode "
               f"equivalents/h (mean {r['mean_walked']:.2f} s walked per episode, {r['failed']} failed)")
     efficiency = results[2]["equivalents_per_hour"] / (2 * results[1]["equivalents_per_hour"])
     print(f"parallel efficiency with 2 workers: {efficiency:.0%}")
+    if pinned is not None:
+        per_core = results[2]["equivalents_per_hour"] / (2 * pinned["equivalents_per_hour"])
+        print(f"1 worker held to one core (its stub and agent share it, as with one worker per core): "
+              f"{pinned['equivalents_per_hour']:.0f} equivalents/h; 2 workers on 2 cores against twice that: "
+              f"{per_core:.0%}")
     one = results[1]
     if "stub_ms_per_cycle" in one and "worker_ms_per_cycle" in one:
         s, w = one["stub_ms_per_cycle"], one["worker_ms_per_cycle"]
