@@ -3,8 +3,8 @@
 The motor rules follow NAO_MODEL_FACTS.md section 3 ("How a velocity command is applied"):
 clip to the speed cap, sticky, dropped while the joint is not strictly inside (min, max), applied
 with the two-cycle action latency; a joint that starts a step outside its range is pushed back by
-the stop (ERP 0.8, bounce 1) instead of being held at the limit, as ODE's limit rows do.
-Sensors (section 5) are read lazily and cached until the next step, so a caller pays only for
+the stop (ERP 0.8, bounce 1) instead of being held at the limit, as ODE's limit rows do (the
+per-joint rule is compiled in ``server_stub.motors``). Sensors (section 5) are read lazily and cached until the next step, so a caller pays only for
 what it asks.
 """
 from __future__ import annotations
@@ -134,7 +134,6 @@ class Robot:
 
     def _state_for_slip(self) -> slip.Pose:
         """Every part's and hinge's place and motion now, as the slip model takes them."""
-        client = self._client
         position, _, orientation = self._base_pose()
         velocity, spin = self._base_motion()
         table = np.vstack([position + orientation + position + velocity + spin, self._link_table()])
