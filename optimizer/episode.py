@@ -159,7 +159,8 @@ class EpisodeRunner:
 
     A server or agent that dies or hangs is detected, the stub restarted, the episode retried once;
     if that fails too the episode is returned as failed with its reason. ``evaluate`` never raises
-    for such failures, so a worker keeps going.
+    for such failures, so a worker keeps going. ``config`` is read afresh by every episode, so it
+    may be replaced between episodes (another start point, say) while the server is kept.
     """
 
     def __init__(self, config: EpisodeConfig = EpisodeConfig(), server: ServerAddress | None = None,

@@ -1,11 +1,17 @@
-"""``python -m optimizer.episode``: walk one gait once and print how it scored (paper eq. 9).
+"""``python -m optimizer.episode``: walk one gait and print how it scored (paper eq. 9).
 
     python -m optimizer.episode                          # the shipped gait, on the embedded stub
     python -m optimizer.episode --gait runs/gala-.../best_gait.json --server 127.0.0.1:3100:3200
     python -m optimizer.episode --json                   # one JSON object: distance, fell, time, fitness, ...
     python -m optimizer.episode --start -5 2 10          # start at x -5, y 2, heading 10 deg
+    python -m optimizer.episode --repeat 10 --jitter 0.05 0.05 2 --seed 1
+                                                         # 10 walks, each start moved by up to 5 cm and 2 deg
 
-Exit status 0 when the episode ran (whatever the gait did), 1 when it could not be run.
+The stub is deterministic, so repeated walks from one start are the same walk; ``--jitter`` moves
+each start by a seeded random amount, which is how a gait's stability shows on it (a real server
+varies by itself). With ``--json`` each walk prints one JSON object on its own line.
+
+Exit status 0 when every episode ran (whatever the gait did), 1 when one could not be run.
 """
 from __future__ import annotations
 
@@ -13,10 +19,16 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
+from dataclasses import replace
+
+import numpy as np
 
 from gait import DEFAULT_GAIT_PATH, GaitFileError, TFSParams, load_gait
 from optimizer.command_line import EPISODE_DEFAULTS, add_episode_arguments, episode_config, server_address
-from optimizer.episode import EpisodeRunner
+from optimizer.episode import EpisodeResult, EpisodeRunner
+from protocol.cli_values import non_negative, positive_int
+
+Start = tuple[float, float, float]
 
 
 def gait_file(text: str) -> TFSParams:
@@ -34,25 +46,64 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--server", type=server_address, default=None, metavar="HOST:AGENT_PORT:MONITOR_PORT",
                    help="a running rcssserver3d (default: start the embedded stub)")
     add_episode_arguments(p)
-    p.add_argument("--seed", type=int, default=0, help="seed of the embedded stub (default 0)")
-    p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    p.add_argument("--repeat", type=positive_int, default=1, metavar="N",
+                   help="walk N times, a fresh agent each time (default 1)")
+    p.add_argument("--jitter", type=non_negative, nargs=3, default=(0.0, 0.0, 0.0), metavar=("DX", "DY", "DEG"),
+                   help="move each walk's start by a random amount within +-DX, +-DY (m) and +-DEG "
+                        "(heading), drawn from --seed (default 0 0 0)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the embedded stub and of the --jitter draws (default 0)")
+    p.add_argument("--json", action="store_true", help="print JSON (one object per walk) instead of text")
     return p
+
+
+def starts(base: Sequence[float], jitter: Sequence[float], count: int, seed: int) -> list[Start]:
+    """``count`` start points (x, y, heading): ``base`` itself without jitter, else each drawn
+    uniformly within +-``jitter`` of it."""
+    if not any(jitter):
+        return [(base[0], base[1], base[2])] * count
+    rng = np.random.default_rng(seed)
+    offsets = rng.uniform(-1.0, 1.0, size=(count, 3)) * np.asarray(jitter, dtype=float)
+    return [(base[0] + dx, base[1] + dy, base[2] + dh) for dx, dy, dh in offsets.tolist()]
+
+
+def _line(result: EpisodeResult) -> str:
+    return (f"distance {result.distance:.3f} m in {result.time:.2f} s walked "
+            f"({'fell' if result.fell else 'did not fall'}); fitness {result.fitness:.4f}; "
+            f"mean speed {result.mean_speed:.3f} m/s")
+
+
+def summary(results: Sequence[EpisodeResult]) -> str:
+    """One line over repeated walks: how many fell, the spread of the distances."""
+    ran = [r for r in results if r.status == "ok"]
+    if not ran:
+        return f"{len(results)} walks, none could be run"
+    distances = [r.distance for r in ran]
+    return (f"{len(ran)} walks: {sum(r.fell for r in ran)} fell; distance {min(distances):.3f}-"
+            f"{max(distances):.3f} m, mean {sum(distances) / len(ran):.3f} m; mean speed "
+            f"{sum(r.mean_speed for r in ran) / len(ran):.3f} m/s"
+            + (f"; {len(results) - len(ran)} could not be run" if len(ran) < len(results) else ""))
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     params = args.gait or load_gait(DEFAULT_GAIT_PATH)
-    config = episode_config(args.walk_time or EPISODE_DEFAULTS["walk_time"], args.start or EPISODE_DEFAULTS["start"],
-                            args.agent_mode or EPISODE_DEFAULTS["agent_mode"])
-    with EpisodeRunner(config, args.server, seed=args.seed) as runner:
-        result = runner.evaluate(params)
-    if args.json:
-        print(json.dumps(result.to_dict()))
-    elif result.status == "ok":
-        print(f"distance {result.distance:.3f} m in {result.time:.2f} s walked "
-              f"({'fell' if result.fell else 'did not fall'}); fitness {result.fitness:.4f}; "
-              f"mean speed {result.mean_speed:.3f} m/s")
-    if result.status != "ok":
-        print(f"error: the episode could not be run: {result.reason}", file=sys.stderr)
-        return 1
-    return 0
+    base = episode_config(args.walk_time or EPISODE_DEFAULTS["walk_time"], args.start or EPISODE_DEFAULTS["start"],
+                          args.agent_mode or EPISODE_DEFAULTS["agent_mode"])
+    points = starts((*base.start, base.heading), args.jitter, args.repeat, args.seed)
+    results = []
+    with EpisodeRunner(base, args.server, seed=args.seed) as runner:
+        for x, y, heading in points:
+            runner.config = replace(base, start=(x, y), heading=heading)
+            result = runner.evaluate(params)
+            results.append(result)
+            where = f"start {x:.4f} {y:.4f} {heading:.4f}: " if len(points) > 1 else ""
+            if args.json:
+                print(json.dumps({**result.to_dict(), "start": [x, y, heading]}), flush=True)
+            elif result.status == "ok":
+                print(where + _line(result), flush=True)
+            if result.status != "ok":
+                print(f"error: {where}the episode could not be run: {result.reason}", file=sys.stderr)
+    if len(results) > 1 and not args.json:
+        print(summary(results))
+    return 0 if all(r.status == "ok" for r in results) else 1

@@ -38,6 +38,11 @@ def positive_float(text: str) -> float:
     return checked(value, value > 0, f"must be > 0, got {text}")
 
 
+def non_negative(text: str) -> float:
+    value = number(text)
+    return checked(value, value >= 0, f"must be >= 0, got {text}")
+
+
 def probability(text: str) -> float:
     value = number(text)
     return checked(value, 0.0 <= value <= 1.0, f"must be a rate within [0, 1], got {text}")

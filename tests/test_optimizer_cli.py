@@ -7,6 +7,8 @@ import json
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from gait import load_gait
 from optimizer import episode_command, ga_command, gala_command
@@ -224,8 +226,64 @@ def test_episode_command_refuses_a_bad_gait_file_or_server(tmp_path: Path, capsy
     bad.write_text("{}")
     for argv, flag in ((["--gait", str(bad)], "--gait"), (["--server", "nowhere"], "--server"),
                        (["--agent-mode", "thread"], "--agent-mode"), (["--start", "1", "2"], "--start"),
-                       (["--start", "1", "2", "nan"], "--start")):
+                       (["--start", "1", "2", "nan"], "--start"), (["--repeat", "0"], "--repeat"),
+                       (["--jitter", "0.1", "-0.1", "0"], "--jitter"), (["--jitter", "0.1", "0.1"], "--jitter")):
         with pytest.raises(SystemExit) as exit_info:
             episode_command.main(argv)
         assert exit_info.value.code == 2
         assert flag in capsys.readouterr().err
+
+
+class _RecordingRunner:
+    """Stands in for EpisodeRunner: records the config of every walk; ``fail_at`` fails one."""
+
+    walks: list = []
+    fail_at: int | None = None
+
+    def __init__(self, config, server, seed):
+        self.config = config
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        pass
+
+    def evaluate(self, params):
+        self.walks.append(self.config)
+        if len(self.walks) - 1 == self.fail_at:
+            return EpisodeResult.failed("server gone", 1.0)
+        return EpisodeResult(float(len(self.walks)), len(self.walks) == 2, 15.0, 10.0 * len(self.walks), 0.1)
+
+
+def test_episode_command_repeats_from_jittered_starts(monkeypatch, capsys) -> None:
+    _RecordingRunner.walks, _RecordingRunner.fail_at = [], None
+    monkeypatch.setattr(episode_command, "EpisodeRunner", _RecordingRunner)
+    argv = ["--start", "-6", "3", "90", "--repeat", "4", "--jitter", "0.1", "0.2", "5", "--seed", "7"]
+    assert episode_command.main([*argv, "--json"]) == 0
+    lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    expected = episode_command.starts((-6.0, 3.0, 90.0), (0.1, 0.2, 5.0), 4, seed=7)
+    assert [tuple(line["start"]) for line in lines] == expected
+    assert [(c.start, c.heading) for c in _RecordingRunner.walks] == [((x, y), h) for x, y, h in expected]
+    assert [line["distance"] for line in lines] == [1.0, 2.0, 3.0, 4.0]
+
+    _RecordingRunner.walks, _RecordingRunner.fail_at = [], 2
+    assert episode_command.main(argv) == 1  # one walk could not be run
+    out, err = capsys.readouterr()
+    assert "could not be run: server gone" in err
+    assert len(out.splitlines()) == 4  # the three that ran, then the summary
+    assert out.splitlines()[-1] == ("3 walks: 1 fell; distance 1.000-4.000 m, mean 2.333 m; "
+                                    "mean speed 0.100 m/s; 1 could not be run")
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.floats(-10, 10), min_size=3, max_size=3), st.lists(st.floats(0, 2), min_size=3, max_size=3),
+       st.integers(1, 20), st.integers(0, 2**32))
+def test_jittered_starts_stay_within_the_jitter_and_follow_the_seed(base, jitter, count, seed) -> None:
+    points = episode_command.starts(base, jitter, count, seed)
+    assert len(points) == count
+    for point in points:
+        assert all(abs(p - b) <= j + 1e-9 for p, b, j in zip(point, base, jitter))
+    assert points == episode_command.starts(base, jitter, count, seed)
+    if not any(jitter):
+        assert points == [tuple(base)] * count
