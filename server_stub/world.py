@@ -93,6 +93,7 @@ class World:
             numSolverIterations=cfg.solver_iterations,
             globalCFM=cfg.global_cfm,
             contactBreakingThreshold=cfg.contact_breaking_threshold,
+            contactSlop=cfg.contact_slop,
             deterministicOverlappingPairs=1,
             constraintSolverType=_SOLVERS[cfg.solver],
             physicsClientId=c,
