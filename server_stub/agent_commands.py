@@ -18,8 +18,9 @@ _FLAT_COMMAND = re.compile(rb"\(([A-Za-z]\w*)(?: ([^()\s]+))?\)")
 def flat_commands(frame: bytes) -> list[tuple[bytes, bytes]] | None:
     """The ``(name, value)`` pairs of a message made only of one-argument commands and ``(syn)``
     (whose value is ``b""``), undecoded: every cycle's effector message takes this path, so the
-    server reads it without building lists or strings. None for any other message."""
-    if _FLAT_MESSAGE.fullmatch(frame):
+    server reads it without building lists or strings. None for any other message, and for one
+    that is not ASCII (the general reader reports where)."""
+    if frame.isascii() and _FLAT_MESSAGE.fullmatch(frame):
         return _FLAT_COMMAND.findall(frame)
     return None
 

@@ -107,6 +107,8 @@ def test_two_teams_and_removal_of_a_disconnected_robot(stub: StubProcess) -> Non
         (b"(lle3 nan)(syn)", "(lle3 ...) ignored: velocity for lle3 must be finite"),
         (b"(scene rsg/agent/nao/other.rsg)(syn)", "(scene ...) ignored: robot already created"),
         (b"(beam 1e400 0 0)(syn)", "(beam ...) ignored"),                        # absurd
+        (b"(he1 \xff)(syn)", "does not parse: at position 5: expected an ASCII character"),  # not ASCII
+        (b"(say \xc3\xa9)(syn)", "does not parse: at position 5: expected an ASCII character"),
     ],
 )
 def test_bad_commands_are_ignored_and_the_client_goes_on(stub: StubProcess, bad: bytes, warning: str) -> None:
