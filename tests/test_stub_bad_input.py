@@ -1,5 +1,5 @@
-"""Whatever an agent sends, the stub's command handling never raises (a malformed message must not
-take the server down): hypothesis drives the server's frame handler in-process, the way the
+"""Whatever an agent or a trainer sends, the stub never raises (a malformed message must not
+take the server down): hypothesis drives the server's frame handlers in-process, the way the
 socket loop calls it, with command-shaped text and with arbitrary bytes."""
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ def command_texts(draw) -> bytes:
     return text.encode(draw(st.sampled_from(["ascii", "utf-8", "latin-1"])), errors="replace")
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture()
 def server_and_agent():
     server = StubServer(ServerConfig(agent_port=0, monitor_port=0, sync=True, realtime=False))
     listener = socket.create_server(("127.0.0.1", 0))
@@ -69,3 +69,29 @@ def test_no_frame_makes_the_command_handler_raise(server_and_agent, frame: bytes
     x, y, z = state.robot.torso_position()
     assert all(math.isfinite(v) for v in (x, y, z))
     state.robot.beam(-3.0, 0.0, 0.0)  # back on the field for the next example
+
+
+TRAINER_NAMES = ["playMode", "kickOff", "time", "agent", "ball", "dropBall", "score", "repos", "kill",
+                 "select", "reqfullstate", "killsim", "nonsense"]
+FIELDS = ["team", "unum", "pos", "move", "vel", "left", "right", "battery"]
+
+
+@st.composite
+def trainer_texts(draw) -> bytes:
+    """Trainer commands with fields of any arity and atoms of any kind, as another team's trainer
+    or a broken one might send them."""
+    commands = []
+    for _ in range(draw(st.integers(0, 3))):
+        fields = "".join(f"({draw(st.sampled_from(FIELDS))} {' '.join(draw(st.lists(ATOMS, max_size=5)))})"
+                         for _ in range(draw(st.integers(0, 3))))
+        atoms = " ".join(draw(st.lists(st.one_of(ATOMS, st.sampled_from(["Left", "Right", "PlayOn", "1"])), max_size=2)))
+        commands.append(f"({draw(st.sampled_from(TRAINER_NAMES))} {atoms}{fields})")
+    return "".join(commands).encode(draw(st.sampled_from(["ascii", "latin-1"])), errors="replace")
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.one_of(trainer_texts(), st.binary(max_size=80)))
+def test_no_trainer_message_makes_the_server_raise(server_and_agent, frame: bytes) -> None:
+    server, client, _ = server_and_agent
+    server._on_trainer_frame(client, frame)
+    server.world.step()
