@@ -1,6 +1,6 @@
 """Whatever an agent or a trainer sends, the stub never raises (a malformed message must not
 take the server down): hypothesis drives the server's frame handlers in-process, the way the
-socket loop calls it, with command-shaped text and with arbitrary bytes."""
+socket loop calls them, with command-shaped text and with arbitrary bytes."""
 from __future__ import annotations
 
 import math
