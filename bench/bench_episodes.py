@@ -33,8 +33,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from gait import GENE_BOUNDS, load_gait, repair_genes  # noqa: E402
 from optimizer.episode import EpisodeConfig  # noqa: E402
-from protocol.nao import CYCLE  # noqa: E402
 from optimizer.evaluation import EpisodeRunnerFactory, EpisodeTask, ProcessPoolEvaluator  # noqa: E402
+from protocol.nao import CYCLE  # noqa: E402
 
 
 def gaits(count: int, seed: int) -> list[tuple[float, ...]]:

@@ -2,8 +2,9 @@
 
 Run: ``python bench/bench_parser.py`` (from the repository root). Prints per-message times:
 typical = median over all messages, and the mean for messages with and without vision, for
-``parse_perception`` alone and with its lazily read ``.vision`` used; the comparator is ``sexpdata.loads("(" + msg + ")")`` (a tree only, no typed result) on the same
-messages in the same run. Also times the monitor reader on ``monitor_full_run.txt``.
+``parse_perception`` alone and with its lazily read ``.vision`` used; the comparator is
+``sexpdata.loads("(" + msg + ")")`` (a tree only, no typed result) on the same messages in the
+same run. Also times the monitor reader on ``monitor_full_run.txt``.
 """
 from __future__ import annotations
 

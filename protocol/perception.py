@@ -103,9 +103,9 @@ class Perception:
     without contact; ``unknown`` holds the raw text of perceptors this reader does not know.
 
     ``vision`` is read from the message on first use: reading a ``See`` took the fast path 4 to 10
-    times as long as the rest of the message, and an agent that only walks never looks at it. Its layout (which entries)
-    is checked when the message is parsed, its numbers on first use, which raises ``ProtocolError``
-    for a bad one, naming its place in the message.
+    times as long as the rest of the message, and an agent that only walks never looks at it. Its
+    layout (which entries) is checked when the message is parsed, its numbers on first use, which
+    raises ``ProtocolError`` for a bad one, naming its place in the message.
     """
 
     time: float

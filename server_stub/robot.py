@@ -4,8 +4,8 @@ The motor rules follow NAO_MODEL_FACTS.md section 3 ("How a velocity command is 
 clip to the speed cap, sticky, dropped while the joint is not strictly inside (min, max), applied
 with the two-cycle action latency; a joint that starts a step outside its range is pushed back by
 the stop (ERP 0.8, bounce 1) instead of being held at the limit, as ODE's limit rows do (the
-per-joint rule is compiled in ``server_stub.motors``). Sensors (section 5) are read lazily and cached until the next step, so a caller pays only for
-what it asks.
+per-joint rule is compiled in ``server_stub.motors``). Sensors (section 5) are read lazily and
+cached until the next step, so a caller pays only for what it asks.
 """
 from __future__ import annotations
 
@@ -160,7 +160,7 @@ class Robot:
         self._velocity = self._base_motion()[0]
 
     def _invalidate(self) -> None:
-        self._joints: tuple[np.ndarray, np.ndarray] | None = None
+        self._joints: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._pose: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]] | None = None
         self._motion: tuple[tuple[float, ...], tuple[float, ...]] | None = None
         self._contact_points: tuple | None = None
