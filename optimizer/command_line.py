@@ -222,8 +222,8 @@ def run_session(run: Run, planned_episodes: int, body: Callable[[Driver], str], 
     logged = list(log.records.values())
     say(f"{run.command}: run folder {run.folder.path} (seed {run.seed}, {run.setup.workers} worker(s)"
         + (f", {len(logged)} episodes already logged)" if run.resumed else ")"))
-    progress = BarProgress(planned_episodes, len(logged), max((r["fitness"] for r in logged), default=-math.inf),
-                           quiet=quiet)
+    searched = (r["fitness"] for r in logged if "start" not in r)  # not a stability check's walk
+    progress = BarProgress(planned_episodes, len(logged), max(searched, default=-math.inf), quiet=quiet)
     evaluator: Evaluator | None = None
     try:
         evaluator = make_evaluator(run.setup)
@@ -241,7 +241,7 @@ def run_session(run: Run, planned_episodes: int, body: Callable[[Driver], str], 
         if evaluator is not None:
             evaluator.close()
         log.close()
-    progress.close()
+    progress.close(finished=True)
     print(summary)
     return 0
 

@@ -50,7 +50,7 @@ def _run_episode(task: EpisodeTask) -> tuple[dict, str]:
     """The Dask task: one episode on this worker's runner."""
     worker = get_worker()
     plugin: EpisodeRunnerPlugin = worker.plugins[_PLUGIN]
-    return plugin.runner.evaluate(task.genes, seed=task.seed).to_dict(), str(worker.name)
+    return task.run_on(plugin.runner), str(worker.name)
 
 
 class DaskEvaluator:

@@ -8,11 +8,12 @@ exactly the state of an uninterrupted run, and no episode is ever run twice.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any, Protocol
 
 from tqdm import tqdm
 
+from optimizer.episode import Start
 from optimizer.evaluation import EpisodeTask, Evaluator, stable_seed
 from optimizer.ga import AskTellSearch
 from optimizer.run_folder import EpisodeLog
@@ -47,32 +48,45 @@ class Driver:
     def run(self, search: AskTellSearch) -> Any:
         """Drive ``search`` to the end and return its ``result()``."""
         while not search.done:
-            answers: dict[str, float] = {}
-            tasks: list[EpisodeTask] = []
-            for candidate in search.ask():
-                genes = tuple(float(g) for g in candidate.genes)
-                record = self.log.records.get(candidate.key)
-                if record is None:
-                    tasks.append(EpisodeTask(candidate.key, genes, stable_seed(self.run_seed, candidate.key)))
-                    continue
-                if tuple(record["genes"]) != genes:
-                    raise ResumeMismatch(
-                        f"episode {candidate.key!r}: the log holds other genes than the search asks "
-                        f"({record['genes']} vs {list(genes)}); was the run made with other settings or code?"
-                    )
-                answers[candidate.key] = float(record["fitness"])
-            if tasks:
-                if self.progress is not None:
-                    self.progress.batch(tasks[0].key.rsplit("/", 1)[0])
-                for outcome in self.evaluator.evaluate(tasks):
-                    record = outcome.to_record()
-                    self.log.append(record)
-                    self.evaluated += 1
-                    answers[outcome.task.key] = outcome.fitness
-                    if self.progress is not None:
-                        self.progress.episode(record)
-            search.tell(answers)
+            tasks = [self.task(c.key, c.genes) for c in search.ask()]
+            records = self.walk(tasks)
+            search.tell({key: float(record["fitness"]) for key, record in records.items()})
         return search.result()
+
+    def task(self, key: str, genes: Sequence[float], start: Start | None = None) -> EpisodeTask:
+        """The episode ``key`` of this run, with its own seed."""
+        return EpisodeTask(key, tuple(float(g) for g in genes), stable_seed(self.run_seed, key), start)
+
+    def walk(self, tasks: Sequence[EpisodeTask]) -> dict[str, dict[str, Any]]:
+        """Each task's log record: from the log when it holds the key, else evaluated (as one
+        batch) and logged as it finishes. A logged key must have the task's genes and start."""
+        records: dict[str, dict[str, Any]] = {}
+        todo: list[EpisodeTask] = []
+        for task in tasks:
+            record = self.log.records.get(task.key)
+            if record is None:
+                todo.append(task)
+                continue
+            logged = (tuple(record["genes"]), record.get("start"))
+            asked = (task.genes, None if task.start is None else list(task.start))
+            if logged != asked:
+                raise ResumeMismatch(
+                    f"episode {task.key!r}: the log holds other genes or another start than the search "
+                    f"asks (genes {record['genes']}, start {logged[1]} vs genes {list(task.genes)}, start "
+                    f"{asked[1]}); was the run made with other settings or code?"
+                )
+            records[task.key] = record
+        if todo:
+            if self.progress is not None:
+                self.progress.batch(todo[0].key.rsplit("/", 1)[0])
+            for outcome in self.evaluator.evaluate(todo):
+                record = outcome.to_record()
+                self.log.append(record)
+                self.evaluated += 1
+                records[outcome.task.key] = record
+                if self.progress is not None:
+                    self.progress.episode(record)
+        return records
 
 
 class BarProgress:
@@ -93,7 +107,8 @@ class BarProgress:
         self._show()
 
     def episode(self, record: Mapping[str, Any]) -> None:
-        self.best = max(self.best, float(record["fitness"]))
+        if "start" not in record:  # a stability check's walk from a moved start is not the search's
+            self.best = max(self.best, float(record["fitness"]))
         self.failed += record.get("status") == "failed"
         self._bar.update(1)
         self._show()
@@ -104,5 +119,10 @@ class BarProgress:
             postfix["failed"] = str(self.failed)
         self._bar.set_postfix(postfix, refresh=False)
 
-    def close(self) -> None:
+    def close(self, finished: bool = False) -> None:
+        """``finished``: the run is done, so the bar shows 100% even where the planned total was
+        an estimate (how many walks the stability checks take depends on which walks fall)."""
+        if finished and self._bar.total != self._bar.n:
+            self._bar.total = self._bar.n
+            self._bar.refresh()
         self._bar.close()

@@ -26,7 +26,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from agent import AgentConfig, AgentError, NaoAgent
@@ -38,7 +38,10 @@ from protocol.monitor import MonitorReader, MonitorState, RobotPose
 
 log = logging.getLogger("optimizer.episode")
 
-__all__ = ["EpisodeConfig", "EpisodeResult", "EpisodeRunner", "ServerAddress"]
+__all__ = ["EpisodeConfig", "EpisodeResult", "EpisodeRunner", "ServerAddress", "Start"]
+
+#: A start point on the field: x, y (m) and heading (deg, 0 = +x).
+Start = tuple[float, float, float]
 
 
 @dataclass(frozen=True)
@@ -58,6 +61,11 @@ class EpisodeConfig:
     #: Fall rule (community run benchmark): torso up-vector z below / torso height below.
     fall_up_z: float = 0.6
     fall_height: float = 0.25
+
+    def starting_at(self, start: Start) -> "EpisodeConfig":
+        """This config with another start point and heading."""
+        x, y, heading = start
+        return replace(self, start=(float(x), float(y)), heading=float(heading))
 
     def __post_init__(self) -> None:
         if not self.walk_time > 0:
@@ -164,8 +172,8 @@ class EpisodeRunner:
 
     A server or agent that dies or hangs is detected, the stub restarted, the episode retried once;
     if that fails too the episode is returned as failed with its reason. ``evaluate`` never raises
-    for such failures, so a worker keeps going. ``config`` is read afresh by every episode, so it
-    may be replaced between episodes (another start point, say) while the server is kept.
+    for such failures, so a worker keeps going. Each episode may start elsewhere (``start``) on
+    the same server: a stability check walks one gait from several nearby starts.
     """
 
     def __init__(self, config: EpisodeConfig = EpisodeConfig(), server: ServerAddress | None = None,
@@ -180,16 +188,18 @@ class EpisodeRunner:
         logging.getLogger("agent").setLevel(logging.ERROR)
 
     # ----- public -----
-    def evaluate(self, genes: Sequence[float] | TFSParams, seed: int | None = None) -> EpisodeResult:
-        """Walk ``genes`` once. ``seed`` is accepted for the evaluator's bookkeeping; no outcome
-        depends on it: the physics is deterministic and the walking agent uses no vision, the
-        only noisy sensor."""
+    def evaluate(self, genes: Sequence[float] | TFSParams, seed: int | None = None,
+                 start: Start | None = None) -> EpisodeResult:
+        """Walk ``genes`` once, from ``start`` (x, y, heading) if given, else from the config's.
+        ``seed`` is accepted for the evaluator's bookkeeping; no outcome depends on it: the
+        physics is deterministic and the walking agent uses no vision, the only noisy sensor."""
         params = genes if isinstance(genes, TFSParams) else TFSParams.from_array(list(genes))
+        config = self.config if start is None else self.config.starting_at(start)
         started = time.monotonic()
         reason = ""
         for attempt in (1, 2):
             try:
-                result = self._episode(params)
+                result = self._episode(params, config)
                 return EpisodeResult(**{**result.to_dict(), "wall": time.monotonic() - started})
             except (EpisodeFailure, AgentError, OSError, RuntimeError) as exc:
                 reason = f"{type(exc).__name__}: {exc}"
@@ -231,30 +241,30 @@ class EpisodeRunner:
             self._monitor.close()
             self._monitor = None
 
-    def _prepare(self, link: MonitorLink) -> None:
+    def _prepare(self, link: MonitorLink, config: EpisodeConfig) -> None:
         """Reset what a long-running server carries over from the previous episode."""
-        sx, sy = self.config.start
+        sx, sy = config.start
         link.send(trainer.play_mode("BeforeKickOff"), trainer.set_time(0.0),
                   trainer.ball((sx, sy + 5.0, 0.042), (0.0, 0.0, 0.0)))
         link.poll()
 
-    def _agent_config(self, address: ServerAddress) -> AgentConfig:
-        sx, sy = self.config.start
+    def _agent_config(self, address: ServerAddress, config: EpisodeConfig) -> AgentConfig:
+        sx, sy = config.start
         # our own stub answers scene at once; a (syn) nudge racing its first perception would let
         # it step once more before init and make episodes depend on timing
         nudge = None if self._stub is not None else AgentConfig.syn_nudge_interval
-        return AgentConfig(host=address.host, port=address.agent_port, team=self.config.team,
-                           unum=self.config.unum, beam=(sx, sy, self.config.heading), sync=True,
-                           duration=None, start_now=True, timeout=self.config.episode_timeout,
+        return AgentConfig(host=address.host, port=address.agent_port, team=config.team,
+                           unum=config.unum, beam=(sx, sy, config.heading), sync=True,
+                           duration=None, start_now=True, timeout=config.episode_timeout,
                            syn_nudge_interval=nudge)
 
-    def _episode(self, params: TFSParams) -> EpisodeResult:
+    def _episode(self, params: TFSParams, config: EpisodeConfig) -> EpisodeResult:
         address = self._address()
         link = self._link()
-        self._prepare(link)
-        judge = _Judge(self.config)
-        deadline = time.monotonic() + self.config.episode_timeout
-        if self.config.agent_mode == "inprocess":
+        self._prepare(link, config)
+        judge = _Judge(config)
+        deadline = time.monotonic() + config.episode_timeout
+        if config.agent_mode == "inprocess":
             self._run_inprocess(params, address, link, judge, deadline)
         else:
             self._run_process(params, address, link, judge, deadline)
@@ -263,7 +273,7 @@ class EpisodeRunner:
 
     def _run_inprocess(self, params: TFSParams, address: ServerAddress, link: MonitorLink,
                        judge: _Judge, deadline: float) -> None:
-        config = self._agent_config(address)
+        config = self._agent_config(address, judge.config)
         agent = NaoAgent(config, gait=params)
         agent.connect()
         play_on_sent = False
@@ -279,7 +289,7 @@ class EpisodeRunner:
                 for state in link.poll():
                     judge.feed(state)
                 if time.monotonic() > deadline:
-                    raise EpisodeFailure(f"no result within {self.config.episode_timeout:g} s")
+                    raise EpisodeFailure(f"no result within {judge.config.episode_timeout:g} s")
         finally:
             agent.close()
         self._await_robot_gone(link, deadline)
@@ -287,11 +297,12 @@ class EpisodeRunner:
     def _run_process(self, params: TFSParams, address: ServerAddress, link: MonitorLink,
                      judge: _Judge, deadline: float) -> None:
         gait_file = save_gait(params, Path(self._tmp.name) / "gait.json")
-        sx, sy = self.config.start
+        config = judge.config
+        sx, sy = config.start
         command = [sys.executable, "-m", "agent", "--host", address.host, "--port", str(address.agent_port),
-                   "--team", self.config.team, "--unum", str(self.config.unum), "--gait", str(gait_file),
-                   "--beam", str(sx), str(sy), str(self.config.heading), "--sync", "--start-now",
-                   "--timeout", str(self.config.episode_timeout)]
+                   "--team", config.team, "--unum", str(config.unum), "--gait", str(gait_file),
+                   "--beam", str(sx), str(sy), str(config.heading), "--sync", "--start-now",
+                   "--timeout", str(config.episode_timeout)]
         process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                                    env=dict(os.environ))
         try:
@@ -301,7 +312,7 @@ class EpisodeRunner:
             play_on_sent = False
             while judge.result is None:
                 for state in link.poll(wait=0.05):
-                    robot = _find_robot(state, "left", self.config.unum)
+                    robot = _find_robot(state, "left", config.unum)
                     if robot is not None and not play_on_sent:
                         settle_messages += 1
                         if settle_messages * 2 >= AgentConfig.settle_cycles + 2:
@@ -312,8 +323,8 @@ class EpisodeRunner:
                     raise EpisodeFailure(f"agent process exited early ({process.returncode}): "
                                          f"{(process.stderr.read() if process.stderr else '').strip()}")
                 if time.monotonic() > deadline:
-                    raise EpisodeFailure(f"no result within {self.config.episode_timeout:g} s")
-            link.send(trainer.kill(self.config.unum, "Left"))
+                    raise EpisodeFailure(f"no result within {judge.config.episode_timeout:g} s")
+            link.send(trainer.kill(config.unum, "Left"))
             process.wait(timeout=max(1.0, deadline - time.monotonic()))
         finally:
             if process.poll() is None:

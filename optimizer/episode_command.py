@@ -19,16 +19,12 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
-from dataclasses import replace
-
-import numpy as np
 
 from gait import DEFAULT_GAIT_PATH, GaitFileError, TFSParams, load_gait
 from optimizer.command_line import EPISODE_DEFAULTS, add_episode_arguments, episode_config, server_address
 from optimizer.episode import EpisodeResult, EpisodeRunner
+from optimizer.stability import jittered_starts
 from protocol.cli_values import non_negative, positive_int
-
-Start = tuple[float, float, float]
 
 
 def gait_file(text: str) -> TFSParams:
@@ -57,16 +53,6 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def starts(base: Sequence[float], jitter: Sequence[float], count: int, seed: int) -> list[Start]:
-    """``count`` start points (x, y, heading): ``base`` itself without jitter, else each drawn
-    uniformly within +-``jitter`` of it."""
-    if not any(jitter):
-        return [(base[0], base[1], base[2])] * count
-    rng = np.random.default_rng(seed)
-    offsets = rng.uniform(-1.0, 1.0, size=(count, 3)) * np.asarray(jitter, dtype=float)
-    return [(base[0] + dx, base[1] + dy, base[2] + dh) for dx, dy, dh in offsets.tolist()]
-
-
 def _line(result: EpisodeResult) -> str:
     return (f"distance {result.distance:.3f} m in {result.time:.2f} s walked "
             f"({'fell' if result.fell else 'did not fall'}); fitness {result.fitness:.4f}; "
@@ -90,12 +76,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     params = args.gait or load_gait(DEFAULT_GAIT_PATH)
     base = episode_config(args.walk_time or EPISODE_DEFAULTS["walk_time"], args.start or EPISODE_DEFAULTS["start"],
                           args.agent_mode or EPISODE_DEFAULTS["agent_mode"])
-    points = starts((*base.start, base.heading), args.jitter, args.repeat, args.seed)
+    points = jittered_starts((*base.start, base.heading), args.jitter, args.repeat, args.seed)
     results = []
     with EpisodeRunner(base, args.server, seed=args.seed) as runner:
         for x, y, heading in points:
-            runner.config = replace(base, start=(x, y), heading=heading)
-            result = runner.evaluate(params)
+            result = runner.evaluate(params, start=(x, y, heading))
             results.append(result)
             where = f"start {x:.4f} {y:.4f} {heading:.4f}: " if len(points) > 1 else ""
             if args.json:

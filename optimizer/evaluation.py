@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from typing import Any, Protocol
 
-from optimizer.episode import EpisodeConfig, EpisodeRunner, ServerAddress
+from optimizer.episode import EpisodeConfig, EpisodeRunner, ServerAddress, Start
 
 
 def stable_seed(run_seed: int, name: str) -> int:
@@ -42,11 +42,17 @@ def stable_seed(run_seed: int, name: str) -> int:
 @dataclass(frozen=True)
 class EpisodeTask:
     """One episode to run: the candidate's key and genes, and its own seed (``stable_seed`` of the
-    run seed and the key), so its result does not depend on which worker runs it or when."""
+    run seed and the key), so its result does not depend on which worker runs it or when.
+    ``start`` (x, y, heading) moves this episode's start point; None walks from the run's."""
 
     key: str
     genes: tuple[float, ...]
     seed: int
+    start: Start | None = None
+
+    def run_on(self, runner: "Runner") -> dict[str, Any]:
+        """This episode on ``runner``, as the result dict a worker sends back."""
+        return dict(runner.evaluate(self.genes, seed=self.seed, start=self.start).to_dict())
 
 
 def failed_result(reason: str, wall: float) -> dict[str, Any]:
@@ -70,8 +76,10 @@ class EpisodeOutcome:
         return float(self.result["fitness"])
 
     def to_record(self) -> dict[str, Any]:
-        """The episode log's line: key, genes, seed, worker and every field of the result."""
-        return {"key": self.task.key, "genes": list(self.task.genes), "seed": self.task.seed,
+        """The episode log's line: key, genes, seed, start (when the task moved it), worker and
+        every field of the result."""
+        start = {} if self.task.start is None else {"start": list(self.task.start)}
+        return {"key": self.task.key, "genes": list(self.task.genes), "seed": self.task.seed, **start,
                 "worker": self.worker, **self.result}
 
 
@@ -94,7 +102,7 @@ class EvaluationError(RuntimeError):
 class Runner(Protocol):
     """What a worker needs from an episode runner (``optimizer.episode.EpisodeRunner``)."""
 
-    def evaluate(self, genes: Sequence[float], seed: int) -> Any: ...
+    def evaluate(self, genes: Sequence[float], seed: int, start: Start | None = None) -> Any: ...
 
     def close(self) -> None: ...
 
@@ -139,7 +147,7 @@ def _worker_main(factory: RunnerFactory, index: int, conn: Connection) -> None:
             if task is None:
                 break
             try:
-                message = ("done", task.key, dict(runner.evaluate(task.genes, seed=task.seed).to_dict()))
+                message = ("done", task.key, task.run_on(runner))
             except Exception:
                 message = ("error", task.key, traceback.format_exc(limit=4))
             conn.send(message)

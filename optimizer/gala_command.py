@@ -5,17 +5,23 @@ rate (automata(10) over 0.00 ... 0.09, a = 0.1, b = 0.2, 100 iterations, populat
 final GA with (crossover, optimal mutation) runs ``--generations`` generations and gives the row's
 best fitness. ``--budget quick`` is a first look in a few minutes.
 
+Each row's best gait is then checked (``optimizer.stability``): walked ``--check-repeats`` times
+(default 10) from starts moved within ``--check-jitter`` (default the real server's beam noise,
++-5 cm and +-10 deg); Table I reports its falls and shortest walk. The fastest walk of the whole
+search, learning phase included, is checked the same way: the fastest that passes (of the five
+fastest) becomes fastest_gait.json.
+
 Writes, as each row finishes: table1.csv and table1.md, gala-pc0.8.png (Fig. 6), ga-pc0.8.png
 (Fig. 7), best_gait-pc0.8.json and best_gait.json (the final GAs' best: Table I's gaits),
-fastest_gait.json (the farthest walk without a fall of every episode so far, the learning phase
-included), results.json; and episodes.jsonl as each episode finishes (what ``--resume DIR``
-continues from).
+fastest_gait.json (the fastest stable walk of every episode so far), results.json; and
+episodes.jsonl as each episode finishes (what ``--resume DIR`` continues from).
 """
 from __future__ import annotations
 
 import argparse
 import sys
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -25,6 +31,7 @@ from optimizer.command_line import (
     EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, prepare_run, run_session, write_gait,
 )
 from optimizer.driver import Driver
+from optimizer.episode import Start
 from optimizer.evaluation import stable_seed
 from optimizer.ga_command import planned_episodes as ga_episodes
 from optimizer.gala import GALA, GALAResult
@@ -32,8 +39,9 @@ from optimizer.la import LearningScheme, LinearRewardInaction, LinearRewardPenal
 from optimizer.report import TableRow, plot_ga_convergence, plot_gala_convergence, write_table_csv, \
     write_table_markdown
 from optimizer.run_folder import RunFolder, write_json
-from optimizer.search_config import GAConfig, GALAConfig
-from protocol.cli_values import positive_int, probability
+from optimizer.search_config import GAConfig, GALAConfig, StabilityConfig
+from optimizer.stability import StabilityReport, check, fastest_stable, is_search_walk
+from protocol.cli_values import count, non_negative, positive_int, probability
 
 #: The paper's protocol (section VI).
 PAPER: dict[str, Any] = {
@@ -46,6 +54,8 @@ PAPER: dict[str, Any] = {
     "scheme": "lrp",
     "elitism": GAConfig().elitism,
     "baseline_window": GALAConfig().baseline_window,
+    "check_repeats": StabilityConfig().repeats,
+    "check_jitter": list(StabilityConfig().jitter),
 }
 
 #: A first look on a 2-core machine: one row (the paper's best crossover rate), population 20,
@@ -58,15 +68,16 @@ BUDGETS: dict[str, dict[str, Any]] = {
 }
 
 
-def planned_episodes(config: GALAConfig) -> int:
-    """Episodes of one GALA row: the search iterations and the final GA."""
+def planned_episodes(config: GALAConfig, check_repeats: int = 0) -> int:
+    """Episodes of one GALA row: the search iterations, the final GA, and the checks of the row's
+    best and (an estimate: once a row) of the fastest walk."""
     ga = config.ga
     if config.restart_each_iteration:
         search = config.iterations * ga_episodes(ga)
     else:
         search = ga.population_size + config.iterations * config.generations_per_iteration * (
             ga.population_size - int(ga.elitism))
-    return search + ga_episodes(ga)
+    return search + ga_episodes(ga) + 2 * check_repeats
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -91,6 +102,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--baseline-window", type=positive_int, default=None, metavar="K",
                    help="reward an iteration whose best beats the average of the last K bests "
                         "(default: of all preceding bests, as the paper)")
+    p.add_argument("--check-repeats", type=count, default=None, metavar="N",
+                   help="walk each row's best gait and the fastest gait N times from moved starts and count "
+                        "the falls (default 10; 0: no check)")
+    p.add_argument("--check-jitter", type=non_negative, nargs=3, default=None, metavar=("DX", "DY", "DEG"),
+                   help="how far a check moves the start: within +-DX, +-DY (m) and +-DEG (heading) "
+                        "(default 0.05 0.05 10, the real server's beam noise)")
     add_run_arguments(p)
     return p
 
@@ -107,6 +124,12 @@ def gala_config(settings: dict[str, Any]) -> GALAConfig:
     )
 
 
+def stability_config(settings: dict[str, Any]) -> StabilityConfig:
+    """The check of the run; a run made before checks existed has none."""
+    return StabilityConfig(repeats=settings.get("check_repeats", 0),
+                           jitter=tuple(settings.get("check_jitter", StabilityConfig().jitter)))
+
+
 def scheme(settings: dict[str, Any], config: GALAConfig) -> LearningScheme:
     la = config.la
     if settings["scheme"] == "lri":
@@ -115,42 +138,86 @@ def scheme(settings: dict[str, Any], config: GALAConfig) -> LearningScheme:
 
 
 def fastest_episode(records: Mapping[str, Mapping[str, Any]]) -> dict[str, Any] | None:
-    """The farthest walk that did not fall, of every logged episode. Table I takes each row's
-    best from a fresh final GA, as the paper does; the continuing population of the learning phase
-    evaluates ten times as many gaits and often walks farther (pc 0.8, seed 1: 9.23 m against the
-    final GA's 5.47 m), and a user wants that gait too."""
-    walks = [r for r in records.values() if r["status"] == "ok" and not r["fell"]]
+    """The farthest walk that did not fall, of every episode the search logged. Table I takes each
+    row's best from a fresh final GA, as the paper does; the continuing population of the learning
+    phase evaluates ten times as many gaits and often walks farther (pc 0.8, seed 1: 9.23 m against
+    the final GA's 5.47 m), and a user wants that gait too."""
+    walks = [r for r in records.values() if is_search_walk(r) and r["status"] == "ok" and not r["fell"]]
     return dict(max(walks, key=lambda r: r["fitness"])) if walks else None
 
 
-def write_outputs(folder: RunFolder, settings: dict[str, Any], results: list[GALAResult],
-                  bests: list[dict[str, Any] | None], fastest: dict[str, Any] | None) -> None:
+@dataclass
+class Row:
+    """A finished Table I row: the GALA result, its best walk as logged, and that walk's check."""
+
+    result: GALAResult
+    best: dict[str, Any] | None
+    check: StabilityReport | None
+
+    def table_row(self) -> TableRow:
+        best, check = self.best, self.check
+        distances = [] if check is None else check.distances()
+        return TableRow.from_gala(self.result, None if best is None else best["distance"],
+                                  None if best is None else best["mean_speed"],
+                                  None if check is None else len(check.repeats),
+                                  None if check is None else check.falls, min(distances, default=None))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {**self.result.to_dict(), "best_episode": self.best,
+                "check": None if self.check is None else self.check.to_dict()}
+
+
+@dataclass
+class Fastest:
+    """The fastest walk of the search so far and its check (None when checks are off)."""
+
+    walk: dict[str, Any]
+    check: StabilityReport | None
+
+    def describe(self) -> str:
+        walk, check = self.walk, self.check
+        text = f"{walk['distance']:.2f} m in {walk['time']:g} s ({walk['key']})"
+        if check is None:
+            return f"farthest walk without a fall: {text}"
+        verdict = "fastest stable walk" if check.stable else "no fast walk passed its check; the steadiest"
+        return f"{verdict}: {text}, {check.summary()}"
+
+
+def fastest_walk(driver: Driver, base: Start, stability: StabilityConfig) -> Fastest | None:
+    if stability.repeats == 0:
+        walk = fastest_episode(driver.log.records)
+        return None if walk is None else Fastest(walk, None)
+    report = fastest_stable(driver, driver.log.records, base, stability)
+    return None if report is None else Fastest(dict(report.walk), report)
+
+
+def write_outputs(folder: RunFolder, settings: dict[str, Any], rows: list[Row], fastest: Fastest | None) -> None:
     """Every result file, for the rows finished so far (rewritten after each row)."""
     path = folder.path
-    rows = [TableRow.from_gala(r, None if b is None else b["distance"], None if b is None else b["mean_speed"])
-            for r, b in zip(results, bests)]
-    write_table_csv(rows, path / "table1.csv")
-    write_table_markdown(rows, path / "table1.md")
+    table = [row.table_row() for row in rows]
+    write_table_csv(table, path / "table1.csv")
+    write_table_markdown(table, path / "table1.md")
     write_json(path / "results.json", {
         "settings": settings,
-        "rows": [{**r.to_dict(), "best_episode": b} for r, b in zip(results, bests)],
-        "fastest_episode": fastest,
+        "rows": [row.to_dict() for row in rows],
+        "fastest_episode": None if fastest is None else fastest.walk,
+        "fastest_check": None if fastest is None or fastest.check is None else fastest.check.to_dict(),
     })
     if fastest is not None:
-        write_gait(path / "fastest_gait.json", np.array(fastest["genes"]),
-                   f"farthest walk without a fall of the GALA run ({fastest['key']}): "
-                   f"{fastest['distance']:.2f} m in {fastest['time']:.1f} s")
-    latest, best = results[-1], bests[-1]
-    tag = f"pc{latest.crossover:g}"
-    plot_gala_convergence(latest, path / f"gala-{tag}.png")
-    plot_ga_convergence(latest.final_ga_history, path / f"ga-{tag}.png",
-                        f"Final GA: crossover {latest.crossover:g}, mutation {latest.optimal_mutation:g}")
-    notes = (f"GALA row pc={latest.crossover:g}, pm={latest.optimal_mutation:g}: fitness {latest.best_fitness:.4f}"
-             + ("" if best is None else f", {best['distance']:.2f} m in {best['time']:.1f} s"))
-    write_gait(path / f"best_gait-{tag}.json", latest.best_genes, notes)
-    top = max(range(len(results)), key=lambda k: results[k].best_fitness)
-    if top == len(results) - 1:
-        write_gait(path / "best_gait.json", latest.best_genes, notes)
+        write_gait(path / "fastest_gait.json", np.array(fastest.walk["genes"]), f"GALA run: {fastest.describe()}")
+    latest = rows[-1]
+    result, best = latest.result, latest.best
+    tag = f"pc{result.crossover:g}"
+    plot_gala_convergence(result, path / f"gala-{tag}.png")
+    plot_ga_convergence(result.final_ga_history, path / f"ga-{tag}.png",
+                        f"Final GA: crossover {result.crossover:g}, mutation {result.optimal_mutation:g}")
+    notes = (f"GALA row pc={result.crossover:g}, pm={result.optimal_mutation:g}: fitness {result.best_fitness:.4f}"
+             + ("" if best is None else f", {best['distance']:.2f} m in {best['time']:.1f} s")
+             + ("" if latest.check is None else f"; {latest.check.summary()}"))
+    write_gait(path / f"best_gait-{tag}.json", result.best_genes, notes)
+    top = max(range(len(rows)), key=lambda k: rows[k].result.best_fitness)
+    if top == len(rows) - 1:
+        write_gait(path / "best_gait.json", result.best_genes, notes)
 
 
 def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = pool_evaluator) -> int:
@@ -165,23 +232,25 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         parser.error(f"--crossover: a rate is given twice ({' '.join(t[2:] for t in tags)})")
     run = prepare_run(parser, args, "gala", PAPER, argv)
     config = gala_config(run.settings)
+    stability = stability_config(run.settings)
     rates = config.crossover_rates
 
     def body(driver: Driver) -> str:
-        results: list[GALAResult] = []
-        bests: list[dict[str, Any] | None] = []
+        rows: list[Row] = []
+        fastest: Fastest | None = None
         for pc in rates:
             tag = f"pc{pc:g}"
             search = GALA(GENE_BOUNDS, config, pc, stable_seed(run.seed, tag), scheme=scheme(run.settings, config),
                           repair=repair_genes)
             result: GALAResult = driver.run(search)
-            results.append(result)
-            bests.append(best_episode(driver.log.records, f"{tag}/final/", result.best_genes, result.best_fitness))
-            fastest = fastest_episode(driver.log.records)
-            write_outputs(run.folder, run.settings, results, bests, fastest)
-        found = "" if fastest is None else (f"farthest walk without a fall: {fastest['distance']:.2f} m in "
-                                            f"{fastest['time']:g} s ({fastest['key']}), in fastest_gait.json\n")
+            best = best_episode(driver.log.records, f"{tag}/final/", result.best_genes, result.best_fitness)
+            checked = None if best is None or stability.repeats == 0 else check(driver, best, run.setup.start,
+                                                                                   stability)
+            rows.append(Row(result, best, checked))
+            fastest = fastest_walk(driver, run.setup.start, stability)
+            write_outputs(run.folder, run.settings, rows, fastest)
+        found = "" if fastest is None else f"{fastest.describe()}; in fastest_gait.json\n"
         return (run.folder.path / "table1.md").read_text() + found + f"results in {run.folder.path}"
 
-    return run_session(run, len(rates) * planned_episodes(config), body, make_evaluator=make_evaluator,
-                       quiet=args.quiet)
+    return run_session(run, len(rates) * planned_episodes(config, stability.repeats), body,
+                       make_evaluator=make_evaluator, quiet=args.quiet)

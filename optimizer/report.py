@@ -21,33 +21,53 @@ from optimizer.gala import GALAResult
 
 @dataclass(frozen=True)
 class TableRow:
-    """One row of Table I, plus the walk it stands for (None where the caller has no figure)."""
+    """One row of Table I, plus the walk it stands for and its stability check (None where the
+    caller has no figure): ``repeat_falls`` of ``repeats`` walks from moved starts fell, the
+    shortest of them went ``repeat_min_distance_m``."""
 
     crossover_rate: float
     optimal_mutation_rate: float
     best_fitness: float
     distance_m: float | None = None
     speed_mps: float | None = None
+    repeats: int | None = None
+    repeat_falls: int | None = None
+    repeat_min_distance_m: float | None = None
 
     @classmethod
-    def from_gala(cls, result: GALAResult, distance_m: float | None = None,
-                  speed_mps: float | None = None) -> "TableRow":
-        return cls(result.crossover, result.optimal_mutation, result.best_fitness, distance_m, speed_mps)
+    def from_gala(cls, result: GALAResult, distance_m: float | None = None, speed_mps: float | None = None,
+                  repeats: int | None = None, repeat_falls: int | None = None,
+                  repeat_min_distance_m: float | None = None) -> "TableRow":
+        return cls(result.crossover, result.optimal_mutation, result.best_fitness, distance_m, speed_mps,
+                   repeats, repeat_falls, repeat_min_distance_m)
 
 
 COLUMNS = tuple(f.name for f in fields(TableRow))
-_HEADINGS = ("Crossover rate", "Optimal mutation rate", "Best fitness", "Distance (m)", "Speed (m/s)")
-_MARKDOWN_FORMATS = ("{:.2f}", "{:.2f}", "{:.4f}", "{:.2f}", "{:.3f}")
+_COUNTS = frozenset({"repeats", "repeat_falls"})
+_HEADINGS = ("Crossover rate", "Optimal mutation rate", "Best fitness", "Distance (m)", "Speed (m/s)",
+             "Falls in repeats", "Shortest repeat (m)")
+
+
+def _cell(name: str, value: float | None) -> str:
+    if value is None:
+        return ""
+    return str(int(value)) if name in _COUNTS else repr(float(value))
 
 
 def write_table_csv(rows: Sequence[TableRow], path: Path) -> None:
-    """Numbers are written with ``repr`` so that reading the file back gives the same floats; an
-    empty cell is a figure the caller did not have."""
+    """Numbers are written with ``repr`` so that reading the file back gives the same floats, the
+    counts as integers; an empty cell is a figure the caller did not have."""
     with Path(path).open("w", newline="") as out:
         writer = csv.writer(out)
         writer.writerow(COLUMNS)
         for row in rows:
-            writer.writerow(["" if v is None else repr(float(v)) for v in astuple(row)])
+            writer.writerow([_cell(name, value) for name, value in zip(COLUMNS, astuple(row))])
+
+
+def _value(name: str, text: str) -> float | int | None:
+    if text == "":
+        return None
+    return int(text) if name in _COUNTS else float(text)
 
 
 def read_table_csv(path: Path) -> list[TableRow]:
@@ -56,15 +76,24 @@ def read_table_csv(path: Path) -> list[TableRow]:
         reader = csv.DictReader(src)
         if tuple(reader.fieldnames or ()) != COLUMNS:
             raise ValueError(f"{path}: expected columns {COLUMNS}, got {reader.fieldnames}")
-        return [TableRow(*(None if line[c] == "" else float(line[c]) for c in COLUMNS)) for line in reader]
+        return [TableRow(*(_value(c, line[c]) for c in COLUMNS)) for line in reader]
+
+
+def _markdown_cells(row: TableRow) -> list[str]:
+    def number(fmt: str, value: float | None) -> str:
+        return "-" if value is None else fmt.format(value)
+
+    falls = "-" if row.repeats is None or row.repeat_falls is None else f"{row.repeat_falls}/{row.repeats}"
+    return [number("{:.2f}", row.crossover_rate), number("{:.2f}", row.optimal_mutation_rate),
+            number("{:.4f}", row.best_fitness), number("{:.2f}", row.distance_m), number("{:.3f}", row.speed_mps),
+            falls, number("{:.2f}", row.repeat_min_distance_m)]
 
 
 def write_table_markdown(rows: Sequence[TableRow], path: Path) -> None:
-    """Table I as the paper prints it (rates to 2 decimals, fitness to 4), a dash for no figure."""
+    """Table I as the paper prints it (rates to 2 decimals, fitness to 4), then the walk and its
+    check ("1/10": one of ten walks from moved starts fell); a dash for no figure."""
     lines = ["| " + " | ".join(_HEADINGS) + " |", "|" + "---:|" * len(_HEADINGS)]
-    for row in rows:
-        cells = ["-" if v is None else fmt.format(v) for fmt, v in zip(_MARKDOWN_FORMATS, astuple(row))]
-        lines.append("| " + " | ".join(cells) + " |")
+    lines.extend("| " + " | ".join(_markdown_cells(row)) + " |" for row in rows)
     Path(path).write_text("\n".join(lines) + "\n")
 
 

@@ -8,7 +8,7 @@ Layout (``runs/gala-20250101-120000/``)::
     table1.csv/.md     Table I (GALA runs)
     *.png              convergence plots
     best_gait*.json    the best gaits, in the gait file format (``python -m agent --gait FILE``)
-    fastest_gait.json  (GALA runs) the farthest walk without a fall of every episode
+    fastest_gait.json  (GALA runs) the fastest walk of the run that passed its stability check
 
 The episode log is what makes a run resumable: a search replayed with the same seed asks the same
 keys in the same order, and every key found in the log is answered from it instead of being run.

@@ -112,3 +112,28 @@ DE_JONG = RatePreset("De Jong", 0.6, 0.001)
 GREFENSTETTE = RatePreset("Grefenstette", 0.95, 0.01)
 #: The pair GALA found best in the paper's Table I (its Fig. 7: 4.95 m in 15 s).
 PAPER_GALA_BEST = RatePreset("GALA (paper Table I)", 0.8, 0.07)
+
+
+@dataclass(frozen=True)
+class StabilityConfig:
+    """The stability check of a found gait (``optimizer.stability``): ``repeats`` walks from
+    starts moved by up to +-``jitter`` (x m, y m, heading deg) from the run's start. For the
+    fastest stable gait, up to ``candidates`` of the search's fastest walks are checked, fastest
+    first. ``repeats`` 0 turns the check off.
+
+    The default jitter is the real server's default beam noise (``BeamNoiseXY`` 0.05 m,
+    ``BeamNoiseAngle`` 10 deg, uniform): the starts a gait meets on a stock rcssserver3d. The stub
+    is deterministic, so without a jitter ten repeats would be one walk seen ten times.
+    """
+
+    repeats: int = 10
+    jitter: tuple[float, float, float] = (0.05, 0.05, 10.0)
+    candidates: int = 5
+
+    def __post_init__(self) -> None:
+        if self.repeats < 0:
+            raise ValueError(f"StabilityConfig.repeats must be >= 0, got {self.repeats}")
+        if len(self.jitter) != 3 or any(not 0.0 <= j < float("inf") for j in self.jitter):
+            raise ValueError(f"StabilityConfig.jitter must be three finite values >= 0, got {self.jitter}")
+        if self.candidates < 1:
+            raise ValueError(f"StabilityConfig.candidates must be >= 1, got {self.candidates}")

@@ -62,8 +62,10 @@ class StubProcess:
 
     def restart(self) -> None:
         self.stop()
-        command = [sys.executable, "-m", "server_stub", "--sync", "--no-realtime", "--agent-port", "0",
-                   "--monitor-port", "0", "--seed", str(self.seed), "--exit-with-parent"]
+        # exact starts: an episode is scored from where it was put; a stability check moves
+        # the start itself (seeded), which works on any server
+        command = [sys.executable, "-m", "server_stub", "--sync", "--no-realtime", "--no-beam-noise", "--agent-port",
+                   "0", "--monitor-port", "0", "--seed", str(self.seed), "--exit-with-parent"]
         self._process = subprocess.Popen(
             command, stdout=subprocess.PIPE, stderr=None, text=True, env=dict(os.environ),
         )

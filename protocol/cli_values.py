@@ -53,6 +53,12 @@ def positive_int(text: str) -> int:
     return checked(value, value >= 1, f"must be >= 1, got {value}")
 
 
+def count(text: str) -> int:
+    """A whole number >= 0 (0 usually turns something off)."""
+    value = whole(text)
+    return checked(value, value >= 0, f"must be >= 0, got {value}")
+
+
 def port(text: str) -> int:
     """A TCP port to connect to, 1-65535."""
     value = whole(text)

@@ -19,6 +19,7 @@ from server_stub.__main__ import build_parser as stub_parser
     (cli_values.probability, "1.01", "within [0, 1]"),
     (cli_values.positive_int, "0", "must be >= 1"),
     (cli_values.positive_int, "2.5", "whole number"),
+    (cli_values.count, "-1", "must be >= 0"),
     (cli_values.port, "0", "1-65535"),
     (cli_values.listening_port, "65536", "0-65535"),
 ])
@@ -30,7 +31,7 @@ def test_wrong_values_are_refused_with_the_reason(check, text, problem):
 @pytest.mark.parametrize("check, text, value", [
     (cli_values.number, "-2.5", -2.5), (cli_values.positive_float, "1e-9", 1e-9),
     (cli_values.probability, "0", 0.0), (cli_values.probability, "1", 1.0),
-    (cli_values.positive_int, "7", 7), (cli_values.port, "65535", 65535), (cli_values.listening_port, "0", 0),
+    (cli_values.positive_int, "7", 7), (cli_values.count, "0", 0), (cli_values.port, "65535", 65535), (cli_values.listening_port, "0", 0),
 ])
 def test_good_values_pass_unchanged(check, text, value):
     assert check(text) == value

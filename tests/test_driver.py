@@ -115,7 +115,7 @@ def test_a_complete_log_replays_without_any_episode(tmp_path: Path) -> None:
 
 def test_a_log_of_another_search_is_refused(tmp_path: Path) -> None:
     drive(tmp_path / "episodes.jsonl", FakeEvaluator(), seed=5)
-    with pytest.raises(ResumeMismatch, match="other genes"):
+    with pytest.raises(ResumeMismatch, match="other genes or another start"):
         drive(tmp_path / "episodes.jsonl", FakeEvaluator(), seed=6)
 
 
@@ -143,3 +143,13 @@ def test_several_searches_share_one_log_and_the_progress_bar_counts_them(tmp_pat
     assert driver.evaluated == 2 * (5 + 4) == len(log.records)
     assert bar.best == max(r["fitness"] for r in log.records.values()) >= first.best_fitness
     assert bar.failed == 0
+
+
+def test_the_bar_keeps_the_search_best_and_ends_full(capsys) -> None:
+    bar = BarProgress(total=10)
+    bar.episode({"key": "a/i000", "fitness": 3.0, "status": "ok"})
+    bar.episode({"key": "check/a/i000/r00", "start": [0.1, 0.0, 2.0], "fitness": 9.0, "status": "ok"})
+    assert bar.best == 3.0  # a check's walk from a moved start is not a search result
+    bar.close(finished=True)
+    shown = capsys.readouterr().err.split("\r")[-1]
+    assert "100%" in shown and "2/2" in shown  # the planned 10 was an estimate; the run is done

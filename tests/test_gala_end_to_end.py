@@ -16,7 +16,7 @@ from gait import TFSParams, load_gait
 
 REPO = Path(__file__).resolve().parents[1]
 TINY = ["--crossover", "0.8", "--population", "4", "--iterations", "3", "--generations", "2",
-        "--walk-time", "2", "--workers", "2", "--seed", "7", "--quiet"]
+        "--walk-time", "2", "--workers", "2", "--seed", "7", "--check-repeats", "3", "--quiet"]
 
 
 def _gala(*args: str, timeout: float = 600) -> subprocess.CompletedProcess[str]:
@@ -29,6 +29,7 @@ def _log(folder: Path) -> list[dict]:
 
 
 def _planned() -> int:
+    """The search's episodes (the checks' depend on which walks fall)."""
     # initial population + 3 iterations x 1 generation (elite carried, 3 new) + final GA (4 + 3)
     return 4 + 3 * 3 + 4 + 3
 
@@ -40,14 +41,24 @@ def test_tiny_gala_on_the_stub_writes_every_output(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["seed"] == 7 and "pybullet" in json.dumps(manifest["versions"])
-    records = _log(out)
-    keys = [r["key"] for r in records]
-    assert len(keys) == len(set(keys)) == _planned()
-    assert all(r["status"] == "ok" for r in records), [r["reason"] for r in records if r["status"] != "ok"]
-    assert all(r["fitness"] == pytest.approx(10 * r["distance"]) for r in records)
+    logged = _log(out)
+    assert all(r["status"] == "ok" for r in logged), [r["reason"] for r in logged if r["status"] != "ok"]
+    assert all(r["fitness"] == pytest.approx(10 * r["distance"]) for r in logged)
+    keys = [r["key"] for r in logged]
+    assert len(keys) == len(set(keys))
+    records = [r for r in logged if not r["key"].startswith("check/")]
+    checks = [r for r in logged if r["key"].startswith("check/")]
+    assert len(records) == _planned() and len(checks) % 3 == 0 and checks
+    for r in checks:  # moved by at most the default jitter, the real server's beam noise
+        x, y, heading = r["start"]
+        assert abs(x) <= 0.05 and abs(y) <= 0.05 and abs(heading) <= 10.0 and (x, y, heading) != (0, 0, 0)
     rows = list(csv.DictReader((out / "table1.csv").open()))
     assert len(rows) == 1 and float(rows[0]["crossover_rate"]) == 0.8
     assert 0.0 <= float(rows[0]["optimal_mutation_rate"]) <= 0.09
+    best_key = json.loads((out / "results.json").read_text())["rows"][0]["best_episode"]["key"]
+    row_check = [r for r in checks if r["key"].startswith(f"check/{best_key}/")]
+    assert len(row_check) == 3 and rows[0]["repeats"] == "3"
+    assert int(rows[0]["repeat_falls"]) == sum(r["fell"] for r in row_check)
     best_logged = max(r["fitness"] for r in records if r["key"].startswith("pc0.8/final"))
     assert float(rows[0]["best_fitness"]) == pytest.approx(best_logged)
     assert "0.8" in (out / "table1.md").read_text()
@@ -59,7 +70,8 @@ def test_tiny_gala_on_the_stub_writes_every_output(tmp_path: Path) -> None:
     assert json.dumps(results)  # parses and re-serialises
     fastest = max((r for r in records if not r["fell"]), key=lambda r: r["fitness"])  # seed 7: one walk stands
     assert load_gait(out / "fastest_gait.json") == TFSParams.from_array(fastest["genes"])
-    assert results["fastest_episode"]["key"] == fastest["key"]
+    assert results["fastest_episode"]["key"] == results["fastest_check"]["key"] == fastest["key"]
+    assert results["fastest_check"]["repeats"] == 3
 
 
 @pytest.mark.slow
@@ -79,7 +91,7 @@ def test_killed_run_resumes_with_nothing_lost_or_counted_twice(tmp_path: Path) -
     assert done.returncode == 0, done.stderr
     after = _log(cut)
     keys = [r["key"] for r in after]
-    assert len(keys) == len(set(keys)) == _planned(), "nothing lost, nothing counted twice"
+    assert len(keys) == len(set(keys)) == len(_log(whole)), "nothing lost, nothing counted twice"
     assert after[:len(before)] == before, "finished episodes are kept, not re-run"
     fitness = {r["key"]: r["fitness"] for r in _log(whole)}
     assert {r["key"]: r["fitness"] for r in after} == fitness

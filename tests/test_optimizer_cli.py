@@ -7,8 +7,6 @@ import json
 from pathlib import Path
 
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from gait import load_gait
 from optimizer import episode_command, ga_command, gala_command
@@ -18,6 +16,7 @@ from optimizer.ga import GARun
 from optimizer.gala import GALA
 from optimizer.report import read_table_csv
 from optimizer.search_config import GAConfig, GALAConfig
+from optimizer.stability import jittered_starts
 from test_driver import FakeEvaluator, Killed
 
 BOUNDS = [[0.0, 1.0]] * 3
@@ -42,6 +41,10 @@ def refused(main, argv: list[str], capsys) -> str:
     (["--server", "localhost:3100:99999"], "--server", "outside 1-65535"),
     (["--crossover", "0.8", "--crossover", "0.8"], "--crossover", "given twice"),
     (["--server", "h:1:2", "--server", "h:3:4", "--workers", "3"], "--workers 3", "one worker per server"),
+    (["--check-repeats", "-1"], "--check-repeats", ">= 0"),
+    (["--check-repeats", "2.5"], "--check-repeats", "whole number"),
+    (["--check-jitter", "0.1", "0.1"], "--check-jitter", "expected 3 arguments"),
+    (["--check-jitter", "0.1", "0.1", "-2"], "--check-jitter", ">= 0"),
 ])
 def test_gala_refuses_a_wrong_value_naming_the_flag(argv, flag, why, capsys) -> None:
     err = refused(gala_command.main, argv, capsys)
@@ -98,9 +101,17 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
     best_row = max(results, key=lambda r: r["best_fitness"])
     assert list(vars(load_gait(out / "best_gait.json")).values()) == best_row["best_genes"]
     assert list(vars(load_gait(out / "best_gait-pc0.3.json")).values()) == results[1]["best_genes"]
-    episodes = (out / "episodes.jsonl").read_text().splitlines()
-    assert len(episodes) == 2 * gala_command.planned_episodes(gala_command.gala_config(manifest["settings"]))
-    assert "| 0.80 |" in capsys.readouterr().out
+    episodes = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
+    searched = [r for r in episodes if not r["key"].startswith("check/")]
+    assert len(searched) == 2 * gala_command.planned_episodes(gala_command.gala_config(manifest["settings"]))
+    for row, result in zip(rows, results):  # each row's best walked 10 times from moved starts
+        repeats = [r for r in episodes if r["key"].startswith(f"check/{result['best_episode']['key']}/")]
+        assert len(repeats) == row.repeats == 10 and row.repeat_falls == 0
+        assert row.repeat_min_distance_m == min(r["distance"] for r in repeats)
+        assert all(r["genes"] == result["best_genes"] and len(r["start"]) == 3 for r in repeats)
+        assert len({tuple(r["start"]) for r in repeats}) == 10
+    printed = capsys.readouterr().out
+    assert "| 0.80 |" in printed and "| 0/10 |" in printed
 
 
 def test_the_farthest_walk_without_a_fall_is_kept(tmp_path: Path, capsys) -> None:
@@ -116,11 +127,63 @@ def test_the_farthest_walk_without_a_fall_is_kept(tmp_path: Path, capsys) -> Non
     argv = ["--crossover", "0.8", *SMALL, "--seed", "4", "--out", str(out)]
     assert gala_command.main(argv, make_evaluator=lambda s: FallingWhenFast()) == 0
     records = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
+    records = [r for r in records if "start" not in r]  # the search's walks, not the checks'
     assert any(r["fell"] for r in records) and any(not r["fell"] for r in records)
     fastest = max((r for r in records if not r["fell"]), key=lambda r: r["fitness"])
     assert json.loads((out / "results.json").read_text())["fastest_episode"] == fastest
     assert list(vars(load_gait(out / "fastest_gait.json")).values()) == fastest["genes"]
     assert f"{fastest['distance']:.2f} m" in capsys.readouterr().out
+
+
+def test_fastest_gait_is_the_fastest_walk_that_passes_its_check(tmp_path: Path, capsys) -> None:
+    class FastestIsFragile(FakeEvaluator):
+        """Walks over 25 fall; so does every check walk of the fastest gait under 25."""
+
+        fragile: tuple | None = None
+
+        def evaluate(self, tasks):
+            for outcome in super().evaluate(tasks):
+                fitness = outcome.result["fitness"]
+                fell = fitness > 25.0 or (outcome.task.start is not None and outcome.task.genes == self.fragile)
+                yield EpisodeOutcome(outcome.task, outcome.worker, {**outcome.result, "fell": fell})
+
+    # the fragile gait: the fastest walk under 25 of the same run without checks
+    plain = tmp_path / "plain"
+    argv = ["--crossover", "0.8", *SMALL, "--seed", "4"]
+    evaluator = FastestIsFragile()
+    assert gala_command.main([*argv, "--out", str(plain), "--check-repeats", "0"],
+                             make_evaluator=lambda s: evaluator) == 0
+    first = json.loads((plain / "results.json").read_text())["fastest_episode"]
+    FastestIsFragile.fragile = tuple(first["genes"])
+    capsys.readouterr()
+
+    out = tmp_path / "run"
+    assert gala_command.main([*argv, "--out", str(out)], make_evaluator=lambda s: FastestIsFragile()) == 0
+    records = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
+    searched = [r for r in records if "start" not in r]
+    runner_up = max((r for r in searched if not r["fell"] and r["genes"] != first["genes"]),
+                    key=lambda r: r["fitness"])
+    results = json.loads((out / "results.json").read_text())
+    assert results["fastest_episode"]["key"] == results["fastest_check"]["key"] == runner_up["key"]
+    assert results["fastest_check"]["falls"] == 0
+    assert list(vars(load_gait(out / "fastest_gait.json")).values()) == runner_up["genes"]
+    fragile_checks = [r for r in records if r["key"].startswith(f"check/{first['key']}/")]
+    assert len(fragile_checks) == 10 and all(r["fell"] for r in fragile_checks)
+    assert f"fastest stable walk: {runner_up['distance']:.2f} m" in capsys.readouterr().out
+
+
+def test_without_checks_the_table_has_no_check_figures(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    argv = ["--crossover", "0.8", *SMALL, "--seed", "4", "--out", str(out), "--check-repeats", "0"]
+    assert gala_command.main(argv, make_evaluator=lambda s: FakeEvaluator()) == 0
+    records = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
+    assert not any("start" in r or r["key"].startswith("check/") for r in records)
+    [row] = read_table_csv(out / "table1.csv")
+    assert (row.repeats, row.repeat_falls, row.repeat_min_distance_m) == (None, None, None)
+    assert "| - | - |" in (out / "table1.md").read_text()
+    results = json.loads((out / "results.json").read_text())
+    assert results["fastest_check"] is None and results["rows"][0]["check"] is None
+    assert results["fastest_episode"] == max(records, key=lambda r: r["fitness"])
 
 
 def test_a_killed_gala_run_resumes_to_the_same_files(tmp_path: Path) -> None:
@@ -200,11 +263,11 @@ def test_planned_episodes_match_what_the_searches_ask(restart: bool, elitism: bo
 
 
 def test_episode_command_takes_a_start(monkeypatch, capsys) -> None:
-    configs = []
+    starts = []
 
     class Runner:
         def __init__(self, config, server, seed):
-            configs.append(config)
+            pass
 
         def __enter__(self):
             return self
@@ -212,12 +275,13 @@ def test_episode_command_takes_a_start(monkeypatch, capsys) -> None:
         def __exit__(self, *exc):
             pass
 
-        def evaluate(self, params):
+        def evaluate(self, params, start):
+            starts.append(start)
             return EpisodeResult(1.0, False, 15.0, 10.0, 1 / 15)
 
     monkeypatch.setattr(episode_command, "EpisodeRunner", Runner)
     assert episode_command.main(["--start", "-6", "3.5", "90", "--json"]) == 0
-    assert (configs[0].start, configs[0].heading) == ((-6.0, 3.5), 90.0)
+    assert starts == [(-6.0, 3.5, 90.0)]
     assert json.loads(capsys.readouterr().out)["distance"] == 1.0
 
 
@@ -235,13 +299,13 @@ def test_episode_command_refuses_a_bad_gait_file_or_server(tmp_path: Path, capsy
 
 
 class _RecordingRunner:
-    """Stands in for EpisodeRunner: records the config of every walk; ``fail_at`` fails one."""
+    """Stands in for EpisodeRunner: records the start of every walk; ``fail_at`` fails one."""
 
     walks: list = []
     fail_at: int | None = None
 
     def __init__(self, config, server, seed):
-        self.config = config
+        pass
 
     def __enter__(self):
         return self
@@ -249,8 +313,8 @@ class _RecordingRunner:
     def __exit__(self, *exc):
         pass
 
-    def evaluate(self, params):
-        self.walks.append(self.config)
+    def evaluate(self, params, start):
+        self.walks.append(start)
         if len(self.walks) - 1 == self.fail_at:
             return EpisodeResult.failed("server gone", 1.0)
         return EpisodeResult(float(len(self.walks)), len(self.walks) == 2, 15.0, 10.0 * len(self.walks), 0.1)
@@ -262,9 +326,9 @@ def test_episode_command_repeats_from_jittered_starts(monkeypatch, capsys) -> No
     argv = ["--start", "-6", "3", "90", "--repeat", "4", "--jitter", "0.1", "0.2", "5", "--seed", "7"]
     assert episode_command.main([*argv, "--json"]) == 0
     lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
-    expected = episode_command.starts((-6.0, 3.0, 90.0), (0.1, 0.2, 5.0), 4, seed=7)
+    expected = jittered_starts((-6.0, 3.0, 90.0), (0.1, 0.2, 5.0), 4, seed=7)
     assert [tuple(line["start"]) for line in lines] == expected
-    assert [(c.start, c.heading) for c in _RecordingRunner.walks] == [((x, y), h) for x, y, h in expected]
+    assert _RecordingRunner.walks == expected
     assert [line["distance"] for line in lines] == [1.0, 2.0, 3.0, 4.0]
 
     _RecordingRunner.walks, _RecordingRunner.fail_at = [], 2
@@ -274,16 +338,3 @@ def test_episode_command_repeats_from_jittered_starts(monkeypatch, capsys) -> No
     assert len(out.splitlines()) == 4  # the three that ran, then the summary
     assert out.splitlines()[-1] == ("3 walks: 1 fell; distance 1.000-4.000 m, mean 2.333 m; "
                                     "mean speed 0.100 m/s; 1 could not be run")
-
-
-@settings(max_examples=50, deadline=None)
-@given(st.lists(st.floats(-10, 10), min_size=3, max_size=3), st.lists(st.floats(0, 2), min_size=3, max_size=3),
-       st.integers(1, 20), st.integers(0, 2**32))
-def test_jittered_starts_stay_within_the_jitter_and_follow_the_seed(base, jitter, count, seed) -> None:
-    points = episode_command.starts(base, jitter, count, seed)
-    assert len(points) == count
-    for point in points:
-        assert all(abs(p - b) <= j + 1e-9 for p, b, j in zip(point, base, jitter))
-    assert points == episode_command.starts(base, jitter, count, seed)
-    if not any(jitter):
-        assert points == [tuple(base)] * count

@@ -1,0 +1,112 @@
+"""Stability check: does a found gait still walk when its start moves a little?
+
+A search scores each gait by one walk from one start (eq. 9). On the deterministic stub that walk
+is the same every time, so a gait that happened to get through one walk can sit on the edge of a
+fall: the fastest walks of a GALA run often do (pc 0.8, seed 1: the learning phase's fastest fell
+in 3 of 10 walks from starts moved by 5 cm and 2 deg). A check walks the gait ``repeats`` times
+from starts drawn within +-jitter of the run's start and counts the falls.
+
+Check walks are episodes of the run like any other: keyed ``check/<checked key>/rNN``, logged with
+their start, and answered from the log on ``--resume``. Their starts come from a seed of the run
+and the checked key, so a resumed run asks the same walks.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from optimizer.driver import Driver
+from optimizer.episode import Start
+from optimizer.evaluation import stable_seed
+from optimizer.search_config import StabilityConfig
+
+#: Key prefix of every check walk.
+CHECK_PREFIX = "check/"
+
+
+def jittered_starts(base: Sequence[float], jitter: Sequence[float], count: int, seed: int) -> list[Start]:
+    """``count`` start points (x, y, heading): ``base`` itself without jitter, else each drawn
+    uniformly within +-``jitter`` of it."""
+    if not any(jitter):
+        return [(base[0], base[1], base[2])] * count
+    rng = np.random.default_rng(seed)
+    offsets = rng.uniform(-1.0, 1.0, size=(count, 3)) * np.asarray(jitter, dtype=float)
+    return [(base[0] + dx, base[1] + dy, base[2] + dh) for dx, dy, dh in offsets.tolist()]
+
+
+def is_search_walk(record: Mapping[str, Any]) -> bool:
+    """An episode the search asked for (not a check walk from a moved start)."""
+    return not str(record["key"]).startswith(CHECK_PREFIX)
+
+
+@dataclass(frozen=True)
+class StabilityReport:
+    """The check of one logged walk: the walk itself and its repeats' log records."""
+
+    walk: Mapping[str, Any]
+    repeats: list[dict[str, Any]]
+
+    @property
+    def falls(self) -> int:
+        return sum(1 for r in self.repeats if r["status"] == "ok" and r["fell"])
+
+    @property
+    def failed(self) -> int:
+        """Repeats the infrastructure could not run (neither a walk nor a fall)."""
+        return sum(1 for r in self.repeats if r["status"] != "ok")
+
+    @property
+    def stable(self) -> bool:
+        """Every repeat ran and none fell."""
+        return self.falls == 0 and self.failed == 0
+
+    def distances(self) -> list[float]:
+        return [float(r["distance"]) for r in self.repeats if r["status"] == "ok"]
+
+    def summary(self) -> str:
+        distances = self.distances()
+        spread = f", {min(distances):.2f}-{max(distances):.2f} m" if distances else ""
+        failed = f", {self.failed} could not be run" if self.failed else ""
+        return f"fell in {self.falls} of {len(self.repeats)} moved starts{spread}{failed}"
+
+    def to_dict(self) -> dict[str, Any]:
+        distances = self.distances()
+        return {"key": self.walk["key"], "repeats": len(self.repeats), "falls": self.falls, "failed": self.failed,
+                "min_distance": min(distances, default=None), "max_distance": max(distances, default=None),
+                "walks": [{k: r[k] for k in ("key", "start", "distance", "fell", "time", "status")}
+                          for r in self.repeats]}
+
+
+def check(driver: Driver, walk: Mapping[str, Any], base: Start, config: StabilityConfig) -> StabilityReport:
+    """Walk the gait of the logged ``walk`` ``config.repeats`` times from moved starts."""
+    key = walk["key"]
+    starts = jittered_starts(base, config.jitter, config.repeats, stable_seed(driver.run_seed, CHECK_PREFIX + key))
+    tasks = [driver.task(f"{CHECK_PREFIX}{key}/r{j:02d}", walk["genes"], start) for j, start in enumerate(starts)]
+    records = driver.walk(tasks)
+    return StabilityReport(dict(walk), [records[task.key] for task in tasks])
+
+
+def fastest_stable(driver: Driver, records: Mapping[str, Mapping[str, Any]], base: Start,
+                   config: StabilityConfig) -> StabilityReport | None:
+    """The fastest stable gait of the search so far: of its walks that did not fall, fastest
+    first (one per gait), the first of ``config.candidates`` whose check has no fall; when none
+    passes, the one that fell least (the faster on a tie). None when every walk fell."""
+    walks = [r for r in records.values() if is_search_walk(r) and r["status"] == "ok" and not r["fell"]]
+    walks.sort(key=lambda r: (-float(r["fitness"]), r["key"]))
+    reports: list[StabilityReport] = []
+    seen: set[tuple[float, ...]] = set()
+    for walk in walks:
+        genes = tuple(walk["genes"])
+        if genes in seen:
+            continue
+        seen.add(genes)
+        report = check(driver, walk, base, config)
+        if report.stable:
+            return report
+        reports.append(report)
+        if len(reports) == config.candidates:
+            break
+    return min(reports, key=lambda r: (r.falls + r.failed, -float(r.walk["fitness"])), default=None)

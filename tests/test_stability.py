@@ -1,0 +1,142 @@
+"""The stability check: repeats walk the checked gait from seeded moved starts, are logged with
+their start and answered from the log on resume; the fastest stable gait is the fastest walk whose
+check has no fall. A fake evaluator decides falls from the start, no physics."""
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from optimizer.driver import Driver, ResumeMismatch
+from optimizer.evaluation import EpisodeOutcome, EpisodeTask, stable_seed
+from optimizer.run_folder import EpisodeLog, read_episode_log
+from optimizer.search_config import StabilityConfig
+from optimizer.stability import check, fastest_stable, is_search_walk, jittered_starts
+
+BASE = (-3.0, 1.0, 30.0)
+CONFIG = StabilityConfig(repeats=6, jitter=(0.05, 0.05, 10.0), candidates=3)
+
+
+class StartSensitive:
+    """Distance = first gene; a gait whose first gene is in ``fragile`` falls from any start moved
+    to the +x side of the base (about half of them), never from the base itself."""
+
+    def __init__(self, fragile: Sequence[float] = ()) -> None:
+        self.fragile = set(fragile)
+        self.tasks: list[EpisodeTask] = []
+
+    def evaluate(self, tasks: Sequence[EpisodeTask]) -> Iterator[EpisodeOutcome]:
+        for task in tasks:
+            self.tasks.append(task)
+            moved = task.start is not None and task.start[0] > BASE[0]
+            fell = moved and task.genes[0] in self.fragile
+            distance = task.genes[0]
+            yield EpisodeOutcome(task, 0, {"distance": distance, "fell": fell, "time": 15.0, "fitness": 10 * distance,
+                                           "mean_speed": distance / 15, "status": "ok", "reason": "", "wall": 0.0})
+
+    def close(self) -> None:
+        pass
+
+
+def search_walk(driver: Driver, key: str, *genes: float) -> dict:
+    return driver.walk([driver.task(key, genes)])[key]
+
+
+def test_a_check_walks_the_gait_from_seeded_moved_starts_and_counts_falls(tmp_path: Path) -> None:
+    evaluator = StartSensitive(fragile=[4.0])
+    with EpisodeLog(tmp_path / "episodes.jsonl") as log:
+        driver = Driver(evaluator, log, run_seed=3)
+        walk = search_walk(driver, "pc0.8/final/g01/i002", 4.0, 0.5)
+        report = check(driver, walk, BASE, CONFIG)
+    repeats = report.repeats
+    assert [r["key"] for r in repeats] == [f"check/pc0.8/final/g01/i002/r{j:02d}" for j in range(6)]
+    assert all(r["genes"] == [4.0, 0.5] for r in repeats)
+    starts = [tuple(r["start"]) for r in repeats]
+    assert starts == jittered_starts(BASE, CONFIG.jitter, 6, stable_seed(3, "check/pc0.8/final/g01/i002"))
+    assert report.falls == sum(s[0] > BASE[0] for s in starts) and 0 < report.falls < 6
+    assert not report.stable and report.failed == 0
+    assert f"fell in {report.falls} of 6 moved starts" in report.summary()
+    logged = read_episode_log(tmp_path / "episodes.jsonl")[0]
+    assert [tuple(logged[r["key"]]["start"]) for r in repeats] == starts
+    assert not is_search_walk(repeats[0]) and is_search_walk(walk)
+
+
+def test_a_resumed_check_is_answered_from_the_log_and_another_start_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "episodes.jsonl"
+    with EpisodeLog(path) as log:
+        driver = Driver(StartSensitive(), log, run_seed=3)
+        first = check(driver, search_walk(driver, "a/i000", 2.0), BASE, CONFIG)
+    again = StartSensitive()
+    with EpisodeLog(path) as log:
+        driver = Driver(again, log, run_seed=3)
+        second = check(driver, search_walk(driver, "a/i000", 2.0), BASE, CONFIG)
+        assert again.tasks == [] and second.repeats == first.repeats
+        # the same keys from another base point are other walks: the log cannot answer them
+        with pytest.raises(ResumeMismatch, match="another start"):
+            check(driver, log.records["a/i000"], (0.0, 0.0, 0.0), CONFIG)
+    other_seed = StartSensitive()
+    with EpisodeLog(tmp_path / "other.jsonl") as log:
+        driver = Driver(other_seed, log, run_seed=4)
+        third = check(driver, search_walk(driver, "a/i000", 2.0), BASE, CONFIG)
+    assert [r["start"] for r in third.repeats] != [r["start"] for r in first.repeats]
+
+
+def test_the_fastest_stable_gait_skips_fast_walks_that_fall_from_moved_starts(tmp_path: Path) -> None:
+    evaluator = StartSensitive(fragile=[9.0, 8.0])
+    with EpisodeLog(tmp_path / "episodes.jsonl") as log:
+        driver = Driver(evaluator, log, run_seed=1)
+        for key, first_gene in (("s/i000", 9.0), ("s/i001", 8.0), ("s/i002", 8.0), ("s/i003", 7.0), ("s/i004", 6.0)):
+            search_walk(driver, key, first_gene)
+        report = fastest_stable(driver, log.records, BASE, CONFIG)
+    assert report is not None and report.stable and report.walk["key"] == "s/i003"
+    checked = {t.key.rsplit("/", 1)[0] for t in evaluator.tasks if t.start is not None}
+    # fastest first, one check per gait (s/i002 has s/i001's genes), none after the first that passes
+    assert checked == {"check/s/i000", "check/s/i001", "check/s/i003"}
+
+
+def test_when_no_candidate_passes_the_one_that_fell_least_is_kept(tmp_path: Path) -> None:
+    evaluator = StartSensitive(fragile=[9.0, 8.0, 7.0, 6.0])
+    with EpisodeLog(tmp_path / "episodes.jsonl") as log:
+        driver = Driver(evaluator, log, run_seed=1)
+        for k, first_gene in enumerate((9.0, 8.0, 7.0, 6.0)):
+            search_walk(driver, f"s/i{k:03d}", first_gene)
+        report = fastest_stable(driver, log.records, BASE, CONFIG)
+        records = dict(log.records)
+    assert report is not None and not report.stable
+    checked = sorted({t.key.rsplit("/", 1)[0] for t in evaluator.tasks if t.start is not None})
+    assert checked == ["check/s/i000", "check/s/i001", "check/s/i002"]  # CONFIG.candidates = 3
+    # each candidate's starts are its own draw, so their falls differ: the fewest win, then the faster
+    falls = {k: sum(r["fell"] for key, r in records.items() if key.startswith(f"check/s/i{k:03d}/")) for k in range(3)}
+    least = min(range(3), key=lambda k: (falls[k], -records[f"s/i{k:03d}"]["fitness"]))
+    assert report.walk["key"] == f"s/i{least:03d}" and report.falls == falls[least]
+
+
+def test_every_walk_fell_gives_no_fastest(tmp_path: Path) -> None:
+    with EpisodeLog(tmp_path / "episodes.jsonl") as log:
+        driver = Driver(StartSensitive(), log, run_seed=1)
+        log.append({"key": "s/i000", "genes": [1.0], "seed": 0, "worker": 0, "distance": 0.3, "fell": True,
+                    "time": 2.0, "fitness": 3.0, "mean_speed": 0.15, "status": "ok", "reason": "", "wall": 0.0})
+        assert fastest_stable(driver, log.records, BASE, CONFIG) is None
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.floats(-10, 10), min_size=3, max_size=3), st.lists(st.floats(0, 2), min_size=3, max_size=3),
+       st.integers(1, 20), st.integers(0, 2**32))
+def test_jittered_starts_stay_within_the_jitter_and_follow_the_seed(base, jitter, count, seed) -> None:
+    points = jittered_starts(base, jitter, count, seed)
+    assert len(points) == count
+    for point in points:
+        assert all(abs(p - b) <= j + 1e-9 for p, b, j in zip(point, base, jitter))
+    assert points == jittered_starts(base, jitter, count, seed)
+    if not any(jitter):
+        assert points == [tuple(base)] * count
+
+
+def test_a_stability_config_refuses_impossible_values() -> None:
+    for bad in ({"repeats": -1}, {"jitter": (0.1, 0.1)}, {"jitter": (0.1, -0.1, 0.0)},
+                {"jitter": (0.1, float("inf"), 0.0)}, {"candidates": 0}):
+        with pytest.raises(ValueError, match="StabilityConfig"):
+            StabilityConfig(**bad)
