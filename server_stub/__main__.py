@@ -27,7 +27,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sense-mypos", action="store_true", help="add mypos/myorien/ballpos to vision")
     p.add_argument("--vision-noise", action=argparse.BooleanOptionalAction, default=True,
                    help="noise on vision (default on, as on the real server)")
-    p.add_argument("--seed", type=whole, default=0, help="seed of every random choice (vision noise)")
+    p.add_argument("--beam-noise", action=argparse.BooleanOptionalAction, default=True,
+                   help="move each beam by up to 0.05 m and 10 deg at random (default on, as on the real server)")
+    p.add_argument("--seed", type=whole, default=0, help="seed of every random choice (vision and beam noise)")
     p.add_argument("--agent-timeout", type=positive_float, default=10.0,
                    help="sync mode: disconnect an agent silent this many wall seconds (default 10)")
     p.add_argument("--exit-with-parent", action="store_true",
@@ -49,7 +51,8 @@ def main(argv: list[str] | None = None) -> int:
     realtime = (not args.sync) if args.realtime is None else args.realtime
     config = ServerConfig(
         host=args.host, agent_port=args.agent_port, monitor_port=args.monitor_port, sync=args.sync,
-        realtime=realtime, sense_mypos=args.sense_mypos, vision_noise=args.vision_noise, seed=args.seed,
+        realtime=realtime, sense_mypos=args.sense_mypos, vision_noise=args.vision_noise,
+        beam_noise=args.beam_noise, seed=args.seed,
         agent_timeout=args.agent_timeout, parent_pid=os.getppid() if args.exit_with_parent else 0,
     )
     try:

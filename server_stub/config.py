@@ -125,6 +125,13 @@ class ServerConfig:
     #: Add ``mypos`` / ``myorien`` / ``ballpos`` to vision (off on the real server by default).
     sense_mypos: bool = False
     vision_noise: bool = True
+    #: Move every agent's beam by a uniform random amount within +-``beam_noise_xy`` (m) on x and
+    #: y and +-``beam_noise_angle`` (deg) on the heading: the real server's defaults
+    #: (``BeamNoiseXY``, ``BeamNoiseAngle``; facts sections 6 and 12). The fixtures' server had
+    #: them at 0; an optimizer that needs exact starts turns the noise off.
+    beam_noise: bool = True
+    beam_noise_xy: float = 0.05
+    beam_noise_angle: float = 10.0
     seed: int = 0
     #: Sync mode waits this long (wall s) for a ``(syn)`` before stepping anyway, as the real
     #: server's 1-s waits do; keeps an agent that sends ``init`` without ``(syn)`` working.

@@ -23,6 +23,8 @@ import selectors
 import socket
 import time
 
+import numpy as np
+
 from protocol.errors import ProtocolError
 from protocol.nao import CYCLE, JOINTS, NAO_HETERO_RSG, NAO_RSG, ROBOT_TYPES
 from protocol.sexp import parse_sexp
@@ -59,6 +61,8 @@ class StubServer:
         self._monitors: dict[Client, bool] = {}  # monitor -> needs a full scene
         self._scene_changed = False
         self._last_beam: dict[tuple[str, int], tuple[float, float, float]] = {}
+        # its own stream of the seed, so that beams do not shift the vision noise's draws
+        self._beam_rng = np.random.default_rng([config.seed, 1])
         self._agent_listener = self._listen(config.agent_port, "agent")
         self._monitor_listener = self._listen(config.monitor_port, "monitor")
         self.agent_port = self._agent_listener.getsockname()[1]
@@ -360,6 +364,11 @@ class StubServer:
         if not self.game.beam_allowed():
             return  # silently ignored outside BeforeKickOff / Goal_*, as on the real server
         x, y, rot = (float(a) for a in args[:3])
+        if self.config.beam_noise:
+            # added to what the agent asked for, in its own half's coordinates, before clipping
+            dx, dy, drot = self._beam_rng.uniform(-1.0, 1.0, 3)
+            x, y = x + dx * self.config.beam_noise_xy, y + dy * self.config.beam_noise_xy
+            rot += drot * self.config.beam_noise_angle
         pose = beam_pose(state.side or "left", x, y, rot)
         state.robot.beam(*pose)
         if state.side is not None and state.unum is not None:

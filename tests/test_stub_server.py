@@ -237,3 +237,41 @@ def test_real_time_mode_paces_at_50_hz() -> None:
         assert now(message) - first == pytest.approx(0.5, abs=0.011)
         assert elapsed > 0.45  # never faster than 50 cycles per wall second
         client.close()
+
+
+def _beamed_poses(server: StubProcess, count: int) -> list[tuple[float, float, float]]:
+    """``count`` robots in turn, each beamed to (-5, 2, 30): where vision's ``mypos`` and
+    ``myorien`` put the head a few cycles later (x, y, heading)."""
+    poses = []
+    for unum in range(1, count + 1):
+        client = RawClient(server.agent_port)
+        _handshake(client, unum=unum)
+        client.send("(beam -5 2 30)(syn)")
+        seen = []
+        for _ in range(7):
+            seen.append(client.receive())
+            client.send("(syn)")
+        last = [m for m in seen if "(mypos " in m][-1]
+        x, y = (float(v) for v in re.search(r"\(mypos (\S+) (\S+) \S+\)", last).groups())
+        heading = float(re.search(r"\(myorien (\S+)\)", last).group(1))
+        poses.append((x, y, heading))
+        client.close()
+        time.sleep(0.2)  # the robot is removed before the next one comes
+    return poses
+
+
+def test_beams_carry_the_real_servers_seeded_noise_unless_turned_off() -> None:
+    args = ("--sync", "--no-realtime", "--sense-mypos", "--seed", "3")
+    with StubProcess(*args) as server:
+        noisy = _beamed_poses(server, 4)
+    with StubProcess(*args) as server:
+        assert _beamed_poses(server, 4) == noisy  # one seed, one set of beams
+    with StubProcess(*args, "--no-beam-noise") as server:
+        exact = _beamed_poses(server, 2)
+    for x, y, heading in exact:
+        assert abs(x + 5) < 0.005 and abs(y - 2) < 0.005 and abs(heading - 30) < 0.5
+    for x, y, heading in noisy:  # uniform within 0.05 m and 10 deg (facts section 6), plus settling
+        assert abs(x + 5) < 0.055 and abs(y - 2) < 0.055 and abs(heading - 30) < 10.5
+    assert len(set(noisy)) == 4
+    assert max(max(abs(x + 5), abs(y - 2)) for x, y, _ in noisy) > 0.01
+    assert max(abs(heading - 30) for *_, heading in noisy) > 1.0
