@@ -40,7 +40,7 @@ from optimizer.report import TableRow, plot_ga_convergence, plot_gala_convergenc
     write_table_markdown
 from optimizer.run_folder import RunFolder, write_json
 from optimizer.search_config import GAConfig, GALAConfig, StabilityConfig
-from optimizer.stability import StabilityReport, check, fastest_stable, is_search_walk
+from optimizer.stability import StabilityReport, check, fastest_stable, standing_walks
 from protocol.cli_values import count, non_negative, positive_int, probability
 
 #: The paper's protocol (section VI).
@@ -142,8 +142,8 @@ def fastest_episode(records: Mapping[str, Mapping[str, Any]]) -> dict[str, Any] 
     row's best from a fresh final GA, as the paper does; the continuing population of the learning
     phase evaluates ten times as many gaits and often walks farther (pc 0.8, seed 1: 9.23 m against
     the final GA's 5.47 m), and a user wants that gait too."""
-    walks = [r for r in records.values() if is_search_walk(r) and r["status"] == "ok" and not r["fell"]]
-    return dict(max(walks, key=lambda r: r["fitness"])) if walks else None
+    walks = standing_walks(records)
+    return dict(walks[0]) if walks else None
 
 
 @dataclass

@@ -42,6 +42,12 @@ def is_search_walk(record: Mapping[str, Any]) -> bool:
     return not str(record["key"]).startswith(CHECK_PREFIX)
 
 
+def standing_walks(records: Mapping[str, Mapping[str, Any]]) -> list[Mapping[str, Any]]:
+    """The search's walks that ran and did not fall, fastest first (by key on a tie)."""
+    walks = [r for r in records.values() if is_search_walk(r) and r["status"] == "ok" and not r["fell"]]
+    return sorted(walks, key=lambda r: (-float(r["fitness"]), r["key"]))
+
+
 @dataclass(frozen=True)
 class StabilityReport:
     """The check of one logged walk: the walk itself and its repeats' log records."""
@@ -94,11 +100,9 @@ def fastest_stable(driver: Driver, records: Mapping[str, Mapping[str, Any]], bas
     """The fastest stable gait of the search so far: of its walks that did not fall, fastest
     first (one per gait), the first of ``config.candidates`` whose check has no fall; when none
     passes, the one that fell least (the faster on a tie). None when every walk fell."""
-    walks = [r for r in records.values() if is_search_walk(r) and r["status"] == "ok" and not r["fell"]]
-    walks.sort(key=lambda r: (-float(r["fitness"]), r["key"]))
     reports: list[StabilityReport] = []
     seen: set[tuple[float, ...]] = set()
-    for walk in walks:
+    for walk in standing_walks(records):
         genes = tuple(walk["genes"])
         if genes in seen:
             continue
