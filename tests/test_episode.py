@@ -46,6 +46,10 @@ def test_a_walk_from_another_start_is_measured_from_it(runner: EpisodeRunner) ->
     assert turned.status == "ok" and not turned.fell
     assert at_origin.distance > 0.3
     assert turned.distance == pytest.approx(at_origin.distance, abs=0.1)
+    # the same start given to one episode of the origin's runner (a stability check's way)
+    moved = runner.evaluate(load_gait(), start=(-6.0, 3.0, 90.0))
+    assert (moved.distance, moved.fell, moved.time) == (turned.distance, turned.fell, turned.time)
+    assert runner.evaluate(load_gait()).distance == at_origin.distance  # the next one starts at home
 
 
 def test_a_gait_that_collapses_is_scored_at_its_fall(runner: EpisodeRunner) -> None:
