@@ -24,7 +24,8 @@ from optimizer.driver import BarProgress, Driver, ResumeMismatch
 from optimizer.episode import EpisodeConfig, ServerAddress
 from optimizer.evaluation import EpisodeRunnerFactory, EvaluationError, Evaluator, ProcessPoolEvaluator
 from optimizer.run_folder import RunFolder, RunFolderError, new_run_path
-from protocol.cli_values import number, positive_float, positive_int, probability
+from optimizer.search_config import StabilityConfig
+from protocol.cli_values import count, non_negative, number, positive_float, positive_int, probability
 
 #: Exit status of an interrupted run (the shell's convention for SIGINT).
 EXIT_INTERRUPTED = 130
@@ -63,6 +64,28 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
                         help="run the agent inside the worker or as its own process (default inprocess)")
 
 
+def add_check_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--check-repeats`` and ``--check-jitter``: the stability check of the gaits a run finds
+    (``optimizer.stability``)."""
+    parser.add_argument("--check-repeats", type=count, default=None, metavar="N",
+                        help="walk each gait the run reports N more times from moved starts and count the "
+                             "falls (default 10; 0: no check)")
+    parser.add_argument("--check-jitter", type=non_negative, nargs=3, default=None, metavar=("DX", "DY", "DEG"),
+                        help="how far a check moves the start: within +-DX, +-DY (m) and +-DEG (heading) "
+                             "(default 0.05 0.05 10, the real server's beam noise)")
+
+
+#: Defaults of the check settings the commands store.
+CHECK_DEFAULTS: dict[str, Any] = {"check_repeats": StabilityConfig().repeats,
+                                  "check_jitter": list(StabilityConfig().jitter)}
+
+
+def stability_config(settings: Mapping[str, Any]) -> StabilityConfig:
+    """The run's check; a run made before checks existed has none."""
+    return StabilityConfig(repeats=settings.get("check_repeats", 0),
+                           jitter=tuple(settings.get("check_jitter", StabilityConfig().jitter)))
+
+
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     """Flags of every search command: GA numbers shared by GA and GALA, the seed, the run folder
     and the workers."""
@@ -70,6 +93,7 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--elitism", action=argparse.BooleanOptionalAction, default=None,
                         help="carry the best individual into the next generation (default on)")
     add_episode_arguments(parser)
+    add_check_arguments(parser)
     parser.add_argument("--seed", type=int, default=None,
                         help="fixes every random choice of the run (default: a random seed, recorded)")
     parser.add_argument("--server", type=server_address, action="append", default=None,
@@ -182,7 +206,7 @@ def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, comma
         stored = folder.manifest["settings"]
         if args.seed is not None and args.seed != folder.manifest["seed"]:
             parser.error(f"--resume: --seed {args.seed} conflicts with the run's --seed {folder.manifest['seed']}")
-    settings = resolve_settings(parser, args, {**defaults, **EPISODE_DEFAULTS}, stored)
+    settings = resolve_settings(parser, args, {**defaults, **EPISODE_DEFAULTS, **CHECK_DEFAULTS}, stored)
     servers = tuple(args.server or ())
     if servers and args.workers is not None and args.workers != len(servers):
         parser.error(f"--workers {args.workers} conflicts with {len(servers)} --server address(es): "

@@ -5,7 +5,8 @@
     python -m optimizer.ga --crossover 0.8 --mutation 0.07 --generations 10
 
 Writes manifest.json, episodes.jsonl, results.json, ga.png (best and mean fitness per
-generation) and best_gait.json into the run folder (default runs/ga-YYYYmmdd-HHMMSS).
+generation) and best_gait.json into the run folder (default runs/ga-YYYYmmdd-HHMMSS). The best
+gait is then checked as GALA's are (``--check-repeats``, ``--check-jitter``; ``optimizer.stability``).
 """
 from __future__ import annotations
 
@@ -16,7 +17,8 @@ from typing import Any
 
 from gait import GENE_BOUNDS, repair_genes
 from optimizer.command_line import (
-    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, prepare_run, run_session, write_gait,
+    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, prepare_run, run_session, stability_config,
+    write_gait,
 )
 from optimizer.driver import Driver
 from optimizer.evaluation import stable_seed
@@ -24,6 +26,7 @@ from optimizer.ga import GAResult, GARun
 from optimizer.report import plot_ga_convergence
 from optimizer.run_folder import write_json
 from optimizer.search_config import DE_JONG, GREFENSTETTE, PAPER_GALA_BEST, GAConfig, RatePreset
+from optimizer.stability import check
 from protocol.cli_values import positive_int, probability
 
 PRESETS: dict[str, RatePreset] = {"dejong": DE_JONG, "grefenstette": GREFENSTETTE, "gala": PAPER_GALA_BEST}
@@ -75,17 +78,22 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     args = parser.parse_args(argv)
     run = prepare_run(parser, args, "ga", defaults(args.preset), argv)
     config = ga_config(run.settings)
+    stability = stability_config(run.settings)
 
     def body(driver: Driver) -> str:
         search = GARun(GENE_BOUNDS, config, stable_seed(run.seed, PREFIX), repair=repair_genes, prefix=PREFIX)
         result: GAResult = driver.run(search)
         folder = run.folder.path
         best = best_episode(driver.log.records, PREFIX + "/", result.best_genes, result.best_fitness)
-        write_json(folder / "results.json", {**result.to_dict(), "settings": run.settings, "best_episode": best})
+        checked = None if best is None or stability.repeats == 0 else check(driver, best, run.setup.start, stability)
+        verdict = "" if checked is None else f"; {checked.summary()}"
+        write_json(folder / "results.json", {**result.to_dict(), "settings": run.settings, "best_episode": best,
+                                             "check": None if checked is None else checked.to_dict()})
         plot_ga_convergence(result.history, folder / "ga.png", title(run.settings))
         write_gait(folder / "best_gait.json", result.best_genes,
-                   f"{title(run.settings)}: fitness {result.best_fitness:.4f} (run {folder})")
+                   f"{title(run.settings)}: fitness {result.best_fitness:.4f}{verdict} (run {folder})")
         distance = "-" if best is None else f"{best['distance']:.2f} m"
-        return f"best fitness {result.best_fitness:.4f} ({distance}); results in {folder}"
+        return f"best fitness {result.best_fitness:.4f} ({distance}{verdict}); results in {folder}"
 
-    return run_session(run, planned_episodes(config), body, make_evaluator=make_evaluator, quiet=args.quiet)
+    return run_session(run, planned_episodes(config) + stability.repeats, body, make_evaluator=make_evaluator,
+                       quiet=args.quiet)

@@ -28,7 +28,8 @@ import numpy as np
 
 from gait import GENE_BOUNDS, repair_genes
 from optimizer.command_line import (
-    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, prepare_run, run_session, write_gait,
+    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, prepare_run, run_session, stability_config,
+    write_gait,
 )
 from optimizer.driver import Driver
 from optimizer.episode import Start
@@ -41,7 +42,7 @@ from optimizer.report import TableRow, plot_ga_convergence, plot_gala_convergenc
 from optimizer.run_folder import RunFolder, write_json
 from optimizer.search_config import GAConfig, GALAConfig, StabilityConfig
 from optimizer.stability import StabilityReport, check, fastest_stable, standing_walks
-from protocol.cli_values import count, non_negative, positive_int, probability
+from protocol.cli_values import positive_int, probability
 
 #: The paper's protocol (section VI).
 PAPER: dict[str, Any] = {
@@ -54,8 +55,6 @@ PAPER: dict[str, Any] = {
     "scheme": "lrp",
     "elitism": GAConfig().elitism,
     "baseline_window": GALAConfig().baseline_window,
-    "check_repeats": StabilityConfig().repeats,
-    "check_jitter": list(StabilityConfig().jitter),
 }
 
 #: A first look on a 2-core machine: one row (the paper's best crossover rate), population 20,
@@ -102,12 +101,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--baseline-window", type=positive_int, default=None, metavar="K",
                    help="reward an iteration whose best beats the average of the last K bests "
                         "(default: of all preceding bests, as the paper)")
-    p.add_argument("--check-repeats", type=count, default=None, metavar="N",
-                   help="walk each row's best gait and the fastest gait N times from moved starts and count "
-                        "the falls (default 10; 0: no check)")
-    p.add_argument("--check-jitter", type=non_negative, nargs=3, default=None, metavar=("DX", "DY", "DEG"),
-                   help="how far a check moves the start: within +-DX, +-DY (m) and +-DEG (heading) "
-                        "(default 0.05 0.05 10, the real server's beam noise)")
     add_run_arguments(p)
     return p
 
@@ -122,12 +115,6 @@ def gala_config(settings: dict[str, Any]) -> GALAConfig:
         baseline_window=settings["baseline_window"],
         crossover_rates=tuple(settings["crossover"]),
     )
-
-
-def stability_config(settings: dict[str, Any]) -> StabilityConfig:
-    """The check of the run; a run made before checks existed has none."""
-    return StabilityConfig(repeats=settings.get("check_repeats", 0),
-                           jitter=tuple(settings.get("check_jitter", StabilityConfig().jitter)))
 
 
 def scheme(settings: dict[str, Any], config: GALAConfig) -> LearningScheme:

@@ -198,13 +198,14 @@ def test_a_killed_gala_run_resumes_to_the_same_files(tmp_path: Path) -> None:
         assert (tmp_path / "cut" / name).read_text() == (tmp_path / "whole" / name).read_text(), name
 
 
-def test_a_run_made_before_start_existed_resumes_from_the_origin(tmp_path: Path) -> None:
+def test_a_run_made_before_start_and_checks_existed_resumes_from_the_origin_unchecked(tmp_path: Path) -> None:
     out = tmp_path / "old"
     argv = ["--crossover", "0.8", *SMALL, "--seed", "5"]
     with pytest.raises(Killed):
         gala_command.main([*argv, "--out", str(out)], make_evaluator=lambda s: FakeEvaluator(10))
     manifest = json.loads((out / "manifest.json").read_text())
-    del manifest["settings"]["start"]  # what an earlier version wrote
+    for name in ("start", "check_repeats", "check_jitter"):  # what an earlier version wrote
+        del manifest["settings"][name]
     (out / "manifest.json").write_text(json.dumps(manifest))
     setups = []
 
@@ -214,6 +215,7 @@ def test_a_run_made_before_start_existed_resumes_from_the_origin(tmp_path: Path)
 
     assert gala_command.main(["--resume", str(out), "--quiet"], make_evaluator=fake) == 0
     assert setups[0].start == (0.0, 0.0, 0.0)
+    assert "check/" not in (out / "episodes.jsonl").read_text()
 
 
 def test_an_interrupted_run_says_how_to_resume(tmp_path: Path, capsys) -> None:
@@ -236,8 +238,13 @@ def test_ga_presets_and_its_folder(tmp_path: Path, capsys) -> None:
     results = json.loads((out / "results.json").read_text())
     assert len(results["history"]) == 3 and (out / "ga.png").stat().st_size > 0
     assert list(vars(load_gait(out / "best_gait.json")).values()) == results["best_genes"]
-    assert len((out / "episodes.jsonl").read_text().splitlines()) == 6 + 2 * 5
-    assert "best fitness" in capsys.readouterr().out
+    episodes = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
+    assert len([r for r in episodes if "start" not in r]) == 6 + 2 * 5
+    repeats = [r for r in episodes if r["key"].startswith(f"check/{results['best_episode']['key']}/")]
+    assert len(repeats) == 10 == results["check"]["repeats"] == len(episodes) - 16  # the best, checked
+    assert all(r["genes"] == results["best_genes"] for r in repeats)
+    printed = capsys.readouterr().out
+    assert "best fitness" in printed and "fell in 0 of 10 moved starts" in printed
     err = refused(ga_command.main, ["--resume", str(out), "--preset", "grefenstette"], capsys)
     assert "--preset grefenstette conflicts with the run's --preset dejong" in err
     assert "--mutation" in refused(ga_command.main, ["--mutation", "2"], capsys)
