@@ -74,7 +74,8 @@ class StabilityReport:
 
     def summary(self) -> str:
         distances = self.distances()
-        spread = f", {min(distances):.2f}-{max(distances):.2f} m" if distances else ""
+        spread = (f", {min(distances):.2f}-{max(distances):.2f} m (mean {sum(distances) / len(distances):.2f} m)"
+                  if distances else "")
         failed = f", {self.failed} could not be run" if self.failed else ""
         return f"fell in {self.falls} of {len(self.repeats)} moved starts{spread}{failed}"
 
@@ -82,6 +83,7 @@ class StabilityReport:
         distances = self.distances()
         return {"key": self.walk["key"], "repeats": len(self.repeats), "falls": self.falls, "failed": self.failed,
                 "min_distance": min(distances, default=None), "max_distance": max(distances, default=None),
+                "mean_distance": sum(distances) / len(distances) if distances else None,
                 "walks": [{k: r[k] for k in ("key", "start", "distance", "fell", "time", "status")}
                           for r in self.repeats]}
 

@@ -58,7 +58,8 @@ def test_a_check_walks_the_gait_from_seeded_moved_starts_and_counts_falls(tmp_pa
     assert starts == jittered_starts(BASE, CONFIG.jitter, 6, stable_seed(3, "check/pc0.8/final/g01/i002"))
     assert report.falls == sum(s[0] > BASE[0] for s in starts) and 0 < report.falls < 6
     assert not report.stable and report.failed == 0
-    assert f"fell in {report.falls} of 6 moved starts" in report.summary()
+    assert f"fell in {report.falls} of 6 moved starts, 4.00-4.00 m (mean 4.00 m)" == report.summary()
+    assert report.to_dict()["mean_distance"] == 4.0 and report.to_dict()["falls"] == report.falls
     logged = read_episode_log(tmp_path / "episodes.jsonl")[0]
     assert [tuple(logged[r["key"]]["start"]) for r in repeats] == starts
     assert not is_search_walk(repeats[0]) and is_search_walk(walk)
