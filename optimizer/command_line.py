@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from gait import TFSParams, save_gait
-from optimizer.driver import BarProgress, Driver, ResumeMismatch
+from optimizer.driver import BarProgress, Driver, ResumeMismatch, is_search_walk
 from optimizer.episode import EpisodeConfig, ServerAddress
 from optimizer.evaluation import EpisodeRunnerFactory, EvaluationError, Evaluator, ProcessPoolEvaluator
 from optimizer.run_folder import RunFolder, RunFolderError, new_run_path
@@ -246,7 +246,7 @@ def run_session(run: Run, planned_episodes: int, body: Callable[[Driver], str], 
     logged = list(log.records.values())
     say(f"{run.command}: run folder {run.folder.path} (seed {run.seed}, {run.setup.workers} worker(s)"
         + (f", {len(logged)} episodes already logged)" if run.resumed else ")"))
-    searched = (r["fitness"] for r in logged if "start" not in r)  # not a stability check's walk
+    searched = (r["fitness"] for r in logged if is_search_walk(r))
     progress = BarProgress(planned_episodes, len(logged), max(searched, default=-math.inf), quiet=quiet)
     evaluator: Evaluator | None = None
     try:

@@ -19,6 +19,12 @@ from optimizer.ga import AskTellSearch
 from optimizer.run_folder import EpisodeLog
 
 
+def is_search_walk(record: Mapping[str, Any]) -> bool:
+    """An episode a search asked for: one walked from the run's own start. A walk from a start of
+    its own (a stability check's) says nothing about the search's progress."""
+    return "start" not in record
+
+
 class ResumeMismatch(RuntimeError):
     """The log answers a key whose logged genes differ from what the replayed search asks: the
     log belongs to other settings, seed or code, and replaying it would mix two searches."""
@@ -107,7 +113,7 @@ class BarProgress:
         self._show()
 
     def episode(self, record: Mapping[str, Any]) -> None:
-        if "start" not in record:  # a stability check's walk from a moved start is not the search's
+        if is_search_walk(record):
             self.best = max(self.best, float(record["fitness"]))
         self.failed += record.get("status") == "failed"
         self._bar.update(1)

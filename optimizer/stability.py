@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from optimizer.driver import Driver
+from optimizer.driver import Driver, is_search_walk
 from optimizer.episode import Start
 from optimizer.evaluation import stable_seed
 from optimizer.search_config import StabilityConfig
@@ -36,11 +36,6 @@ def jittered_starts(base: Sequence[float], jitter: Sequence[float], count: int, 
     rng = np.random.default_rng(seed)
     offsets = rng.uniform(-1.0, 1.0, size=(count, 3)) * np.asarray(jitter, dtype=float)
     return [(base[0] + dx, base[1] + dy, base[2] + dh) for dx, dy, dh in offsets.tolist()]
-
-
-def is_search_walk(record: Mapping[str, Any]) -> bool:
-    """An episode the search asked for (not a check walk from a moved start)."""
-    return not str(record["key"]).startswith(CHECK_PREFIX)
 
 
 def standing_walks(records: Mapping[str, Mapping[str, Any]]) -> list[Mapping[str, Any]]:
