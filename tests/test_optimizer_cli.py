@@ -269,42 +269,6 @@ def test_planned_episodes_match_what_the_searches_ask(restart: bool, elitism: bo
     assert len(asked) == ga_command.planned_episodes(ga)
 
 
-def test_episode_command_takes_a_start(monkeypatch, capsys) -> None:
-    starts = []
-
-    class Runner:
-        def __init__(self, config, server, seed):
-            pass
-
-        def __enter__(self):
-            return self
-
-        def __exit__(self, *exc):
-            pass
-
-        def evaluate(self, params, start):
-            starts.append(start)
-            return EpisodeResult(1.0, False, 15.0, 10.0, 1 / 15)
-
-    monkeypatch.setattr(episode_command, "EpisodeRunner", Runner)
-    assert episode_command.main(["--start", "-6", "3.5", "90", "--json"]) == 0
-    assert starts == [(-6.0, 3.5, 90.0)]
-    assert json.loads(capsys.readouterr().out)["distance"] == 1.0
-
-
-def test_episode_command_refuses_a_bad_gait_file_or_server(tmp_path: Path, capsys) -> None:
-    bad = tmp_path / "gait.json"
-    bad.write_text("{}")
-    for argv, flag in ((["--gait", str(bad)], "--gait"), (["--server", "nowhere"], "--server"),
-                       (["--agent-mode", "thread"], "--agent-mode"), (["--start", "1", "2"], "--start"),
-                       (["--start", "1", "2", "nan"], "--start"), (["--repeat", "0"], "--repeat"),
-                       (["--jitter", "0.1", "-0.1", "0"], "--jitter"), (["--jitter", "0.1", "0.1"], "--jitter")):
-        with pytest.raises(SystemExit) as exit_info:
-            episode_command.main(argv)
-        assert exit_info.value.code == 2
-        assert flag in capsys.readouterr().err
-
-
 class _RecordingRunner:
     """Stands in for EpisodeRunner: records the start of every walk; ``fail_at`` fails one."""
 
@@ -325,6 +289,27 @@ class _RecordingRunner:
         if len(self.walks) - 1 == self.fail_at:
             return EpisodeResult.failed("server gone", 1.0)
         return EpisodeResult(float(len(self.walks)), len(self.walks) == 2, 15.0, 10.0 * len(self.walks), 0.1)
+
+
+def test_episode_command_takes_a_start(monkeypatch, capsys) -> None:
+    _RecordingRunner.walks, _RecordingRunner.fail_at = [], None
+    monkeypatch.setattr(episode_command, "EpisodeRunner", _RecordingRunner)
+    assert episode_command.main(["--start", "-6", "3.5", "90", "--json"]) == 0
+    assert _RecordingRunner.walks == [(-6.0, 3.5, 90.0)]
+    assert json.loads(capsys.readouterr().out)["distance"] == 1.0
+
+
+def test_episode_command_refuses_a_bad_gait_file_or_server(tmp_path: Path, capsys) -> None:
+    bad = tmp_path / "gait.json"
+    bad.write_text("{}")
+    for argv, flag in ((["--gait", str(bad)], "--gait"), (["--server", "nowhere"], "--server"),
+                       (["--agent-mode", "thread"], "--agent-mode"), (["--start", "1", "2"], "--start"),
+                       (["--start", "1", "2", "nan"], "--start"), (["--repeat", "0"], "--repeat"),
+                       (["--jitter", "0.1", "-0.1", "0"], "--jitter"), (["--jitter", "0.1", "0.1"], "--jitter")):
+        with pytest.raises(SystemExit) as exit_info:
+            episode_command.main(argv)
+        assert exit_info.value.code == 2
+        assert flag in capsys.readouterr().err
 
 
 def test_episode_command_repeats_from_jittered_starts(monkeypatch, capsys) -> None:
