@@ -59,7 +59,7 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
                         help="seconds of walking per episode (eq. 9; default 15)")
     parser.add_argument("--start", type=number, nargs=3, default=None, metavar=("X", "Y", "DEG"),
                         help="where each walk starts: field position (m) and heading (deg, 0 = +x); "
-                             "the distance is measured from it along the heading (default 0 0 0)")
+                             "the distance is measured along the heading (default 0 0 0)")
     parser.add_argument("--agent-mode", choices=("inprocess", "process"), default=None,
                         help="run the agent inside the worker or as its own process (default inprocess)")
 

@@ -1,9 +1,10 @@
 """One episode (paper eq. 9): a fresh agent walks one gait; the monitor stream scores it.
 
-Fitness = 10 x the torso's displacement along the walking direction, taken when the robot falls
-(torso up-vector z < 0.6 or torso height < 0.25 m, the community's run-benchmark rule) or when
-``walk_time`` seconds of game time have passed. Everything is read the way a trainer on a real
-rcssserver3d would: the torso pose from the monitor stream, control through trainer commands.
+Fitness = 10 x the torso's displacement along the walking direction from where it stood when its
+walk began, taken when the robot falls (torso up-vector z < 0.6 or torso height < 0.25 m, the
+community's run-benchmark rule) or when ``walk_time`` seconds of game time have passed.
+Everything is read the way a trainer on a real rcssserver3d would: the torso pose from the
+monitor stream, control through trainer commands.
 
 Per episode on the server (stub or real, sync mode):
 ``(playMode BeforeKickOff)(time 0)``, the ball parked out of the way; a new agent connects, beams
@@ -48,7 +49,8 @@ Start = tuple[float, float, float]
 class EpisodeConfig:
     #: Seconds of walking (game time after PlayOn) before the walk is scored (paper: 15 s).
     walk_time: float = 15.0
-    #: Start point (x, y) and heading (deg, 0 = +x) on the field; distance is measured from it.
+    #: Start point (x, y) and heading (deg, 0 = +x) on the field: where the robot is beamed, and
+    #: the direction along which its distance is measured (from where its torso is at PlayOn).
     start: tuple[float, float] = (0.0, 0.0)
     heading: float = 0.0
     #: "inprocess": a fresh ``agent.NaoAgent`` per episode in this process, over the same socket
@@ -144,12 +146,20 @@ def _find_robot(state: MonitorState, side: str, unum: int) -> RobotPose | None:
 
 class _Judge:
     """Watches monitor states in order and decides, from their content alone, when and how an
-    episode ends; so the outcome does not depend on when the states happen to be read."""
+    episode ends; so the outcome does not depend on when the states happen to be read.
+
+    The distance is the torso's displacement from where it stood when the walk began (the first
+    PlayOn state), along the configured heading. Not from the configured start: a server moves a
+    beam off its target (the left team's beam is clipped to x <= 0, so a stability check's start
+    at x = +0.03 lands at 0, and a real server adds up to 5 cm of beam noise), and the torso
+    settles away from the beamed point; measured from the target, each of these would be counted
+    as walking."""
 
     def __init__(self, config: EpisodeConfig) -> None:
         self.config = config
         self.result: EpisodeResult | None = None
         self._heading = math.radians(config.heading)
+        self._origin: tuple[float, float] | None = None
 
     def feed(self, state: MonitorState) -> None:
         if self.result is not None or state.play_mode != "PlayOn":
@@ -158,9 +168,11 @@ class _Judge:
         if robot is None:
             return
         x, y, z = robot.position
+        if self._origin is None:
+            self._origin = (x, y)
         fell = robot.up[2] < self.config.fall_up_z or z < self.config.fall_height
         if fell or state.game_time >= self.config.walk_time - 1e-6:
-            sx, sy = self.config.start
+            sx, sy = self._origin
             distance = (x - sx) * math.cos(self._heading) + (y - sy) * math.sin(self._heading)
             t = min(state.game_time, self.config.walk_time)
             speed = distance / t if t > 0 else 0.0

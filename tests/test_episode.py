@@ -52,6 +52,18 @@ def test_a_walk_from_another_start_is_measured_from_it(runner: EpisodeRunner) ->
     assert runner.evaluate(load_gait()).distance == at_origin.distance  # the next one starts at home
 
 
+def test_distance_is_measured_from_where_the_robot_stands_not_where_it_was_sent(runner: EpisodeRunner) -> None:
+    """A beam past the centre line is clipped to x = 0 (the left team's own half), so the robot
+    walks exactly the origin's walk; a judge measuring from the beam's target would take 0.4 m
+    off it. A start the server honours still moves the robot (the walk differs)."""
+    at_origin = runner.evaluate(load_gait())
+    clipped = runner.evaluate(load_gait(), start=(0.4, 0.0, 0.0))
+    assert clipped.status == "ok"
+    assert (clipped.distance, clipped.fell, clipped.time) == (at_origin.distance, at_origin.fell, at_origin.time)
+    behind = runner.evaluate(load_gait(), start=(-0.4, 0.0, 0.0))
+    assert behind.distance == pytest.approx(at_origin.distance, abs=0.05)
+
+
 def test_a_gait_that_collapses_is_scored_at_its_fall(runner: EpisodeRunner) -> None:
     collapse = load_gait().as_array()
     collapse[0], collapse[2], collapse[3] = 40.0, 40.0, 40.0  # hip far forward, big swings
