@@ -26,7 +26,7 @@ from optimizer.ga import GAResult, GARun
 from optimizer.report import plot_ga_convergence
 from optimizer.run_folder import write_json
 from optimizer.search_config import DE_JONG, GREFENSTETTE, PAPER_GALA_BEST, GAConfig, RatePreset
-from optimizer.stability import check
+from optimizer.stability import check_best
 from protocol.cli_values import positive_int, probability
 
 PRESETS: dict[str, RatePreset] = {"dejong": DE_JONG, "grefenstette": GREFENSTETTE, "gala": PAPER_GALA_BEST}
@@ -85,7 +85,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         result: GAResult = driver.run(search)
         folder = run.folder.path
         best = best_episode(driver.log.records, PREFIX + "/", result.best_genes, result.best_fitness)
-        checked = None if best is None or stability.repeats == 0 else check(driver, best, run.setup.start, stability)
+        checked = check_best(driver, best, run.setup.start, stability)
         verdict = "" if checked is None else f"; {checked.summary()}"
         write_json(folder / "results.json", {**result.to_dict(), "settings": run.settings, "best_episode": best,
                                              "check": None if checked is None else checked.to_dict()})

@@ -41,7 +41,7 @@ from optimizer.report import TableRow, plot_ga_convergence, plot_gala_convergenc
     write_table_markdown
 from optimizer.run_folder import RunFolder, write_json
 from optimizer.search_config import GAConfig, GALAConfig, StabilityConfig
-from optimizer.stability import StabilityReport, check, fastest_stable, standing_walks
+from optimizer.stability import StabilityReport, check_best, fastest_stable, standing_walks
 from protocol.cli_values import positive_int, probability
 
 #: The paper's protocol (section VI).
@@ -231,9 +231,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
                           repair=repair_genes)
             result: GALAResult = driver.run(search)
             best = best_episode(driver.log.records, f"{tag}/final/", result.best_genes, result.best_fitness)
-            checked = None if best is None or stability.repeats == 0 else check(driver, best, run.setup.start,
-                                                                                   stability)
-            rows.append(Row(result, best, checked))
+            rows.append(Row(result, best, check_best(driver, best, run.setup.start, stability)))
             fastest = fastest_walk(driver, run.setup.start, stability)
             write_outputs(run.folder, run.settings, rows, fastest)
         found = "" if fastest is None else f"{fastest.describe()}; in fastest_gait.json\n"

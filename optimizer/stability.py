@@ -93,6 +93,13 @@ def check(driver: Driver, walk: Mapping[str, Any], base: Start, config: Stabilit
     return StabilityReport(dict(walk), [records[task.key] for task in tasks])
 
 
+def check_best(driver: Driver, best: Mapping[str, Any] | None, base: Start,
+               config: StabilityConfig) -> StabilityReport | None:
+    """The check of a search's best walk; None when the search has none (every episode failed)
+    or checks are off (``repeats`` 0)."""
+    return None if best is None or config.repeats == 0 else check(driver, best, base, config)
+
+
 def fastest_stable(driver: Driver, records: Mapping[str, Mapping[str, Any]], base: Start,
                    config: StabilityConfig) -> StabilityReport | None:
     """The fastest stable gait of the search so far: of its walks that did not fall, fastest

@@ -14,7 +14,7 @@ from optimizer.driver import Driver, ResumeMismatch, is_search_walk
 from optimizer.evaluation import EpisodeOutcome, EpisodeTask, stable_seed
 from optimizer.run_folder import EpisodeLog, read_episode_log
 from optimizer.search_config import StabilityConfig
-from optimizer.stability import check, fastest_stable, jittered_starts
+from optimizer.stability import check, check_best, fastest_stable, jittered_starts
 
 BASE = (-3.0, 1.0, 30.0)
 CONFIG = StabilityConfig(repeats=6, jitter=(0.05, 0.05, 10.0), candidates=3)
@@ -63,6 +63,18 @@ def test_a_check_walks_the_gait_from_seeded_moved_starts_and_counts_falls(tmp_pa
     logged = read_episode_log(tmp_path / "episodes.jsonl")[0]
     assert [tuple(logged[r["key"]]["start"]) for r in repeats] == starts
     assert not is_search_walk(repeats[0]) and is_search_walk(walk)
+
+
+def test_a_searchs_best_is_checked_unless_there_is_none_or_checks_are_off(tmp_path: Path) -> None:
+    evaluator = StartSensitive()
+    with EpisodeLog(tmp_path / "episodes.jsonl") as log:
+        driver = Driver(evaluator, log, run_seed=3)
+        walk = search_walk(driver, "a/i000", 2.0)
+        assert check_best(driver, None, BASE, CONFIG) is None
+        assert check_best(driver, walk, BASE, StabilityConfig(repeats=0)) is None
+        assert len(evaluator.tasks) == 1  # neither walked anything
+        checked = check_best(driver, walk, BASE, CONFIG)
+    assert checked is not None and len(checked.repeats) == CONFIG.repeats and len(evaluator.tasks) == 1 + CONFIG.repeats
 
 
 def test_a_resumed_check_is_answered_from_the_log_and_another_start_is_refused(tmp_path: Path) -> None:
