@@ -59,9 +59,9 @@ PAPER: dict[str, Any] = {
 
 #: A first look on a 2-core machine: one row (the paper's best crossover rate), population 20,
 #: 20 iterations (19 feedbacks to the automaton), a 6-generation final GA: 515 episodes, plus up
-#: to 20 check walks (the row's best and the fastest walk, 10 each; one check when they are one). Measured
-#: on the stub with 2 workers: 2.2-6.4 episodes/s (random early gaits fall within a second, a
-#: 15-s walk costs ~0.85 s of wall time per worker), so 1.5-4 minutes.
+#: to 20 check walks (the row's best and the fastest walk, 10 each; one check when they are one).
+#: Measured on the stub with 2 workers: 2.2-6.4 episodes/s (random early gaits fall within a
+#: second, a 15-s walk costs ~0.85 s of wall time per worker), so 1.5-4 minutes.
 BUDGETS: dict[str, dict[str, Any]] = {
     "paper": {},
     "quick": {"crossover": [0.8], "population": 20, "iterations": 20, "generations": 6},

@@ -4,8 +4,8 @@ A search scores each gait by one walk from one start (eq. 9). On the determinist
 is the same every time, so a gait that happened to get through one walk can sit on the edge of a
 fall: the fastest walks of a GALA run often do (pc 0.8, seed 1, stop 11: the learning phase's
 fastest, 9.23 m, fell in 2 of 10 walks from starts moved by up to 5 cm and 10 deg; the next,
-8.93 m, in none). A check walks the gait ``repeats`` times from starts drawn within +-jitter of the run's
-start and counts the falls.
+8.93 m, in none). A check walks the gait ``repeats`` times from starts drawn within +-jitter of
+the run's start and counts the falls.
 
 Check walks are episodes of the run like any other: keyed ``check/<checked key>/rNN``, logged with
 their start, and answered from the log on ``--resume``. Their starts come from a seed of the run
