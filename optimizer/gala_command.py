@@ -144,11 +144,11 @@ class Row:
 
     def table_row(self) -> TableRow:
         best, check = self.best, self.check
-        distances = [] if check is None else check.distances()
+        spread = None if check is None else check.spread()
         return TableRow.from_gala(self.result, None if best is None else best["distance"],
                                   None if best is None else best["mean_speed"],
                                   None if check is None else len(check.repeats),
-                                  None if check is None else check.falls, min(distances, default=None))
+                                  None if check is None else check.falls, None if spread is None else spread[0])
 
     def to_dict(self) -> dict[str, Any]:
         return {**self.result.to_dict(), "best_episode": self.best,

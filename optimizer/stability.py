@@ -65,21 +65,21 @@ class StabilityReport:
         """Every repeat ran and none fell."""
         return self.falls == 0 and self.failed == 0
 
-    def distances(self) -> list[float]:
-        return [float(r["distance"]) for r in self.repeats if r["status"] == "ok"]
+    def spread(self) -> tuple[float, float, float] | None:
+        """(shortest, longest, mean) distance of the repeats that ran; None when none did."""
+        distances = [float(r["distance"]) for r in self.repeats if r["status"] == "ok"]
+        return (min(distances), max(distances), sum(distances) / len(distances)) if distances else None
 
     def summary(self) -> str:
-        distances = self.distances()
-        spread = (f", {min(distances):.2f}-{max(distances):.2f} m (mean {sum(distances) / len(distances):.2f} m)"
-                  if distances else "")
+        spread = self.spread()
+        text = "" if spread is None else f", {spread[0]:.2f}-{spread[1]:.2f} m (mean {spread[2]:.2f} m)"
         failed = f", {self.failed} could not be run" if self.failed else ""
-        return f"fell in {self.falls} of {len(self.repeats)} moved starts{spread}{failed}"
+        return f"fell in {self.falls} of {len(self.repeats)} moved starts{text}{failed}"
 
     def to_dict(self) -> dict[str, Any]:
-        distances = self.distances()
+        shortest, longest, mean = self.spread() or (None, None, None)
         return {"key": self.walk["key"], "repeats": len(self.repeats), "falls": self.falls, "failed": self.failed,
-                "min_distance": min(distances, default=None), "max_distance": max(distances, default=None),
-                "mean_distance": sum(distances) / len(distances) if distances else None,
+                "min_distance": shortest, "max_distance": longest, "mean_distance": mean,
                 "walks": [{k: r[k] for k in ("key", "start", "distance", "fell", "time", "status")}
                           for r in self.repeats]}
 
