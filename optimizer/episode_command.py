@@ -23,7 +23,7 @@ from collections.abc import Sequence
 from gait import DEFAULT_GAIT_PATH, GaitFileError, TFSParams, load_gait
 from optimizer.command_line import EPISODE_DEFAULTS, add_episode_arguments, episode_config, server_address
 from optimizer.episode import EpisodeResult, EpisodeRunner
-from optimizer.stability import jittered_starts
+from optimizer.stability import distance_spread, jittered_starts
 from protocol.cli_values import non_negative, positive_int
 
 
@@ -62,11 +62,12 @@ def _line(result: EpisodeResult) -> str:
 def summary(results: Sequence[EpisodeResult]) -> str:
     """One line over repeated walks: how many fell, the spread of the distances."""
     ran = [r for r in results if r.status == "ok"]
-    if not ran:
+    spread = distance_spread([r.distance for r in ran])
+    if spread is None:
         return f"{len(results)} walks, none could be run"
-    distances = [r.distance for r in ran]
-    return (f"{len(ran)} walks: {sum(r.fell for r in ran)} fell; distance {min(distances):.3f}-"
-            f"{max(distances):.3f} m, mean {sum(distances) / len(ran):.3f} m; mean speed "
+    shortest, longest, mean = spread
+    return (f"{len(ran)} walks: {sum(r.fell for r in ran)} fell; distance {shortest:.3f}-"
+            f"{longest:.3f} m, mean {mean:.3f} m; mean speed "
             f"{sum(r.mean_speed for r in ran) / len(ran):.3f} m/s"
             + (f"; {len(results) - len(ran)} could not be run" if len(ran) < len(results) else ""))
 

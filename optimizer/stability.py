@@ -44,6 +44,11 @@ def standing_walks(records: Mapping[str, Mapping[str, Any]]) -> list[Mapping[str
     return sorted(walks, key=lambda r: (-float(r["fitness"]), r["key"]))
 
 
+def distance_spread(distances: Sequence[float]) -> tuple[float, float, float] | None:
+    """(shortest, longest, mean) of walks' distances; None for no walk."""
+    return (min(distances), max(distances), sum(distances) / len(distances)) if distances else None
+
+
 @dataclass(frozen=True)
 class StabilityReport:
     """The check of one logged walk: the walk itself and its repeats' log records."""
@@ -67,8 +72,7 @@ class StabilityReport:
 
     def spread(self) -> tuple[float, float, float] | None:
         """(shortest, longest, mean) distance of the repeats that ran; None when none did."""
-        distances = [float(r["distance"]) for r in self.repeats if r["status"] == "ok"]
-        return (min(distances), max(distances), sum(distances) / len(distances)) if distances else None
+        return distance_spread([float(r["distance"]) for r in self.repeats if r["status"] == "ok"])
 
     def summary(self) -> str:
         spread = self.spread()
