@@ -62,8 +62,10 @@ class StubProcess:
 
     def restart(self) -> None:
         self.stop()
-        # exact starts: an episode is scored from where it was put; a stability check moves
-        # the start itself (seeded), which works on any server
+        # exact starts: the server's beam noise draws from one stream for all of a worker's
+        # episodes, so an episode's walk would depend on how many ran before it on that worker
+        # (and a resumed or Dask run would differ); a stability check moves the start itself,
+        # from a seed of its own key, which works on any server
         command = [sys.executable, "-m", "server_stub", "--sync", "--no-realtime", "--no-beam-noise", "--agent-port",
                    "0", "--monitor-port", "0", "--seed", str(self.seed), "--exit-with-parent"]
         self._process = subprocess.Popen(
