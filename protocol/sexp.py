@@ -10,6 +10,12 @@ import re
 
 from protocol.errors import ProtocolError
 
+#: Deepest nesting accepted. Real messages nest at most 6 deep (the monitor's scene graph, fixtures
+#: ``monitor_messages.txt``); without a cap, 1,000 parentheses built a list that ``repr`` and
+#: ``str`` (an error message, a ``say``) cannot walk without a ``RecursionError``, which no
+#: caller expects from malformed input.
+MAX_DEPTH = 64
+
 #: Every non-blank character belongs to a token, so ``finditer`` skips only whitespace.
 _TOKEN = re.compile(r"[()]|[^\s()]+")
 
@@ -41,7 +47,7 @@ def decode_ascii(text: str | bytes) -> str:
         raise ProtocolError(exc.start, "an ASCII character", repr(text[exc.start : exc.start + 1])) from None
 
 
-def parse_sexp(text: str | bytes) -> list:
+def parse_sexp(text: str | bytes, max_depth: int = MAX_DEPTH) -> list:
     """Read a sequence of top-level expressions.
 
     Grammar read::
@@ -52,7 +58,9 @@ def parse_sexp(text: str | bytes) -> list:
 
     Returns one ``SExp`` (a list of ``str`` atoms and nested lists) per top-level expression.
     Raises ``ProtocolError`` naming the position on an unmatched ``)``, an atom outside any
-    expression, or text that ends before every ``(`` is closed (a truncated message).
+    expression, text that ends before every ``(`` is closed (a truncated message), or a ``(``
+    nested more than ``max_depth`` deep, so that what is returned can always be walked by
+    recursive code.
     """
     text = decode_ascii(text)
     top = SExp(0)
@@ -62,6 +70,8 @@ def parse_sexp(text: str | bytes) -> list:
         token = match.group()
         pos = match.start()
         if token == "(":
+            if len(stack) >= max_depth:
+                raise ProtocolError(pos, f"at most {max_depth} nested parentheses", "(")
             node = SExp(pos)
             current.append(node)
             current.positions.append(pos)

@@ -146,6 +146,20 @@ class ServerConfig:
     #: Cycles between monitor updates (0.04 s) and between vision messages (0.06 s), facts section 4.
     monitor_interval: int = 2
     vision_interval: int = 3
+    #: Log lines about one client's bad input: the first ``warning_burst`` distinct problems are
+    #: logged at once, later ones at most one per ``warning_interval`` wall seconds (that line says
+    #: how many were held back), so a client sending garbage cannot fill the disk (one fuzzing run
+    #: wrote 93 MB of warnings before this).
+    warning_burst: int = 10
+    warning_interval: float = 10.0
+    #: Most characters of a client's input quoted in one warning (escaped, then cut).
+    warning_quote: int = 200
+    #: A client whose messages keep being refused whole (they do not parse, or no command in them
+    #: applies) is disconnected once it has ``bad_input_burst`` more of them than
+    #: ``bad_input_rate`` per wall second would allow (a token bucket): an agent with one odd
+    #: message now and then is served, a garbage stream is cut within seconds.
+    bad_input_burst: int = 100
+    bad_input_rate: float = 5.0
     #: Exit when this process is no longer our parent (0: never). A worker that starts a stub and
     #: is killed (SIGKILL leaves no chance to clean up) must not leave the stub behind.
     parent_pid: int = 0

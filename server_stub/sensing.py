@@ -39,6 +39,12 @@ class Sensing:
         state.vision = VisionSensor(child, noise=self.config.vision_noise, sense_mypos=self.config.sense_mypos)
 
     def say(self, state: AgentState, message: str) -> None:
+        """Queue ``message`` to be heard next cycle. Only a robot can speak: hearing gives the
+        direction from the listener's head to the speaker's, so an agent without one (``say``
+        before ``scene``) is refused here, where the rule belongs, not left to fail in every
+        other agent's perception."""
+        if state.robot is None:
+            raise ValueError("say before scene: there is no robot to speak")
         if not message or len(message) > _SAY_MAX or not all(33 <= ord(c) <= 126 and c not in "()" for c in message):
             raise ValueError(f"say message must be 1-{_SAY_MAX} printable characters without spaces or parentheses")
         self._said.append((state, message))
@@ -61,6 +67,8 @@ class Sensing:
     def _hear(self, listener: AgentState, now: float) -> list[str]:
         heard = []
         for speaker, message in self._audible:
+            if speaker.robot is None:
+                continue  # left the field after speaking: nothing to hear it from
             if speaker is listener:
                 direction = None
             else:

@@ -22,10 +22,11 @@ import os
 import selectors
 import socket
 import time
+from collections.abc import Callable
 
 import numpy as np
 
-from protocol.errors import ProtocolError
+from protocol.errors import ProtocolError, excerpt
 from protocol.nao import CYCLE, JOINTS, NAO_HETERO_RSG, NAO_RSG, ROBOT_TYPES
 from protocol.sexp import parse_sexp
 from server_stub.agent_commands import flat_commands, has_syn, read_commands
@@ -79,15 +80,23 @@ class StubServer:
         return sock
 
     def _accept(self, listener: socket.socket, kind: str) -> None:
+        """Take one waiting connection. A connection can be gone by the time it is accepted (a
+        client that connects and resets at once): whatever the socket calls raise then, only that
+        connection is dropped."""
         try:
-            sock, _ = listener.accept()
+            sock, peer = listener.accept()
         except OSError:
             return
-        sock.setblocking(False)
-        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         cap = self.config.agent_out_cap if kind == "agent" else self.config.monitor_out_cap
-        client = Client(sock, kind, self.config.max_frame, cap)
-        self._selector.register(sock, selectors.EVENT_READ, client)
+        try:
+            sock.setblocking(False)
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            client = Client(sock, kind, self.config.max_frame, cap, peer, self.config)
+            self._selector.register(sock, selectors.EVENT_READ, client)
+        except OSError as exc:
+            log.info("%s connection gone before it was set up (%s)", kind, exc.strerror or exc)
+            sock.close()
+            return
         if kind == "agent":
             self._agents[client] = AgentState()
         else:
@@ -101,7 +110,9 @@ class StubServer:
         except (BlockingIOError, InterruptedError):
             return
         except OSError as exc:
-            self._drop(client, f"connection error ({exc.strerror or exc})")
+            # a reset between messages is a way of leaving; in the middle of one it is a problem
+            problem = f"connection error ({exc.strerror or exc})"
+            self._drop(client, problem if client.decoder.buffered else None)
             return
         if not data:
             self._drop(client, None if not client.decoder.buffered else "vanished in the middle of a frame")
@@ -114,6 +125,8 @@ class StubServer:
             return
         state = self._agents.get(client)
         for frame in frames:
+            if client.closed:
+                return  # dropped by one of its own messages (refused too often, or killed)
             if state is not None:
                 state.inbox.append(frame)
                 if has_syn(frame):
@@ -121,9 +134,27 @@ class StubServer:
             else:
                 self._on_trainer_frame(client, frame)
 
+    def _guarded(self, client: Client, handle: Callable[..., object], *args: object) -> None:
+        """Run one client's handler behind an error boundary: whatever its input makes the
+        handler raise (a bug the input reached, not only the ``ValueError`` of malformed input)
+        disconnects that client with one warning line, and the server and everyone else go on."""
+        try:
+            handle(*args)
+        except Exception as exc:  # noqa: BLE001 - the boundary is the point
+            log.debug("%s: handler failed", client.name, exc_info=True)
+            self._drop(client, f"its input raised {type(exc).__name__}: {exc}")
+
+    def _refuse(self, client: Client) -> None:
+        """One message of ``client`` refused whole; a client that keeps sending such is dropped."""
+        if client.refused():
+            self._drop(client, f"keeps sending input that is refused (over {self.config.bad_input_burst} "
+                               f"messages, more than {self.config.bad_input_rate:g} a second)")
+
     def _drop(self, client: Client, problem: str | None) -> None:
+        if client.closed and client not in self._agents and client not in self._monitors:
+            return  # dropped already (e.g. by a trainer's kill while its own frame was handled)
         if problem:
-            log.warning("%s: %s; disconnected", client.name, problem)
+            log.warning("%s: %s; disconnected", client.name, excerpt(problem, self.config.warning_quote))
         else:
             log.info("%s disconnected", client.name)
         try:
@@ -134,7 +165,8 @@ class StubServer:
         state = self._agents.pop(client, None)
         self._monitors.pop(client, None)
         if state is not None and state.robot is not None:
-            self.world.remove_robot(state.robot)
+            robot, state.robot = state.robot, None  # nothing may read a removed robot (hearing, vision)
+            self.world.remove_robot(robot)
             if not any(s.robot is not None for s in self._agents.values()):
                 # vision and monitor cadences restart with the next robot on an empty field, so an
                 # episode sees the same cycles whatever ran before it (the optimizer relies on it)
@@ -171,7 +203,7 @@ class StubServer:
                         client.flush()
                         self._want_write(client)
                     if events & selectors.EVENT_READ:
-                        self._read(client)
+                        self._guarded(client, self._read, client)
                 self._reap()
                 if self.config.parent_pid and os.getppid() != self.config.parent_pid:
                     log.warning("parent process %d is gone: shutting down", self.config.parent_pid)
@@ -228,17 +260,16 @@ class StubServer:
                 state.sent_at = now
         for client, state in list(self._agents.items()):
             inbox, state.inbox = state.inbox, []
-            for frame in inbox:
-                self._on_agent_frame(client, state, frame)
+            self._guarded(client, self._on_agent_frames, client, state, inbox)
         self.world.step()
         self.game.advance()
         self.cycle += 1
         self.sensing.end_of_cycle()
         with_vision = self.cycle % self.config.vision_interval == 0
         states = list(self._agents.values())
-        for state in states:
+        for client, state in list(self._agents.items()):
             if state.robot is not None:
-                state.next_perception = self.sensing.perception(state, self.game, with_vision, states)
+                self._guarded(client, self._perceive, state, with_vision, states)
         if self.cycle % self.config.monitor_interval == 0:
             self._broadcast_monitor()
 
@@ -267,36 +298,57 @@ class StubServer:
             self._want_write(monitor)
         self._scene_changed = False
 
+    def _perceive(self, state: AgentState, with_vision: bool, states: list[AgentState]) -> None:
+        state.next_perception = self.sensing.perception(state, self.game, with_vision, states)
+
+    def _on_agent_frames(self, client: Client, state: AgentState, frames: list[bytes]) -> None:
+        for frame in frames:
+            if client.closed:
+                return
+            self._on_agent_frame(client, state, frame)
+
     def _on_agent_frame(self, client: Client, state: AgentState, frame: bytes) -> None:
+        """Apply one message; one that is refused whole counts against the client (``_refuse``)."""
+        if not self._agent_frame_applied(client, state, frame) and frame.strip():
+            self._refuse(client)
+
+    def _agent_frame_applied(self, client: Client, state: AgentState, frame: bytes) -> bool:
+        """Whether any command of ``frame`` was applied (the rest warned about and ignored)."""
         robot = state.robot
         pairs = flat_commands(frame) if robot is not None else None
+        applied = False
         if pairs is not None:  # the common case, every cycle: hinge commands read with no detour
             for name, value in pairs:
                 index = _HINGE_INDEX.get(name)
                 if index is None:
-                    self._apply_safely(client, state, name.decode(), [value.decode()] if value else [])
+                    applied |= self._apply_safely(client, state, name.decode(), [value.decode()] if value else [])
                     continue
                 try:
                     robot.command_joint(index, float(value))
+                    applied = True
                 except ValueError:  # again by the general path, for its warning
-                    self._apply_safely(client, state, name.decode(), [value.decode()])
-            return
+                    applied |= self._apply_safely(client, state, name.decode(), [value.decode()])
+            return applied
         try:
             expressions = read_commands(frame)
         except ProtocolError as exc:
             client.warn(f"message ignored, it does not parse: {exc}", "parse")
-            return
+            return False
         for expr in expressions:
             name = expr[0] if expr and isinstance(expr[0], str) else None
-            self._apply_safely(client, state, name, expr[1:])
+            applied |= self._apply_safely(client, state, name, expr[1:])
+        return applied
 
-    def _apply_safely(self, client: Client, state: AgentState, name: str | None, args: list) -> None:
-        """One command; a bad one is ignored with one warning naming the client and the problem."""
+    def _apply_safely(self, client: Client, state: AgentState, name: str | None, args: list) -> bool:
+        """One command; a bad one is ignored with one warning naming the client and the problem.
+        True if it was applied."""
         try:
             self._apply_agent_command(client, state, name, args)
         except (GameError, ValueError, KeyError, IndexError, TypeError) as exc:
             problem = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
             client.warn(f"({name} ...) ignored: {problem}", f"{name}:{type(exc).__name__}")
+            return False
+        return True
 
     def _apply_agent_command(self, client: Client, state: AgentState, name: str | None, args: list) -> None:
         if name is None:
@@ -376,16 +428,22 @@ class StubServer:
 
     # ----- monitors and trainer -----
     def _on_trainer_frame(self, monitor: Client, frame: bytes) -> None:
+        """Apply one trainer message; one refused whole counts against the monitor."""
         try:
             expressions = parse_sexp(frame)
         except ProtocolError as exc:
             monitor.warn(f"trainer message ignored, it does not parse: {exc}", "parse")
+            self._refuse(monitor)
             return
+        applied = not expressions
         for expr in expressions:
             try:
                 apply_trainer_command(expr if isinstance(expr, list) else [expr], self, monitor)
+                applied = True
             except (TrainerError, GameError, ValueError) as exc:
                 monitor.warn(f"trainer command ignored: {exc}", str(exc))
+        if not applied:
+            self._refuse(monitor)
 
     def _agent_by(self, side: str, unum: int) -> tuple[Client, AgentState]:
         for client, state in self._agents.items():

@@ -43,11 +43,14 @@ def command_texts(draw) -> bytes:
 
 @pytest.fixture()
 def server_and_agent():
-    server = StubServer(ServerConfig(agent_port=0, monitor_port=0, sync=True, realtime=False))
+    # thousands of refused messages in a second: the limit that disconnects such a client is
+    # out of the way here (tests/test_stub_robustness.py tests it)
+    config = ServerConfig(agent_port=0, monitor_port=0, sync=True, realtime=False, bad_input_burst=10**9)
+    server = StubServer(config)
     listener = socket.create_server(("127.0.0.1", 0))
     peer = socket.create_connection(listener.getsockname())
     sock, _ = listener.accept()
-    client = Client(sock, "agent", 1 << 20, 1 << 20)
+    client = Client(sock, "agent", 1 << 20, 1 << 20, config=config)
     state = AgentState()
     server._agents[client] = state
     server._on_agent_frame(client, state, b"(scene rsg/agent/nao/nao.rsg)(init (unum 1)(teamname T))")

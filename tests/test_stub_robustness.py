@@ -1,0 +1,205 @@
+"""One client must never take the stand-in down (issue 16): each input that once ended the whole
+server is sent over a real socket, and a well-behaved agent is served afterwards; the error
+boundary, the log limits and the parser's depth cap are checked where they live."""
+from __future__ import annotations
+
+import logging
+import os
+import socket
+import struct
+import threading
+import time
+
+import pytest
+
+from protocol.errors import ProtocolError
+from protocol.sexp import MAX_DEPTH, parse_sexp
+from server_stub.config import ServerConfig
+from server_stub.server import StubServer
+from tests.stub_client import RawClient, StubProcess
+
+NEST = "(" * 5000 + ")" * 5000
+
+
+@pytest.fixture()
+def stub():
+    with StubProcess("--sync", "--no-realtime", "--agent-timeout", "3") as server:
+        yield server
+
+
+def _served(port: int, cycles: int = 5) -> None:
+    """A well-behaved agent: scene, init, beam, a few cycles with joint commands."""
+    client = RawClient(port)
+    client.send("(scene rsg/agent/nao/nao.rsg)(syn)")
+    assert client.receive().startswith("(time (now ")
+    client.send("(init (unum 1)(teamname Good))(syn)")
+    client.receive()
+    for _ in range(cycles):
+        client.send("(he1 1.0)(syn)")
+        assert "(HJ (n hj1)" in client.receive()
+    client.close()
+
+
+def _alive_and_clean(stub: StubProcess) -> str:
+    _served(stub.agent_port)
+    assert stub.proc.poll() is None, "the server exited"
+    log = stub.stop()
+    assert "Traceback" not in log
+    return log
+
+
+def _reset(sock: socket.socket) -> None:
+    """Close with SO_LINGER 0: the kernel sends RST instead of FIN."""
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+    sock.close()
+
+
+def test_the_parser_refuses_nesting_past_its_cap_with_a_protocol_error() -> None:
+    assert len(parse_sexp("(" * MAX_DEPTH + ")" * MAX_DEPTH)) == 1
+    with pytest.raises(ProtocolError, match=f"at most {MAX_DEPTH} nested"):
+        parse_sexp("(a " * (MAX_DEPTH + 1) + ")" * (MAX_DEPTH + 1))
+    with pytest.raises(ProtocolError):  # a ValueError, which every caller already handles
+        parse_sexp(NEST)
+
+
+@pytest.mark.parametrize("message", [
+    NEST,
+    f"(agent (unum 1) (team Left) {NEST})",
+    f"(ball (pos {NEST}))",
+    f"(time {NEST})",
+])
+def test_deep_nesting_on_the_monitor_port(stub: StubProcess, message: str) -> None:
+    trainer = RawClient(stub.monitor_port)
+    trainer.send(message)
+    trainer.send("(playMode PlayOn)")  # the monitor itself is still served
+    trainer.receive()
+    log = _alive_and_clean(stub)
+    assert "nested parentheses" in log
+
+
+@pytest.mark.parametrize("message", [f"(scene {NEST})(syn)", f"(say {NEST})(syn)"])
+def test_deep_nesting_on_the_agent_port(stub: StubProcess, message: str) -> None:
+    other = RawClient(stub.agent_port)
+    other.send("(scene rsg/agent/nao/nao.rsg)(syn)")
+    other.receive()
+    bad = RawClient(stub.agent_port)
+    bad.send(message)
+    other.send("(syn)")
+    other.receive()
+    log = _alive_and_clean(stub)
+    assert "nested parentheses" in log
+
+
+def test_say_before_scene_while_another_robot_exists(stub: StubProcess) -> None:
+    listener = RawClient(stub.agent_port)
+    listener.send("(scene rsg/agent/nao/nao.rsg)(syn)")
+    listener.receive()
+    speaker = RawClient(stub.agent_port)
+    speaker.send("(say hello)")
+    for _ in range(3):  # the listener's perceptions after the say are where hearing once failed
+        listener.send("(syn)")
+        assert "(hear " not in listener.receive()
+    log = _alive_and_clean(stub)
+    assert "say before scene" in log
+
+
+def test_a_speaker_that_leaves_before_it_is_heard(stub: StubProcess) -> None:
+    listener = RawClient(stub.agent_port)
+    listener.send("(scene rsg/agent/nao/nao.rsg)(syn)")
+    listener.receive()
+    speaker = RawClient(stub.agent_port)
+    speaker.send("(scene rsg/agent/nao/nao.rsg)(syn)")
+    listener.send("(syn)")
+    listener.receive()
+    speaker.receive()
+    speaker.send("(say bye)(syn)")
+    speaker.close()
+    for _ in range(3):
+        listener.send("(syn)")
+        listener.receive()
+    _alive_and_clean(stub)
+
+
+def test_connect_and_reset_before_accept_in_the_accept_path() -> None:
+    """Deterministic: the connection is reset before the server accepts it."""
+    server = StubServer(ServerConfig(agent_port=0, monitor_port=0, sync=True, realtime=False))
+    try:
+        for kind, listener in (("agent", server._agent_listener), ("monitor", server._monitor_listener)):
+            client = socket.create_connection(("127.0.0.1", listener.getsockname()[1]))
+            _reset(client)
+            time.sleep(0.05)
+            server._accept(listener, kind)  # once: getpeername() raised ENOTCONN here
+        for client in [*server._agents, *server._monitors]:
+            server._read(client)  # the reset is seen and the connection dropped
+        assert not server._agents and not server._monitors
+    finally:
+        server.close()
+
+
+def test_a_storm_of_connect_and_reset_on_both_ports(stub: StubProcess) -> None:
+    for i in range(400):
+        port = stub.agent_port if i % 2 else stub.monitor_port
+        _reset(socket.create_connection(("127.0.0.1", port)))
+    _alive_and_clean(stub)
+
+
+@pytest.fixture()
+def threaded_server():
+    """An in-process server on free ports, its loop on a thread (``parent_pid`` keeps its select
+    from blocking forever when no agent is connected, so ``stop`` is seen)."""
+    server = StubServer(ServerConfig(agent_port=0, monitor_port=0, sync=True, realtime=False,
+                                     parent_pid=os.getppid()))
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    yield server
+    server.stop()
+    thread.join(10)
+    assert not thread.is_alive()
+
+
+def test_any_exception_from_one_clients_input_drops_only_that_client(threaded_server, monkeypatch, caplog) -> None:
+    server = threaded_server
+    original = server._scene
+
+    def buggy(state, args):
+        if args and args[0] == "boom":
+            raise RuntimeError("a bug this input reached")
+        original(state, args)
+
+    monkeypatch.setattr(server, "_scene", buggy)
+    with caplog.at_level(logging.WARNING, logger="server_stub"):
+        bad = RawClient(server.agent_port)
+        bad.send("(scene boom)(syn)")
+        bad.sock.settimeout(5)
+        with pytest.raises((ConnectionError, OSError)):
+            bad.receive()
+        _served(server.agent_port)
+    lines = [r.getMessage() for r in caplog.records if "RuntimeError" in r.getMessage()]
+    assert len(lines) == 1 and "a bug this input reached; disconnected" in lines[0]
+
+
+def test_warnings_quote_little_escaped_and_a_garbage_stream_is_cut(threaded_server, caplog) -> None:
+    server = threaded_server
+    with caplog.at_level(logging.WARNING, logger="server_stub"):
+        big = RawClient(server.monitor_port)
+        big.send(b"(time \x1b[2J" + b"x" * 900_000 + b")")
+        garbage = RawClient(server.monitor_port)
+        name = garbage_name(garbage)
+        garbage.sock.settimeout(10)
+        with pytest.raises((ConnectionError, OSError)):
+            for n in range(10_000):
+                garbage.send(f"(nonsense{n} \x07)".encode())
+        _served(server.agent_port)
+        big.send("(playMode PlayOn)")
+    messages = [r.getMessage() for r in caplog.records]
+    assert max(len(m) for m in messages) < 400
+    assert not any(ch < " " for m in messages for ch in m)
+    assert any("\\x1b[2J" in m for m in messages)
+    cut = [m for m in messages if name in m]
+    assert "keeps sending input that is refused" in cut[-1]
+    assert len(cut) <= server.config.warning_burst + 3, cut
+
+
+def garbage_name(client: RawClient) -> str:
+    host, port = client.sock.getsockname()
+    return f"monitor {host}:{port}"
