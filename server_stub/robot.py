@@ -72,6 +72,9 @@ class Robot:
         self._slip_torque = np.zeros(_N)  # torque of the last step's slip forces about each hinge
         self._prev_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        #: no step has run since this robot was made: it has touched nothing yet (a reused body
+        #: may still hold its last life's contacts until the next collision pass)
+        self._new = True
         self._invalidate()
         self._skeleton = self._skeleton_of()
 
@@ -153,6 +156,7 @@ class Robot:
                              np.array([info[13] for info in infos]), chains, self._config.motor_torque)
 
     def _after_substep(self) -> None:
+        self._new = False
         self._invalidate()
 
     def _after_step(self) -> None:
@@ -222,7 +226,8 @@ class Robot:
     def _contacts(self) -> tuple:
         """Every contact point of this robot after the last sub-step (pybullet's tuples)."""
         if self._contact_points is None:
-            self._contact_points = pb.getContactPoints(bodyA=self._body, physicsClientId=self._client)
+            self._contact_points = () if self._new else pb.getContactPoints(
+                bodyA=self._body, physicsClientId=self._client)
         return self._contact_points
 
     def _base_pose(self) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:

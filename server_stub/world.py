@@ -34,6 +34,14 @@ _WALL_GAP_Y = 15.0
 _WALL_SIZE = 1.0
 #: Half side of the ground box (m): the field, the gap to the walls and the walls themselves.
 _GROUND_HALF = FIELD_LENGTH / 2 + _WALL_GAP_Y + _WALL_SIZE + 4.0
+#: Where removed robots wait, asleep, for the next robot of their type (``World.remove_robot``):
+#: far beyond the walls and the ground, one spot each.
+_PARKING = (500.0, 500.0, 50.0)
+_PARKING_GAP = 5.0
+#: Activation flags: a parked body sleeps and nothing wakes it; a revived one is as ``loadURDF``
+#: leaves a body (awake, never sleeping, wakeable).
+_PARK = pb.ACTIVATION_STATE_ENABLE_SLEEPING | pb.ACTIVATION_STATE_SLEEP | pb.ACTIVATION_STATE_DISABLE_WAKEUP
+_REVIVE = pb.ACTIVATION_STATE_WAKE_UP | pb.ACTIVATION_STATE_DISABLE_SLEEPING | pb.ACTIVATION_STATE_ENABLE_WAKEUP
 _SOLVERS = {"dantzig": pb.CONSTRAINT_SOLVER_LCP_DANTZIG, "pgs": pb.CONSTRAINT_SOLVER_LCP_SI}
 
 
@@ -77,6 +85,8 @@ class World:
         self._tmp = tempfile.TemporaryDirectory(prefix="nao_stub_")
         self._urdf: dict[int, str] = {}
         self._robots: list[Robot] = []
+        #: removed robots' bodies by robot type, kept for the next robot of that type
+        self._parked: dict[int, list[int]] = {}
         self._configure_engine()
         self._build_field()
         slip.warm_up()
@@ -120,7 +130,23 @@ class World:
 
     # ----- robots -----
     def add_robot(self, robot_type: int = 0) -> Robot:
-        """A new NAO of ``robot_type`` (0-3) with its torso at (0, -1, 1.5), facing +y, falling."""
+        """A new NAO of ``robot_type`` (0-3) with its torso at (0, -1, 1.5), facing +y, falling.
+
+        The body of a robot removed earlier is reused when one of this type is parked: pybullet
+        never frees all a ``loadURDF`` takes (about 19 KiB a robot, even across
+        ``resetSimulation``), and a stub serving one robot per episode would grow without end.
+        A reused body is put in exactly a loaded body's state (``_revive``)."""
+        parked = self._parked.get(robot_type)
+        if parked:
+            body = parked.pop()
+            self._revive(body)
+        else:
+            body = self._load(robot_type)
+        robot = Robot(self._client, body, robot_type, self.config, self.command_delay_steps)
+        self._robots.append(robot)
+        return robot
+
+    def _load(self, robot_type: int) -> int:
         cfg = self.config
         c = self._client
         body = pb.loadURDF(self._urdf_file(robot_type), basePosition=SPAWN_POSITION,
@@ -140,9 +166,19 @@ class World:
                 jointDamping=0.0,
                 physicsClientId=c,
             )
-        robot = Robot(c, body, robot_type, cfg, self.command_delay_steps)
-        self._robots.append(robot)
-        return robot
+        return body
+
+    def _revive(self, body: int) -> None:
+        """A parked body as ``loadURDF`` leaves one: torso at the spawn point, upright, every joint
+        at 0, everything at rest, awake. Motor targets need no reset (a new ``Robot`` sets every
+        motor in its first step), nor contacts (it reads none before its first step)."""
+        c = self._client
+        pb.changeDynamics(body, -1, activationState=_REVIVE, physicsClientId=c)
+        pb.resetBasePositionAndOrientation(body, SPAWN_POSITION, (0.0, 0.0, 0.0, 1.0), physicsClientId=c)
+        pb.resetBaseVelocity(body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=c)
+        joints = list(range(pb.getNumJoints(body, physicsClientId=c)))
+        pb.resetJointStatesMultiDof(body, joints, [[0.0]] * len(joints), targetVelocities=[[0.0]] * len(joints),
+                                    physicsClientId=c)
 
     def _urdf_file(self, robot_type: int) -> str:
         if robot_type not in self._urdf:
@@ -152,8 +188,16 @@ class World:
         return self._urdf[robot_type]
 
     def remove_robot(self, robot: Robot) -> None:
+        """Take ``robot`` off the field: its body is parked asleep far away, out of every step's
+        work and every other body's reach, until ``add_robot`` reuses it."""
         self._robots.remove(robot)
-        pb.removeBody(robot.body_id, physicsClientId=self._client)
+        c = self._client
+        x, y, z = _PARKING
+        spot = (x + _PARKING_GAP * robot.body_id, y, z)
+        pb.resetBasePositionAndOrientation(robot.body_id, spot, (0.0, 0.0, 0.0, 1.0), physicsClientId=c)
+        pb.resetBaseVelocity(robot.body_id, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=c)
+        pb.changeDynamics(robot.body_id, -1, activationState=_PARK, physicsClientId=c)
+        self._parked.setdefault(robot.robot_type, []).append(robot.body_id)
 
     @property
     def robots(self) -> tuple[Robot, ...]:
