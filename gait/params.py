@@ -19,21 +19,54 @@ GENE_UNITS: dict[str, str] = {
     "c_h": "deg", "c_k": "deg", "A": "deg", "B": "deg", "C": "deg", "t2": "s", "w": "rad/s",
 }
 
-#: Search bounds (low, high) per gene. Chosen so that every corner is a posture the NAO's joints
-#: can reach: hip pitch spans -25..100 deg and the knee 0..130 deg of flexion; periods from 0.25 s
-#: (w = 25.1) to 1.0 s (w = 6.28) cover the paper's 0.41 s step and the calibration walk's 0.4 s.
-#: t2 is bounded by the longest period and folded into (0, T) by ``repair_genes``.
+# The robot facts the box is derived from (the NAO of rcssserver3d 0.7.3; ``tests/test_gait.py``
+# checks them against ``protocol.nao``, which this package does not import): hip pitch ``le3`` -25..100 deg of flexion, knee ``le4`` -130..1 deg
+# (0..130 deg of flexion), every hinge capped at 6.1395 rad/s, one command per 0.02 s cycle.
+_HIP_RANGE = (-25.0, 100.0)
+_KNEE_FLEXION_RANGE = (0.0, 130.0)
+_SPEED_CAP_DEG = math.degrees(6.1395)
+_CYCLE = 0.02
+
+#: The fastest stride the box holds: 8 control cycles, so each leg's half stride gets 4 commands,
+#: twice the server's 2-cycle action latency. The fastest walks known on the real server step
+#: every 0.08 s (a 0.16 s stride) and sit just inside it.
+_SHORTEST_PERIOD = 8 * _CYCLE
+#: The widest hip swing of the box: half the hip's range each way (A + B can then span the whole
+#: 125 deg range, from some offset, without forcing a joint stop).
+_WIDEST_SWING = (_HIP_RANGE[1] - _HIP_RANGE[0]) / 2
+#: The slowest stride the box holds: the one at which the widest swing just reaches the speed cap
+#: (A w = cap). Below it every joint of every gait in the box moves slower than the cap, and a
+#: slower stride only walks slower; above it the cap starts to shape the widest swings.
+_LONGEST_PERIOD = 2 * math.pi * _WIDEST_SWING / _SPEED_CAP_DEG
+
+#: Search bounds (low, high) per gene, from the robot rather than from habit: every offset is a
+#: posture the joints can hold, every amplitude one the joints can follow at the slowest stride,
+#: and the strides span what the control cycle and the speed cap allow (above). It holds the
+#: fastest TFS walks known on the real server (C up to 89 deg: a knee bump that large is clipped by
+#: the speed cap into a fast triangle, which is what makes those walks fast). t2 is bounded by the
+#: longest period and folded into (0, T) by ``repair_genes``.
 GENE_BOUNDS: np.ndarray = np.array(
     [
-        [-10.0, 40.0],   # c_h: hip offset
-        [0.0, 60.0],     # c_k: knee offset (eq. 5: c_k >= 0)
-        [0.0, 40.0],     # A: hip amplitude, first half period
-        [0.0, 40.0],     # B: hip amplitude, second half period
-        [0.0, 60.0],     # C: knee bump amplitude
-        [0.0, 1.0],      # t2: start of the knee bump within the period (s)
-        [2 * math.pi / 1.0, 2 * math.pi / 0.25],  # w: angular frequency (rad/s)
+        list(_HIP_RANGE),                        # c_h: hip offset, the hip pitch range
+        list(_KNEE_FLEXION_RANGE),               # c_k: knee offset, the knee range (eq. 5: c_k >= 0)
+        [0.0, _WIDEST_SWING],                    # A: hip amplitude, first half period
+        [0.0, _WIDEST_SWING],                    # B: hip amplitude, second half period
+        [0.0, _KNEE_FLEXION_RANGE[1]],           # C: knee bump, up to the whole knee range
+        [0.0, _LONGEST_PERIOD],                  # t2: start of the knee bump within the period (s)
+        [2 * math.pi / _LONGEST_PERIOD, 2 * math.pi / _SHORTEST_PERIOD],  # w: angular frequency (rad/s)
     ]
 )
+
+#: The box of runs made before the bounds were derived from the robot (c_h -10..40, c_k 0..60,
+#: A and B 0..40, C 0..60, periods 0.25-1 s). It stopped short of the fast real walks (their knee
+#: bump is 70-89 deg); a run folder that does not name its bounds was searched in it.
+LEGACY_GENE_BOUNDS: np.ndarray = np.array(
+    [[-10.0, 40.0], [0.0, 60.0], [0.0, 40.0], [0.0, 40.0], [0.0, 60.0], [0.0, 1.0],
+     [2 * math.pi / 1.0, 2 * math.pi / 0.25]]
+)
+
+#: Named boxes a run folder records (``--bounds``), so a resumed run searches the box it began in.
+BOUNDS_BY_NAME: dict[str, np.ndarray] = {"robot": GENE_BOUNDS, "legacy": LEGACY_GENE_BOUNDS}
 
 
 @dataclass(frozen=True)
@@ -78,13 +111,13 @@ class TFSParams:
         return cls(*values)
 
 
-def repair_genes(genes: np.ndarray) -> np.ndarray:
-    """Move a chromosome onto the feasible set of eq. 5 without leaving ``GENE_BOUNDS``.
+def repair_genes(genes: np.ndarray, bounds: np.ndarray = GENE_BOUNDS) -> np.ndarray:
+    """Move a chromosome onto the feasible set of eq. 5 without leaving ``bounds``.
 
     The GA's operators work gene by gene inside a box, but ``t2 < T`` couples t2 to w; folding t2
     into (0, T) keeps the knee bump's phase meaning and avoids rejecting individuals.
     """
-    out = np.clip(np.asarray(genes, dtype=float), GENE_BOUNDS[:, 0], GENE_BOUNDS[:, 1])
+    out = np.clip(np.asarray(genes, dtype=float), bounds[:, 0], bounds[:, 1])
     period = 2 * math.pi / out[6]
     t2 = math.fmod(out[5], period)
     # keep t2 strictly inside (0, T): a zero phase would violate eq. 5's strict inequality

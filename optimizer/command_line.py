@@ -8,6 +8,7 @@ How the run is executed (workers, servers, progress) is not a setting and may ch
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import os
 import secrets
@@ -19,10 +20,11 @@ from typing import Any
 
 import numpy as np
 
-from gait import TFSParams, save_gait
+from gait import BOUNDS_BY_NAME, TFSParams, repair_genes, save_gait
 from optimizer.driver import BarProgress, Driver, ResumeMismatch, is_search_walk
-from optimizer.episode import EpisodeConfig, ServerAddress
+from optimizer.episode import DEFAULT_START, EpisodeConfig, ServerAddress, start_problem_on_real_server
 from optimizer.evaluation import EpisodeRunnerFactory, EvaluationError, Evaluator, ProcessPoolEvaluator
+from optimizer.real_server import RealServerError, find_rcssserver3d
 from optimizer.run_folder import RunFolder, RunFolderError, new_run_path
 from optimizer.search_config import StabilityConfig
 from protocol.cli_values import count, non_negative, number, positive_float, positive_int, probability
@@ -58,8 +60,9 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--walk-time", type=positive_float, default=None,
                         help="seconds of walking per episode (eq. 9; default 15)")
     parser.add_argument("--start", type=number, nargs=3, default=None, metavar=("X", "Y", "DEG"),
-                        help="where each walk starts: field position (m) and heading (deg, 0 = +x); "
-                             "the distance is measured along the heading (default 0 0 0)")
+                        help="where each walk starts: field position (m) and heading (deg, 0 = +x); the "
+                             "distance is measured along the heading from where the torso stands when the "
+                             "walk begins (default %g %g %g)" % DEFAULT_START)
     parser.add_argument("--agent-mode", choices=("inprocess", "process"), default=None,
                         help="run the agent inside the worker or as its own process (default inprocess)")
 
@@ -92,14 +95,14 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--population", type=positive_int, default=None, help="population size (default 100)")
     parser.add_argument("--elitism", action=argparse.BooleanOptionalAction, default=None,
                         help="carry the best individual into the next generation (default on)")
+    parser.add_argument("--bounds", choices=sorted(BOUNDS_BY_NAME), default=None,
+                        help="the gene box searched: robot (from the NAO's joint limits, speed cap and control "
+                             "cycle; the default) or legacy (the narrower box of earlier versions)")
     add_episode_arguments(parser)
     add_check_arguments(parser)
     parser.add_argument("--seed", type=int, default=None,
                         help="fixes every random choice of the run (default: a random seed, recorded)")
-    parser.add_argument("--server", type=server_address, action="append", default=None,
-                        metavar="HOST:AGENT_PORT:MONITOR_PORT",
-                        help="evaluate on this running rcssserver3d instead of the embedded stub; "
-                             "repeat for more servers (one worker per server)")
+    add_server_arguments(parser)
     parser.add_argument("--workers", type=positive_int, default=None,
                         help="worker processes (default: one per core; one per --server)")
     dask = parser.add_mutually_exclusive_group()
@@ -114,8 +117,49 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+#: The gene box a new run searches; a run folder without the setting was searched in the legacy box.
+BOUNDS_DEFAULTS: dict[str, Any] = {"bounds": "robot"}
+
+
+def search_box(settings: Mapping[str, Any]) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]]:
+    """The run's gene bounds and the repair that keeps a chromosome inside them."""
+    bounds = BOUNDS_BY_NAME[settings.get("bounds", "legacy")]
+    return bounds, functools.partial(repair_genes, bounds=bounds)
+
+
 #: Defaults of the episode settings every command stores.
-EPISODE_DEFAULTS: dict[str, Any] = {"walk_time": 15.0, "start": [0.0, 0.0, 0.0], "agent_mode": "inprocess"}
+EPISODE_DEFAULTS: dict[str, Any] = {"walk_time": 15.0, "start": list(DEFAULT_START), "agent_mode": "inprocess"}
+#: Where runs made before ``--start`` existed started.
+LEGACY_START: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+def add_server_arguments(parser: argparse.ArgumentParser, *, repeatable: bool = True) -> None:
+    """Where episodes run: ``--real N`` (real rcssserver3d servers started here) or ``--server``
+    (servers run elsewhere); neither: the embedded stub."""
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--real", type=positive_int, default=None, metavar="N",
+                       help="start N real rcssserver3d servers (from $RCSSSERVER3D, else rcssserver3d on PATH) "
+                            "in a sync profile on free ports, one worker each, and stop them at the end"
+                       if repeatable else "start a real rcssserver3d (N must be 1) and stop it at the end")
+    where.add_argument("--server", type=server_address, action="append" if repeatable else "store", default=None,
+                       metavar="HOST:AGENT_PORT:MONITOR_PORT",
+                       help="evaluate on this running rcssserver3d instead of the embedded stub"
+                            + ("; repeat for more servers (one worker per server)" if repeatable else ""))
+
+
+def real_server_command(parser: argparse.ArgumentParser) -> str:
+    """The real server's command for ``--real``, or a refusal naming where it was looked for."""
+    try:
+        return find_rcssserver3d()
+    except RealServerError as exc:
+        parser.error(f"--real: {exc}")
+
+
+def check_start_for_real_server(parser: argparse.ArgumentParser, start: Sequence[float], flag: str) -> None:
+    """Refuse a start a real server's referee would not leave alone."""
+    problem = start_problem_on_real_server((start[0], start[1], start[2]))
+    if problem is not None:
+        parser.error(f"{flag} with --start {' '.join(f'{v:g}' for v in start)}: {problem}")
 
 
 def episode_config(walk_time: float, start: Sequence[float], agent_mode: str) -> EpisodeConfig:
@@ -161,6 +205,8 @@ class EvaluationSetup:
     seed: int
     scheduler: str | None = None
     dask_local: int | None = None
+    #: the real server's command when each worker starts one of its own (``--real``)
+    real_command: str | None = None
 
 
 def pool_evaluator(setup: EvaluationSetup) -> Evaluator:
@@ -172,11 +218,12 @@ def pool_evaluator(setup: EvaluationSetup) -> Evaluator:
             from optimizer.dask_evaluation import DaskEvaluator
         except ImportError as exc:
             raise EvaluationError(f"Dask is not installed ({exc}); pip install '.[dask]'") from None
-        return DaskEvaluator(config, setup.seed, scheduler=setup.scheduler, local_workers=setup.dask_local)
+        return DaskEvaluator(config, setup.seed, scheduler=setup.scheduler, local_workers=setup.dask_local,
+                             real=setup.real_command is not None)
     # an episode may take the runner's timeout twice (it restarts and retries once) plus a restart
     timeout = 2 * config.episode_timeout + 30.0
-    return ProcessPoolEvaluator(EpisodeRunnerFactory(config, setup.servers, setup.seed), setup.workers,
-                                task_timeout=timeout)
+    return ProcessPoolEvaluator(EpisodeRunnerFactory(config, setup.servers, setup.seed, setup.real_command),
+                                setup.workers, task_timeout=timeout)
 
 
 EvaluatorMaker = Callable[[EvaluationSetup], Evaluator]
@@ -206,7 +253,8 @@ def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, comma
         stored = folder.manifest["settings"]
         if args.seed is not None and args.seed != folder.manifest["seed"]:
             parser.error(f"--resume: --seed {args.seed} conflicts with the run's --seed {folder.manifest['seed']}")
-    settings = resolve_settings(parser, args, {**defaults, **EPISODE_DEFAULTS, **CHECK_DEFAULTS}, stored)
+    settings = resolve_settings(parser, args, {**defaults, **EPISODE_DEFAULTS, **CHECK_DEFAULTS, **BOUNDS_DEFAULTS},
+                                stored)
     servers = tuple(args.server or ())
     if servers and args.workers is not None and args.workers != len(servers):
         parser.error(f"--workers {args.workers} conflicts with {len(servers)} --server address(es): "
@@ -214,8 +262,21 @@ def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, comma
     if servers and (args.scheduler or args.dask_local):
         parser.error("--server conflicts with --scheduler/--dask-local: on Dask, name each worker's "
                      "server in its environment (GALA_SERVER=HOST:AGENT_PORT:MONITOR_PORT)")
-    workers = args.dask_local or len(servers) or args.workers or os.cpu_count() or 1
+    if args.real is not None:
+        if args.workers is not None and args.workers != args.real:
+            parser.error(f"--workers {args.workers} conflicts with --real {args.real}: one worker per server")
+        if args.scheduler:
+            parser.error("--real conflicts with --scheduler: on a cluster, have each Dask worker start its own "
+                         "real server (GALA_REAL_SERVER=1 in its environment)")
+        if args.dask_local is not None and args.dask_local != args.real:
+            parser.error(f"--dask-local {args.dask_local} conflicts with --real {args.real}: one server per worker")
+    real_command = real_server_command(parser) if args.real is not None else None
+    start = tuple(settings.get("start", LEGACY_START))
+    if servers or real_command is not None:
+        check_start_for_real_server(parser, start, "--real" if real_command else "--server")
+    workers = args.dask_local or args.real or len(servers) or args.workers or os.cpu_count() or 1
     runtime = {"workers": workers, "servers": [str(s) for s in servers],
+               "real": None if real_command is None else {"servers": args.real, "command": real_command},
                "dask": args.scheduler or (f"local:{args.dask_local}" if args.dask_local else None)}
     if folder is None:
         seed = args.seed if args.seed is not None else secrets.randbits(32)
@@ -227,10 +288,8 @@ def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, comma
     else:
         seed = folder.manifest["seed"]
         folder.note_resume(argv, runtime)
-    # runs made before --start existed started at the origin
-    start = tuple(settings.get("start", EPISODE_DEFAULTS["start"]))
     setup = EvaluationSetup(settings["walk_time"], start, settings["agent_mode"], servers, workers, seed,
-                            args.scheduler, args.dask_local)
+                            args.scheduler, args.dask_local, real_command)
     return Run(command, folder, settings, seed, setup, resumed=stored is not None)
 
 

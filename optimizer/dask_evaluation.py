@@ -1,8 +1,10 @@
 """Evaluating episodes on a Dask cluster (``--scheduler tcp://HOST:8786`` or ``--dask-local N``).
 
 Each Dask worker holds ONE episode runner for its whole life, set up by a worker plugin: its own
-embedded stub server, or the real rcssserver3d named for it (``GALA_SERVER=HOST:AP:MP`` in the
-worker's environment, or a ``{worker name: address}`` mapping given here). An episode is one Dask
+embedded stub server, a real rcssserver3d it starts itself (``--real`` with ``--dask-local``, or
+``GALA_REAL_SERVER=1`` in the worker's environment: the worker finds it through its own
+``RCSSSERVER3D`` or PATH), or the running rcssserver3d named for it (``GALA_SERVER=HOST:AP:MP`` in
+the worker's environment, or a ``{worker name: address}`` mapping given here). An episode is one Dask
 task; when a worker is lost mid-episode the scheduler runs the task again elsewhere, and the
 evaluator yields each task's outcome exactly once, so nothing is lost or counted twice. Logging,
 tables, plots and ``--resume`` are the driver's business and work as in local mode.
@@ -19,10 +21,13 @@ from distributed import Client, LocalCluster, WorkerPlugin, as_completed, get_wo
 
 from optimizer.episode import EpisodeConfig, EpisodeRunner, ServerAddress
 from optimizer.evaluation import EpisodeOutcome, EpisodeTask, failed_result
+from optimizer.real_server import RealServerProcess, find_rcssserver3d
 
 _PLUGIN = "gala-episode-runner"
 #: Environment variable naming a Dask worker's real server (``HOST:AGENT_PORT:MONITOR_PORT``).
 SERVER_ENV = "GALA_SERVER"
+#: Environment variable that has a Dask worker start a real rcssserver3d of its own (any non-empty value but 0).
+REAL_SERVER_ENV = "GALA_REAL_SERVER"
 
 
 class EpisodeRunnerPlugin(WorkerPlugin):
@@ -30,16 +35,25 @@ class EpisodeRunnerPlugin(WorkerPlugin):
 
     name = _PLUGIN
 
-    def __init__(self, config: EpisodeConfig, servers: Mapping[str, str], seed: int) -> None:
+    def __init__(self, config: EpisodeConfig, servers: Mapping[str, str], seed: int, real: bool = False) -> None:
         self.config = config
         self.servers = dict(servers)
         self.seed = seed
+        self.real = real
         self.runner: EpisodeRunner | None = None
 
     def setup(self, worker) -> None:  # noqa: ANN001 - distributed.Worker
         named = self.servers.get(worker.name) or self.servers.get(str(worker.name)) or os.environ.get(SERVER_ENV)
-        server = ServerAddress.parse(named) if named else None
-        self.runner = EpisodeRunner(self.config, server, seed=self.seed)
+        if named:
+            self.runner = EpisodeRunner(self.config, ServerAddress.parse(named), seed=self.seed)
+        elif self.real or os.environ.get(REAL_SERVER_ENV, "0") not in ("", "0"):
+            # started here, in the worker's long-lived thread: the kernel kills a server when the
+            # thread that started it ends, and task threads may come and go
+            server = RealServerProcess(find_rcssserver3d())
+            server.ensure_running()
+            self.runner = EpisodeRunner(self.config, server, seed=self.seed)
+        else:
+            self.runner = EpisodeRunner(self.config, seed=self.seed)
 
     def teardown(self, worker) -> None:  # noqa: ANN001
         if self.runner is not None:
@@ -58,7 +72,8 @@ class DaskEvaluator:
     ``LocalCluster`` of ``local_workers`` single-threaded worker processes started here."""
 
     def __init__(self, config: EpisodeConfig, seed: int, *, scheduler: str | None = None,
-                 local_workers: int | None = None, servers: Mapping[str, str] | None = None) -> None:
+                 local_workers: int | None = None, servers: Mapping[str, str] | None = None,
+                 real: bool = False) -> None:
         if (scheduler is None) == (local_workers is None):
             raise ValueError("give exactly one of scheduler and local_workers")
         self._cluster = None
@@ -69,7 +84,7 @@ class DaskEvaluator:
             self._client = Client(self._cluster)
         else:
             self._client = Client(scheduler)
-        self._client.register_plugin(EpisodeRunnerPlugin(config, servers or {}, seed))
+        self._client.register_plugin(EpisodeRunnerPlugin(config, servers or {}, seed, real))
         self._worker_ids: dict[str, int] = {}
 
     def _worker_id(self, name: str) -> int:

@@ -32,17 +32,41 @@ from pathlib import Path
 
 from agent import AgentConfig, AgentError, NaoAgent
 from gait import TFSParams, save_gait
-from optimizer.servers import ServerAddress, StubProcess
+from optimizer.servers import ManagedServer, ServerAddress, StubProcess
 from protocol import trainer
 from protocol.framing import FrameDecoder, encode_frame
 from protocol.monitor import MonitorReader, MonitorState, RobotPose
 
 log = logging.getLogger("optimizer.episode")
 
-__all__ = ["EpisodeConfig", "EpisodeResult", "EpisodeRunner", "ServerAddress", "Start"]
+__all__ = ["DEFAULT_START", "EpisodeConfig", "EpisodeResult", "EpisodeRunner", "ServerAddress", "Start",
+           "start_problem_on_real_server"]
 
 #: A start point on the field: x, y (m) and heading (deg, 0 = +x).
 Start = tuple[float, float, float]
+
+#: Where walks start unless told otherwise: 5 m into the own half, facing the opponent goal. Not
+#: the paper's x = y = 0: that is the origin of the measurement (the distance is counted from where
+#: the torso stands at PlayOn), not a field position. A real server's referee moves a left-team
+#: robot whose body reaches into the right half (x > 0) 2.5 m back before kick-off, so a walk
+#: beamed to (0, 0) would start at about x = -2.5 while the trainer believes it at 0. From x = -5
+#: the fastest walks known (0.9 m/s for 15 s) end near x = 8.5, inside the 15 m half.
+DEFAULT_START: Start = (-5.0, 0.0, 0.0)
+
+#: The left team's robot must stay this far behind the centre line to be left alone before
+#: kick-off on a real server (its colliders reach ~0.15 m from the torso; the referee moves any
+#: robot whose bounding box enters the right half).
+_REFEREE_MARGIN = 0.5
+
+
+def start_problem_on_real_server(start: Start) -> str | None:
+    """Why a real server would not leave a robot beamed to ``start`` where it was put (None when
+    it would): its referee clears the opponent half before kick-off."""
+    if start[0] > -_REFEREE_MARGIN:
+        return (f"x = {start[0]:g} m: a real server's referee moves a left-team robot within "
+                f"{_REFEREE_MARGIN:g} m of the centre line (or past it) 2.5 m back before kick-off, so the walk "
+                f"would not start there; start at x <= {-_REFEREE_MARGIN:g} (default {DEFAULT_START[0]:g})")
+    return None
 
 
 @dataclass(frozen=True)
@@ -51,8 +75,8 @@ class EpisodeConfig:
     walk_time: float = 15.0
     #: Start point (x, y) and heading (deg, 0 = +x) on the field: where the robot is beamed, and
     #: the direction along which its distance is measured (from where its torso is at PlayOn).
-    start: tuple[float, float] = (0.0, 0.0)
-    heading: float = 0.0
+    start: tuple[float, float] = DEFAULT_START[:2]
+    heading: float = DEFAULT_START[2]
     #: "inprocess": a fresh ``agent.NaoAgent`` per episode in this process, over the same socket
     #: protocol (fast, default); "process": a fresh ``python -m agent`` process per episode.
     agent_mode: str = "inprocess"
@@ -180,19 +204,23 @@ class _Judge:
 
 
 class EpisodeRunner:
-    """Runs episodes one after another on one server, which it starts (stub) or is given (real).
+    """Runs episodes one after another on one server: its own embedded stub (the default), a
+    server process it is given to own (a real rcssserver3d, ``optimizer.real_server``), or a
+    server run elsewhere (an address).
 
-    A server or agent that dies or hangs is detected, the stub restarted, the episode retried once;
+    A server or agent that dies or hangs is detected, an owned server restarted, the episode retried once;
     if that fails too the episode is returned as failed with its reason. ``evaluate`` never raises
     for such failures, so a worker keeps going. Each episode may start elsewhere (``start``) on
     the same server: a stability check walks one gait from several nearby starts.
     """
 
-    def __init__(self, config: EpisodeConfig = EpisodeConfig(), server: ServerAddress | None = None,
-                 seed: int = 0) -> None:
+    def __init__(self, config: EpisodeConfig = EpisodeConfig(),
+                 server: ServerAddress | ManagedServer | None = None, seed: int = 0) -> None:
         self.config = config
-        self._fixed_server = server
-        self._stub = None if server is not None else StubProcess(seed=seed)
+        self._fixed_server = server if isinstance(server, ServerAddress) else None
+        self._owned: ManagedServer | None = None
+        if self._fixed_server is None:
+            self._owned = StubProcess(seed=seed) if server is None else server
         self._monitor: MonitorLink | None = None
         self._tmp = tempfile.TemporaryDirectory(prefix="gala_episode_")
         # a fall is an episode's ordinary outcome, scored from the monitor: in-process agents need
@@ -221,8 +249,8 @@ class EpisodeRunner:
 
     def close(self) -> None:
         self._close_monitor()
-        if self._stub is not None:
-            self._stub.stop()
+        if self._owned is not None:
+            self._owned.stop()
         self._tmp.cleanup()
 
     def __enter__(self) -> "EpisodeRunner":
@@ -233,8 +261,8 @@ class EpisodeRunner:
 
     # ----- one episode -----
     def _address(self) -> ServerAddress:
-        if self._stub is not None:
-            return self._stub.ensure_running()
+        if self._owned is not None:
+            return self._owned.ensure_running()
         assert self._fixed_server is not None
         return self._fixed_server
 
@@ -245,8 +273,8 @@ class EpisodeRunner:
 
     def _reset_server(self) -> None:
         self._close_monitor()
-        if self._stub is not None:
-            self._stub.restart()
+        if self._owned is not None:
+            self._owned.restart()
 
     def _close_monitor(self) -> None:
         if self._monitor is not None:
@@ -264,7 +292,7 @@ class EpisodeRunner:
         sx, sy = config.start
         # our own stub answers scene at once; a (syn) nudge racing its first perception would let
         # it step once more before init and make episodes depend on timing
-        nudge = None if self._stub is not None else AgentConfig.syn_nudge_interval
+        nudge = None if isinstance(self._owned, StubProcess) else AgentConfig.syn_nudge_interval
         return AgentConfig(host=address.host, port=address.agent_port, team=config.team,
                            unum=config.unum, beam=(sx, sy, config.heading), sync=True,
                            duration=None, start_now=True, timeout=config.episode_timeout,

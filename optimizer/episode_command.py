@@ -2,8 +2,9 @@
 
     python -m optimizer.episode                          # the shipped gait, on the embedded stub
     python -m optimizer.episode --gait runs/gala-.../best_gait.json --server 127.0.0.1:3100:3200
+    python -m optimizer.episode --real 1 --repeat 10     # on a real rcssserver3d started (and stopped) here
     python -m optimizer.episode --json                   # one JSON object: distance, fell, time, fitness, ...
-    python -m optimizer.episode --start -5 2 10          # start at x -5, y 2, heading 10 deg
+    python -m optimizer.episode --start -7 2 10          # start at x -7, y 2, heading 10 deg
     python -m optimizer.episode --repeat 10 --jitter 0.05 0.05 2 --seed 1
                                                          # 10 walks, each start moved by up to 5 cm and 2 deg
 
@@ -21,8 +22,13 @@ import sys
 from collections.abc import Sequence
 
 from gait import DEFAULT_GAIT_PATH, GaitFileError, TFSParams, load_gait
-from optimizer.command_line import EPISODE_DEFAULTS, add_episode_arguments, episode_config, server_address
-from optimizer.episode import EpisodeResult, EpisodeRunner
+from optimizer.command_line import (
+    EPISODE_DEFAULTS, add_episode_arguments, add_server_arguments, check_start_for_real_server, episode_config,
+    real_server_command,
+)
+from optimizer.episode import EpisodeConfig, EpisodeResult, EpisodeRunner, Start
+from optimizer.real_server import RealServerError, RealServerProcess
+from optimizer.servers import ManagedServer, ServerAddress
 from optimizer.stability import distance_spread, jittered_starts
 from protocol.cli_values import non_negative, positive_int
 
@@ -39,8 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--gait", type=gait_file, default=None, metavar="FILE",
                    help=f"gait file to walk (default: the shipped gait, {DEFAULT_GAIT_PATH.name})")
-    p.add_argument("--server", type=server_address, default=None, metavar="HOST:AGENT_PORT:MONITOR_PORT",
-                   help="a running rcssserver3d (default: start the embedded stub)")
+    add_server_arguments(p, repeatable=False)
     add_episode_arguments(p)
     p.add_argument("--repeat", type=positive_int, default=1, metavar="N",
                    help="walk N times, a fresh agent each time (default 1)")
@@ -73,13 +78,36 @@ def summary(results: Sequence[EpisodeResult]) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
     params = args.gait or load_gait(DEFAULT_GAIT_PATH)
-    base = episode_config(args.walk_time or EPISODE_DEFAULTS["walk_time"], args.start or EPISODE_DEFAULTS["start"],
+    start = args.start or EPISODE_DEFAULTS["start"]
+    server: ServerAddress | ManagedServer | None = args.server
+    if args.real is not None:
+        if args.real != 1:
+            parser.error(f"--real {args.real}: this command walks one episode at a time on one server; use --real 1")
+        server = RealServerProcess(real_server_command(parser))
+    if server is not None:
+        check_start_for_real_server(parser, start, "--real" if args.real else "--server")
+    base = episode_config(args.walk_time or EPISODE_DEFAULTS["walk_time"], start,
                           args.agent_mode or EPISODE_DEFAULTS["agent_mode"])
     points = jittered_starts((*base.start, base.heading), args.jitter, args.repeat, args.seed)
+    if isinstance(server, RealServerProcess):
+        try:  # started before the first walk, so that a server that cannot start is said once, at once
+            server.ensure_running()
+        except RealServerError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 1
+    results = _walk(params, base, server, points, args)
+    if len(results) > 1 and not args.json:
+        print(summary(results))
+    return 0 if all(r.status == "ok" for r in results) else 1
+
+
+def _walk(params: TFSParams, base: EpisodeConfig, server: ServerAddress | ManagedServer | None,
+          points: Sequence[Start], args: argparse.Namespace) -> list[EpisodeResult]:
     results = []
-    with EpisodeRunner(base, args.server, seed=args.seed) as runner:
+    with EpisodeRunner(base, server, seed=args.seed) as runner:
         for x, y, heading in points:
             result = runner.evaluate(params, start=(x, y, heading))
             results.append(result)
@@ -90,6 +118,4 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(where + _line(result), flush=True)
             if result.status != "ok":
                 print(f"error: {where}the episode could not be run: {result.reason}", file=sys.stderr)
-    if len(results) > 1 and not args.json:
-        print(summary(results))
-    return 0 if all(r.status == "ok" for r in results) else 1
+    return results

@@ -30,6 +30,7 @@ from multiprocessing.connection import Connection, wait
 from typing import Any, Protocol
 
 from optimizer.episode import EpisodeConfig, EpisodeRunner, ServerAddress, Start
+from optimizer.real_server import RealServerProcess
 
 
 def stable_seed(run_seed: int, name: str) -> int:
@@ -113,17 +114,22 @@ RunnerFactory = Callable[[int], Runner]
 
 @dataclass(frozen=True)
 class EpisodeRunnerFactory:
-    """Makes the real ``EpisodeRunner`` of worker ``i``: on ``servers[i]`` when real servers are
-    given (one worker per server), else on its own embedded stub. Every runner gets the run's
-    seed, so the stub's noise does not depend on which worker runs an episode."""
+    """Makes the ``EpisodeRunner`` of worker ``i``: on ``servers[i]`` when servers run elsewhere
+    are given (one worker per server), on a real rcssserver3d of its own when ``real_command``
+    names one (``optimizer.real_server``), else on its own embedded stub. Every runner gets the
+    run's seed, so the stub's noise does not depend on which worker runs an episode."""
 
     config: EpisodeConfig
     servers: tuple[ServerAddress, ...] = ()
     seed: int = 0
+    real_command: str | None = None
 
     def __call__(self, worker: int) -> Runner:
-        server = self.servers[worker] if self.servers else None
-        return EpisodeRunner(self.config, server, seed=self.seed)
+        if self.servers:
+            return EpisodeRunner(self.config, self.servers[worker], seed=self.seed)
+        if self.real_command is not None:
+            return EpisodeRunner(self.config, RealServerProcess(self.real_command), seed=self.seed)
+        return EpisodeRunner(self.config, seed=self.seed)
 
 
 def _worker_main(factory: RunnerFactory, index: int, conn: Connection) -> None:

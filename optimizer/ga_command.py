@@ -15,10 +15,9 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from gait import GENE_BOUNDS, repair_genes
 from optimizer.command_line import (
-    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, prepare_run, run_session, stability_config,
-    write_gait,
+    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, prepare_run, run_session, search_box,
+    stability_config, write_gait,
 )
 from optimizer.driver import Driver
 from optimizer.evaluation import stable_seed
@@ -79,9 +78,10 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     run = prepare_run(parser, args, "ga", defaults(args.preset), argv)
     config = ga_config(run.settings)
     stability = stability_config(run.settings)
+    bounds, repair = search_box(run.settings)
 
     def body(driver: Driver) -> str:
-        search = GARun(GENE_BOUNDS, config, stable_seed(run.seed, PREFIX), repair=repair_genes, prefix=PREFIX)
+        search = GARun(bounds, config, stable_seed(run.seed, PREFIX), repair=repair, prefix=PREFIX)
         result: GAResult = driver.run(search)
         folder = run.folder.path
         best = best_episode(driver.log.records, PREFIX + "/", result.best_genes, result.best_fitness)

@@ -26,10 +26,9 @@ from typing import Any
 
 import numpy as np
 
-from gait import GENE_BOUNDS, repair_genes
 from optimizer.command_line import (
-    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, prepare_run, run_session, stability_config,
-    write_gait,
+    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, prepare_run, run_session, search_box,
+    stability_config, write_gait,
 )
 from optimizer.driver import Driver
 from optimizer.episode import Start
@@ -148,7 +147,7 @@ class Row:
         return TableRow.from_gala(self.result, None if best is None else best["distance"],
                                   None if best is None else best["mean_speed"],
                                   None if check is None else len(check.repeats),
-                                  None if check is None else check.falls, None if spread is None else spread[0])
+                                  None if check is None else check.falls, spread)
 
     def to_dict(self) -> dict[str, Any]:
         return {**self.result.to_dict(), "best_episode": self.best,
@@ -221,6 +220,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     run = prepare_run(parser, args, "gala", PAPER, argv)
     config = gala_config(run.settings)
     stability = stability_config(run.settings)
+    bounds, repair = search_box(run.settings)
     rates = config.crossover_rates
 
     def body(driver: Driver) -> str:
@@ -228,8 +228,8 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         fastest: Fastest | None = None
         for pc in rates:
             tag = f"pc{pc:g}"
-            search = GALA(GENE_BOUNDS, config, pc, stable_seed(run.seed, tag), scheme=scheme(run.settings, config),
-                          repair=repair_genes)
+            search = GALA(bounds, config, pc, stable_seed(run.seed, tag), scheme=scheme(run.settings, config),
+                          repair=repair)
             result: GALAResult = driver.run(search)
             best = best_episode(driver.log.records, f"{tag}/final/", result.best_genes, result.best_fitness)
             rows.append(Row(result, best, check_best(driver, best, run.setup.start, stability)))

@@ -22,8 +22,9 @@ from optimizer.gala import GALAResult
 @dataclass(frozen=True)
 class TableRow:
     """One row of Table I, plus the walk it stands for and its stability check (None where the
-    caller has no figure): ``repeat_falls`` of ``repeats`` walks from moved starts fell, the
-    shortest of them went ``repeat_min_distance_m``."""
+    caller has no figure): ``repeat_falls`` of ``repeats`` walks from moved starts fell; they went
+    ``repeat_min_distance_m`` to ``repeat_max_distance_m``, ``repeat_mean_distance_m`` on average.
+    The mean is the figure to trust on a real server, where one walk can be a lucky one."""
 
     crossover_rate: float
     optimal_mutation_rate: float
@@ -33,19 +34,23 @@ class TableRow:
     repeats: int | None = None
     repeat_falls: int | None = None
     repeat_min_distance_m: float | None = None
+    repeat_mean_distance_m: float | None = None
+    repeat_max_distance_m: float | None = None
 
     @classmethod
     def from_gala(cls, result: GALAResult, distance_m: float | None = None, speed_mps: float | None = None,
                   repeats: int | None = None, repeat_falls: int | None = None,
-                  repeat_min_distance_m: float | None = None) -> "TableRow":
+                  spread: tuple[float, float, float] | None = None) -> "TableRow":
+        """``spread``: the check's (shortest, longest, mean) distance."""
+        shortest, longest, mean = spread or (None, None, None)
         return cls(result.crossover, result.optimal_mutation, result.best_fitness, distance_m, speed_mps,
-                   repeats, repeat_falls, repeat_min_distance_m)
+                   repeats, repeat_falls, shortest, mean, longest)
 
 
 COLUMNS = tuple(f.name for f in fields(TableRow))
 _COUNTS = frozenset({"repeats", "repeat_falls"})
 _HEADINGS = ("Crossover rate", "Optimal mutation rate", "Best fitness", "Distance (m)", "Speed (m/s)",
-             "Falls in repeats", "Shortest repeat (m)")
+             "Falls in repeats", "Shortest repeat (m)", "Mean repeat (m)", "Longest repeat (m)")
 
 
 def _cell(name: str, value: float | None) -> str:
@@ -86,7 +91,8 @@ def _markdown_cells(row: TableRow) -> list[str]:
     falls = "-" if row.repeats is None or row.repeat_falls is None else f"{row.repeat_falls}/{row.repeats}"
     return [number("{:.2f}", row.crossover_rate), number("{:.2f}", row.optimal_mutation_rate),
             number("{:.4f}", row.best_fitness), number("{:.2f}", row.distance_m), number("{:.3f}", row.speed_mps),
-            falls, number("{:.2f}", row.repeat_min_distance_m)]
+            falls, number("{:.2f}", row.repeat_min_distance_m), number("{:.2f}", row.repeat_mean_distance_m),
+            number("{:.2f}", row.repeat_max_distance_m)]
 
 
 def write_table_markdown(rows: Sequence[TableRow], path: Path) -> None:

@@ -124,6 +124,12 @@ class StabilityConfig:
     The default jitter is the real server's default beam noise (``BeamNoiseXY`` 0.05 m,
     ``BeamNoiseAngle`` 10 deg, uniform): the starts a gait meets on a stock rcssserver3d. The stub
     is deterministic, so without a jitter ten repeats would be one walk seen ten times.
+
+    Ten repeats, from measurement on the real server (rcssserver3d 0.7.3, sync profile, 30 walks
+    of each of three gaits from one start): its run-to-run spread of the 15-s distance was 0.05%
+    to 5.2% (coefficient of variation), so the mean of ten is within ~1.6% (one standard error);
+    and a gait that falls one walk in five passes ten walks without a fall only 11% of the time
+    (0.8^10), where it would pass a single walk 80% of the time.
     """
 
     repeats: int = 10

@@ -1,8 +1,9 @@
-"""Servers an episode runs on: a stub subprocess this worker owns, or a real rcssserver3d.
+"""Servers an episode runs on: a stub subprocess this worker owns, a real rcssserver3d it owns
+(``optimizer.real_server``), or a server run elsewhere, known by its address.
 
 The optimizer talks to servers only through their public interfaces: it starts the stub as a
-process (``python -m server_stub``) on free ports and reads the ports it prints; a real server is
-just an address.
+process (``python -m server_stub``) on free ports and reads the ports it prints; a server run
+elsewhere is just an address.
 """
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import select
 import subprocess
 import sys
 from dataclasses import dataclass
+from typing import Protocol
 
 _LISTENING = "server_stub listening: agent port "
 
@@ -38,6 +40,18 @@ class ServerAddress:
 
     def __str__(self) -> str:
         return f"{self.host}:{self.agent_port}:{self.monitor_port}"
+
+
+class ManagedServer(Protocol):
+    """A server process a worker owns: started on demand, restarted after a failure, stopped."""
+
+    def ensure_running(self) -> ServerAddress:
+        """The server's address, after starting it if it is not running (or died)."""
+        ...
+
+    def restart(self) -> None: ...
+
+    def stop(self) -> None: ...
 
 
 #: Seconds a stub may take to print its ports: its first start after installing also compiles the
@@ -80,6 +94,11 @@ class StubProcess:
             raise RuntimeError(f"server_stub did not start (exit code {code}, said {line.strip()!r})")
         ports = line[len(_LISTENING):].split(", monitor port ")
         self.address = ServerAddress("127.0.0.1", int(ports[0]), int(ports[1]))
+
+    @property
+    def pid(self) -> int | None:
+        """The stub's process id while it is started (what an operator, or a test, would kill)."""
+        return None if self._process is None else self._process.pid
 
     def stop(self) -> None:
         if self._process is not None:

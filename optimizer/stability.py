@@ -82,8 +82,10 @@ class StabilityReport:
 
     def to_dict(self) -> dict[str, Any]:
         shortest, longest, mean = self.spread() or (None, None, None)
+        ran = [float(r["distance"]) for r in self.repeats if r["status"] == "ok"]
         return {"key": self.walk["key"], "repeats": len(self.repeats), "falls": self.falls, "failed": self.failed,
                 "min_distance": shortest, "max_distance": longest, "mean_distance": mean,
+                "std_distance": float(np.std(ran, ddof=1)) if len(ran) > 1 else None,
                 "walks": [{k: r[k] for k in ("key", "start", "distance", "fell", "time", "status")}
                           for r in self.repeats]}
 

@@ -1,6 +1,7 @@
 """Shared test fixtures: where the real-server captures live."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -14,3 +15,21 @@ def fixtures_dir() -> Path:
     if not FIXTURES.is_dir():
         pytest.fail(f"real-server fixtures not found at {FIXTURES}")
     return FIXTURES
+
+
+#: Set to 1 where a real server must be there (CI builds one): its tests then fail instead of skipping.
+REQUIRE_REAL_SERVER_ENV = "GALA_REQUIRE_REAL_SERVER"
+
+
+@pytest.fixture(scope="session")
+def rcssserver3d() -> str:
+    """The real server's command (``RCSSSERVER3D``, else ``rcssserver3d`` on PATH); tests that need
+    one are skipped, with the reason, where none is configured."""
+    from optimizer.real_server import RealServerError, find_rcssserver3d
+
+    try:
+        return find_rcssserver3d()
+    except RealServerError as exc:
+        if os.environ.get(REQUIRE_REAL_SERVER_ENV) == "1":
+            pytest.fail(f"{REQUIRE_REAL_SERVER_ENV}=1 but {exc}")
+        pytest.skip(f"needs a real server: {exc}")

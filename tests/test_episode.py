@@ -14,6 +14,7 @@ import pytest
 
 from gait import load_gait
 from optimizer.episode import EpisodeConfig, EpisodeRunner, ServerAddress
+from optimizer.servers import StubProcess
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -56,7 +57,7 @@ def test_distance_is_measured_from_where_the_robot_stands_not_where_it_was_sent(
     """A beam past the centre line is clipped to x = 0 (the left team's own half), so the robot
     walks exactly the origin's walk; a judge measuring from the beam's target would take 0.4 m
     off it. A start the server honours still moves the robot (the walk differs)."""
-    at_origin = runner.evaluate(load_gait())
+    at_origin = runner.evaluate(load_gait(), start=(0.0, 0.0, 0.0))
     clipped = runner.evaluate(load_gait(), start=(0.4, 0.0, 0.0))
     assert clipped.status == "ok"
     assert (clipped.distance, clipped.fell, clipped.time) == (at_origin.distance, at_origin.fell, at_origin.time)
@@ -121,11 +122,16 @@ def test_hung_server_times_out_and_fails_the_episode() -> None:
 
 
 def test_a_dead_stub_is_restarted() -> None:
-    with EpisodeRunner(EpisodeConfig(walk_time=0.5)) as r:
+    stub = StubProcess()
+    with EpisodeRunner(EpisodeConfig(walk_time=0.5), stub) as r:
         assert r.evaluate(load_gait()).status == "ok"
-        r._stub._process.kill()  # simulate a crash between episodes
+        crashed = stub.pid
+        assert crashed is not None
+        os.kill(crashed, signal.SIGKILL)  # simulate a crash between episodes
         result = r.evaluate(load_gait())
+        assert stub.pid not in (None, crashed)
     assert result.status == "ok", result.reason
+    assert stub.pid is None  # stopped with the runner
 
 
 @pytest.mark.parametrize("text, words", [("localhost:3100", "HOST:AGENT_PORT:MONITOR_PORT"),

@@ -147,3 +147,29 @@ def test_missing_gait_file_names_the_path(tmp_path) -> None:
 def test_gene_names_match_the_dataclass() -> None:
     assert GENE_NAMES == tuple(TFSParams.__dataclass_fields__)
     assert DEFAULT_GAIT_PATH.is_file()
+
+
+def test_the_gene_box_comes_from_the_robot() -> None:
+    """Offsets span the joints' ranges, amplitudes what the joints can follow at the slowest
+    stride, strides 8 control cycles up to the one where the widest swing meets the speed cap;
+    the facts are the ones the wire package holds (``gait`` does not import it)."""
+    from protocol import nao
+
+    hip = nao.JOINT_BY_EFFECTOR["lle3"]
+    knee = nao.JOINT_BY_EFFECTOR["lle4"]
+    c_h, c_k, a, b, c, t2, w = GENE_BOUNDS
+    assert tuple(c_h) == (hip.min_deg, hip.max_deg)
+    assert tuple(c_k) == (0.0, -knee.min_deg) and tuple(c) == (0.0, -knee.min_deg)
+    assert a[1] == b[1] == (hip.max_deg - hip.min_deg) / 2
+    assert w[1] == pytest.approx(2 * math.pi / (8 * nao.CYCLE))
+    assert math.radians(a[1]) * w[0] == pytest.approx(nao.SPEED_CAP)  # the widest swing at the slowest stride
+    assert t2[1] == pytest.approx(2 * math.pi / w[0])
+
+
+@pytest.mark.parametrize("genes", [
+    (14.95, 16.83, 37.56, 24.10, 89.0, 0.2346, 22.44),   # the fastest TFS walk known on the real server
+    (15.0, 30.0, 10.0, 10.0, 20.0, 0.35, 15.708),        # the shipped calibration walk
+])
+def test_known_real_walks_lie_inside_the_box(genes) -> None:
+    assert np.all(np.array(genes) >= GENE_BOUNDS[:, 0]) and np.all(np.array(genes) <= GENE_BOUNDS[:, 1])
+    assert list(repair_genes(np.array(genes))) == pytest.approx(list(genes))

@@ -51,7 +51,7 @@ def test_tiny_gala_on_the_stub_writes_every_output(tmp_path: Path) -> None:
     assert len(records) == _planned() and len(checks) % 3 == 0 and checks
     for r in checks:  # moved by at most the default jitter, the real server's beam noise
         x, y, heading = r["start"]
-        assert abs(x) <= 0.05 and abs(y) <= 0.05 and abs(heading) <= 10.0 and (x, y, heading) != (0, 0, 0)
+        assert abs(x + 5.0) <= 0.05 and abs(y) <= 0.05 and abs(heading) <= 10.0 and (x, y, heading) != (-5, 0, 0)
     rows = list(csv.DictReader((out / "table1.csv").open()))
     assert len(rows) == 1 and float(rows[0]["crossover_rate"]) == 0.8
     assert 0.0 <= float(rows[0]["optimal_mutation_rate"]) <= 0.09

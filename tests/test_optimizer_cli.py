@@ -6,9 +6,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from gait import load_gait
+from gait import GENE_BOUNDS, LEGACY_GENE_BOUNDS, load_gait
 from optimizer import episode_command, ga_command, gala_command
 from optimizer.episode import EpisodeResult
 from optimizer.evaluation import EpisodeOutcome
@@ -65,8 +66,10 @@ def test_resume_needs_a_run_folder_and_the_same_settings(tmp_path: Path, capsys)
     assert "conflicts" in err
     err = refused(gala_command.main, ["--resume", str(out), "--no-elitism"], capsys)
     assert "--no-elitism conflicts with the run's --elitism" in err
-    err = refused(gala_command.main, ["--resume", str(out), "--start", "-5", "0", "0"], capsys)
-    assert "--start -5.0 0.0 0.0 conflicts with the run's --start 0.0 0.0 0.0" in err
+    err = refused(gala_command.main, ["--resume", str(out), "--start", "-7", "0", "0"], capsys)
+    assert "--start -7.0 0.0 0.0 conflicts with the run's --start -5.0 0.0 0.0" in err
+    err = refused(gala_command.main, ["--resume", str(out), "--bounds", "legacy"], capsys)
+    assert "--bounds legacy conflicts with the run's --bounds robot" in err
     assert "is a gala run, not a ga run" in refused(ga_command.main, ["--resume", str(out)], capsys)
     assert "already holds a run" in refused(gala_command.main, ["--out", str(out)], capsys)
     assert "not allowed with" in refused(gala_command.main, ["--out", "x", "--resume", str(out)], capsys)
@@ -84,7 +87,7 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
             "--server", "127.0.0.1:3100:3200", "--server", "127.0.0.1:3101:3201", "--walk-time", "5"]
     assert gala_command.main(argv, make_evaluator=fake) == 0
     assert setups[0].workers == 2 and [s.agent_port for s in setups[0].servers] == [3100, 3101]
-    assert setups[0].walk_time == 5.0 and setups[0].seed == 9 and setups[0].start == (0.0, 0.0, 0.0)
+    assert setups[0].walk_time == 5.0 and setups[0].seed == 9 and setups[0].start == (-5.0, 0.0, 0.0)
 
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["settings"]["crossover"] == [0.8, 0.3] and manifest["settings"]["population"] == 6
@@ -107,7 +110,10 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
     for row, result in zip(rows, results):  # each row's best walked 10 times from moved starts
         repeats = [r for r in episodes if r["key"].startswith(f"check/{result['best_episode']['key']}/")]
         assert len(repeats) == row.repeats == 10 and row.repeat_falls == 0
-        assert row.repeat_min_distance_m == min(r["distance"] for r in repeats)
+        distances = [r["distance"] for r in repeats]
+        assert row.repeat_min_distance_m == min(distances) and row.repeat_max_distance_m == max(distances)
+        assert row.repeat_mean_distance_m == pytest.approx(sum(distances) / len(distances))
+        assert result["check"]["std_distance"] == pytest.approx(float(np.std(distances, ddof=1)))
         assert all(r["genes"] == result["best_genes"] and len(r["start"]) == 3 for r in repeats)
         assert len({tuple(r["start"]) for r in repeats}) == 10
     printed = capsys.readouterr().out
@@ -198,13 +204,14 @@ def test_a_killed_gala_run_resumes_to_the_same_files(tmp_path: Path) -> None:
         assert (tmp_path / "cut" / name).read_text() == (tmp_path / "whole" / name).read_text(), name
 
 
-def test_a_run_made_before_start_and_checks_existed_resumes_from_the_origin_unchecked(tmp_path: Path) -> None:
+def test_a_run_made_before_start_checks_and_the_robot_box_existed_resumes_as_it_began(tmp_path: Path) -> None:
+    """From the origin, unchecked, in the legacy gene box."""
     out = tmp_path / "old"
-    argv = ["--crossover", "0.8", *SMALL, "--seed", "5"]
+    argv = ["--crossover", "0.8", *SMALL, "--seed", "5", "--bounds", "legacy"]
     with pytest.raises(Killed):
         gala_command.main([*argv, "--out", str(out)], make_evaluator=lambda s: FakeEvaluator(10))
     manifest = json.loads((out / "manifest.json").read_text())
-    for name in ("start", "check_repeats", "check_jitter"):  # what an earlier version wrote
+    for name in ("start", "check_repeats", "check_jitter", "bounds"):  # what an earlier version wrote
         del manifest["settings"][name]
     (out / "manifest.json").write_text(json.dumps(manifest))
     setups = []
@@ -216,6 +223,19 @@ def test_a_run_made_before_start_and_checks_existed_resumes_from_the_origin_unch
     assert gala_command.main(["--resume", str(out), "--quiet"], make_evaluator=fake) == 0
     assert setups[0].start == (0.0, 0.0, 0.0)
     assert "check/" not in (out / "episodes.jsonl").read_text()
+    genes = np.array([r["genes"] for r in map(json.loads, (out / "episodes.jsonl").read_text().splitlines())])
+    assert np.all(genes >= LEGACY_GENE_BOUNDS[:, 0]) and np.all(genes <= LEGACY_GENE_BOUNDS[:, 1])
+
+
+def test_a_new_run_searches_the_box_derived_from_the_robot(tmp_path: Path) -> None:
+    out = tmp_path / "new"
+    assert gala_command.main(["--crossover", "0.8", *SMALL, "--seed", "5", "--out", str(out), "--quiet"],
+                             make_evaluator=lambda s: FakeEvaluator()) == 0
+    assert json.loads((out / "manifest.json").read_text())["settings"]["bounds"] == "robot"
+    genes = np.array([r["genes"] for r in map(json.loads, (out / "episodes.jsonl").read_text().splitlines())])
+    assert np.all(genes >= GENE_BOUNDS[:, 0]) and np.all(genes <= GENE_BOUNDS[:, 1])
+    outside_legacy = (genes < LEGACY_GENE_BOUNDS[:, 0]) | (genes > LEGACY_GENE_BOUNDS[:, 1])
+    assert outside_legacy.any(axis=0)[[0, 1, 4]].all()  # c_h, c_k and C reach beyond the old box
 
 
 def test_an_interrupted_run_says_how_to_resume(tmp_path: Path, capsys) -> None:

@@ -35,7 +35,7 @@ def test_table_i_csv_round_trips_and_markdown_lists_every_row(tmp_path: Path, ga
         TableRow.from_gala(gala_result, distance_m=gala_result.best_fitness / 10,
                            speed_mps=gala_result.best_fitness / 10 / 15),
         TableRow(0.1, 0.08, 12.456, None, None),  # a fallen robot: no distance or speed
-        TableRow(0.9, 0.06, -3.25, 0.1 + 0.2, 1 / 3, 10, 2, 0.1 + 0.05),
+        TableRow(0.9, 0.06, -3.25, 0.1 + 0.2, 1 / 3, 10, 2, 0.1 + 0.05, 0.2 + 0.1, 0.7),
     ]
     write_table_csv(rows, tmp_path / "table1.csv")
     assert read_table_csv(tmp_path / "table1.csv") == rows
@@ -45,8 +45,8 @@ def test_table_i_csv_round_trips_and_markdown_lists_every_row(tmp_path: Path, ga
     lines = (tmp_path / "table1.md").read_text().splitlines()
     assert len(lines) == 2 + len(rows)
     assert lines[0].startswith("| Crossover rate | Optimal mutation rate | Best fitness")
-    assert lines[3] == "| 0.10 | 0.08 | 12.4560 | - | - | - | - |"
-    assert lines[4] == "| 0.90 | 0.06 | -3.2500 | 0.30 | 0.333 | 2/10 | 0.15 |"
+    assert lines[3] == "| 0.10 | 0.08 | 12.4560 | - | - | - | - | - | - |"
+    assert lines[4] == "| 0.90 | 0.06 | -3.2500 | 0.30 | 0.333 | 2/10 | 0.15 | 0.30 | 0.70 |"
     assert f"{gala_result.optimal_mutation:.2f}" in lines[2]
 
 

@@ -1,0 +1,277 @@
+"""Real rcssserver3d servers the optimizer starts itself (``--real``): finding the server, the sync
+profile, the start a real referee leaves alone, and, against a real server where one is
+configured, walks that score their real distance and servers that never outlive their owner."""
+from __future__ import annotations
+
+import csv
+import json
+import os
+import re
+import signal
+import stat
+import subprocess
+import sys
+import time
+import uuid
+from pathlib import Path
+
+import pytest
+
+from gait import DEFAULT_GAIT_PATH, load_gait
+from optimizer import episode_command, gala_command
+from optimizer.episode import DEFAULT_START, EpisodeConfig, EpisodeRunner, start_problem_on_real_server
+from optimizer.real_server import (
+    RCSSSERVER3D_ENV, SYNC_PROFILE, RealServerError, RealServerProcess, find_rcssserver3d, installed_defaults,
+    write_sync_profile,
+)
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _executable(path: Path, text: str = "#!/bin/sh\nexit 0\n") -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+    path.chmod(path.stat().st_mode | stat.S_IXUSR)
+    return path
+
+
+# --- finding the server -------------------------------------------------------------------------
+
+
+def test_the_environment_variable_is_asked_first_then_path(tmp_path: Path) -> None:
+    named = _executable(tmp_path / "wrapper" / "rcss-sync")
+    on_path = _executable(tmp_path / "bin" / "rcssserver3d")
+    path = str(tmp_path / "bin")
+    assert find_rcssserver3d({RCSSSERVER3D_ENV: str(named), "PATH": path}) == str(named)
+    assert find_rcssserver3d({"PATH": path}) == str(on_path)
+
+
+def test_no_server_is_refused_naming_both_places(tmp_path: Path) -> None:
+    with pytest.raises(RealServerError) as missing:
+        find_rcssserver3d({"PATH": str(tmp_path)})
+    assert RCSSSERVER3D_ENV in str(missing.value) and "PATH" in str(missing.value)
+    with pytest.raises(RealServerError, match="not an executable"):
+        find_rcssserver3d({RCSSSERVER3D_ENV: str(tmp_path / "nothing"), "PATH": str(tmp_path)})
+
+
+def test_real_without_a_server_is_a_clear_command_line_error(monkeypatch, capsys, tmp_path: Path) -> None:
+    monkeypatch.delenv(RCSSSERVER3D_ENV, raising=False)
+    monkeypatch.setenv("PATH", str(tmp_path))
+    with pytest.raises(SystemExit) as exit_:
+        episode_command.main(["--real", "1"])
+    assert exit_.value.code == 2
+    assert "--real: no real rcssserver3d found" in capsys.readouterr().err
+
+
+# --- the sync profile ---------------------------------------------------------------------------
+
+#: The shipped lines the profile changes, as rcssserver3d 0.7.3 installs them.
+_SHIPPED = {
+    "simspark/spark.rb": "$agentSyncMode = false\n$threadedAgentControl = true\n$serverMultiThreadedMode = true\n",
+    "simspark/kerosin.rb": "# kerosin\n",
+    "rcssserver3d/rcssserver3d.rb": "$enableRealTimeMode = true\n",
+    "rcssserver3d/naosoccersim.rb": "addSoccerVar('BeamNoiseXY',0.05)\naddSoccerVar('BeamNoiseAngle',10.0)\n",
+    "rcssserver3d/rsg/agent/nao/naoneckhead.rsg": "(setSenseMyPos false)\n(setSenseMyOrien false)\n"
+                                                  "(setSenseBallPos false)\n",
+}
+
+
+def _install(prefix: Path) -> Path:
+    for name, text in _SHIPPED.items():
+        (prefix / "share" / name).parent.mkdir(parents=True, exist_ok=True)
+        (prefix / "share" / name).write_text(text)
+    return _executable(prefix / "bin" / "rcssserver3d")
+
+
+def test_the_sync_profile_is_made_from_the_installed_files_without_editing_them(tmp_path: Path) -> None:
+    binary = _install(tmp_path / "prefix")
+    share = installed_defaults(str(binary))
+    assert share == tmp_path / "prefix" / "share"
+    profile = write_sync_profile(share, tmp_path / "home")
+    for setting in SYNC_PROFILE:  # each changed line now reads as the profile wants, and only so
+        lines = re.findall(setting.pattern, (profile / setting.file).read_text(), flags=re.MULTILINE)
+        assert lines == [setting.replacement], setting
+    assert (profile / "kerosin.rb").read_text() == _SHIPPED["simspark/kerosin.rb"]
+    for name, text in _SHIPPED.items():  # the installation is left as it was
+        assert (share / name).read_text() == text
+
+
+def test_a_profile_line_that_is_not_there_is_named(tmp_path: Path) -> None:
+    binary = _install(tmp_path / "prefix")
+    (tmp_path / "prefix/share/rcssserver3d/rcssserver3d.rb").write_text("# another version\n")
+    with pytest.raises(RealServerError, match=r"rcssserver3d\.rb has no line matching .*enableRealTimeMode"):
+        write_sync_profile(installed_defaults(str(binary)), tmp_path / "home")
+
+
+def test_a_command_without_an_installation_beside_it_has_no_defaults(tmp_path: Path) -> None:
+    assert installed_defaults(str(_executable(tmp_path / "bin" / "wrapper"))) is None
+
+
+# --- where walks start --------------------------------------------------------------------------
+
+
+def test_the_default_start_is_one_a_real_referee_leaves_alone() -> None:
+    assert start_problem_on_real_server(DEFAULT_START) is None
+    assert EpisodeConfig().start == DEFAULT_START[:2] and EpisodeConfig().heading == DEFAULT_START[2]
+    for start in [(0.0, 0.0, 0.0), (-0.3, 1.0, 0.0), (3.0, 0.0, 180.0)]:
+        assert "referee" in (start_problem_on_real_server(start) or "")
+
+
+def test_a_start_on_the_centre_line_is_refused_for_real_servers_only(monkeypatch, capsys, tmp_path: Path) -> None:
+    monkeypatch.setenv(RCSSSERVER3D_ENV, str(_executable(tmp_path / "rcssserver3d")))
+    for flags in (["--real", "1"], ["--server", "127.0.0.1:3100:3200"]):
+        with pytest.raises(SystemExit) as exit_:
+            gala_command.main(["--budget", "quick", "--start", "0", "0", "0", "--out", str(tmp_path / "r"), *flags])
+        assert exit_.value.code == 2
+        assert "referee" in capsys.readouterr().err
+        assert not (tmp_path / "r").exists()  # refused before a run folder was made
+
+
+def test_real_conflicts_are_refused(monkeypatch, capsys, tmp_path: Path) -> None:
+    monkeypatch.setenv(RCSSSERVER3D_ENV, str(_executable(tmp_path / "rcssserver3d")))
+    for flags, said in ((["--real", "2", "--workers", "3"], "--workers 3 conflicts with --real 2"),
+                        (["--real", "2", "--dask-local", "3"], "--dask-local 3 conflicts with --real 2"),
+                        (["--real", "1", "--scheduler", "tcp://127.0.0.1:1"], "GALA_REAL_SERVER=1"),
+                        (["--real", "1", "--server", "127.0.0.1:1:2"], "not allowed with argument"),
+                        (["--real", "0"], "--real")):
+        with pytest.raises(SystemExit) as exit_:
+            gala_command.main(["--out", str(tmp_path / "r"), *flags])
+        assert exit_.value.code == 2
+        assert said in capsys.readouterr().err, flags
+
+
+# --- against a real server ----------------------------------------------------------------------
+
+
+def _servers_tagged(tag: str) -> list[int]:
+    """Live rcssserver3d processes whose environment carries ``tag`` (inherited from a test's
+    subprocess, so orphans are found too)."""
+    found = []
+    for proc in Path("/proc").iterdir():
+        if not proc.name.isdigit():
+            continue
+        try:
+            if b"rcssserver3d" not in (proc / "cmdline").read_bytes():
+                continue
+            if f"GALA_TEST_TAG={tag}".encode() not in (proc / "environ").read_bytes().split(b"\0"):
+                continue
+            state = (proc / "stat").read_text().rsplit(")", 1)[1].split()[0]
+        except OSError:
+            continue
+        if state != "Z":
+            found.append(int(proc.name))
+    return found
+
+
+def _wait_for(predicate, timeout: float) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.1)
+    return predicate()
+
+
+def _gone(pid: int) -> bool:
+    """The process has exited (it was reaped by its owner, so its /proc entry is gone)."""
+    return _wait_for(lambda: not Path(f"/proc/{pid}").exists(), 5.0)
+
+
+def _tagged_env(command: str) -> tuple[dict[str, str], str]:
+    tag = uuid.uuid4().hex
+    return {**os.environ, RCSSSERVER3D_ENV: command, "GALA_TEST_TAG": tag}, tag
+
+
+@pytest.mark.real_server
+def test_the_shipped_gait_scores_its_real_distance_with_no_options(rcssserver3d: str) -> None:
+    env, tag = _tagged_env(rcssserver3d)
+    done = subprocess.run([sys.executable, "-m", "optimizer.episode", "--real", "1", "--json"], cwd=REPO, env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    walk = json.loads(done.stdout)
+    # the shipped gait walks 2.9-3.2 m in 15 s on the real server (a fall after ~0.2 m from the
+    # old default start, the centre of the field)
+    assert not walk["fell"] and walk["time"] == 15.0 and 2.6 <= walk["distance"] <= 3.6, walk
+    assert walk["start"] == list(DEFAULT_START)
+    assert _servers_tagged(tag) == []  # stopped on a normal exit
+
+
+@pytest.mark.real_server
+def test_the_binary_and_a_wrapper_both_run_and_stop(rcssserver3d: str) -> None:
+    folder = Path(os.path.realpath(rcssserver3d)).parent
+    commands = [str(folder / name) for name in ("rcssserver3d", "rcss-sync") if (folder / name).is_file()]
+    assert commands, f"no rcssserver3d or rcss-sync beside {rcssserver3d}"
+    for command in commands:
+        server = RealServerProcess(command)
+        with EpisodeRunner(EpisodeConfig(walk_time=2.0), server) as runner:
+            result = runner.evaluate(load_gait(DEFAULT_GAIT_PATH))
+            pid = server.pid
+            assert result.status == "ok" and not result.fell and result.distance > 0.1, (command, result)
+        assert pid is not None and _gone(pid), command
+
+
+@pytest.mark.real_server
+def test_an_error_in_the_owner_stops_its_server(rcssserver3d: str) -> None:
+    server = RealServerProcess(rcssserver3d)
+    with pytest.raises(ZeroDivisionError):
+        with EpisodeRunner(EpisodeConfig(walk_time=1.0), server) as runner:
+            assert runner.evaluate(load_gait(DEFAULT_GAIT_PATH)).status == "ok"
+            pid = server.pid
+            1 / 0
+    assert server.pid is None and _gone(pid)
+
+
+def _start_gala(rcssserver3d: str, out: Path) -> tuple[subprocess.Popen, str]:
+    env, tag = _tagged_env(rcssserver3d)
+    process = subprocess.Popen(
+        [sys.executable, "-m", "optimizer.gala", "--real", "2", "--crossover", "0.8", "--population", "30",
+         "--iterations", "50", "--seed", "3", "--quiet", "--out", str(out)],
+        cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    assert _wait_for(lambda: len(_servers_tagged(tag)) == 2, 60.0), "the run did not start its 2 servers"
+    assert _wait_for(lambda: (out / "episodes.jsonl").exists() and (out / "episodes.jsonl").stat().st_size > 0,
+                     60.0)
+    return process, tag
+
+
+@pytest.mark.real_server
+@pytest.mark.slow
+def test_ctrl_c_stops_every_server(rcssserver3d: str, tmp_path: Path) -> None:
+    process, tag = _start_gala(rcssserver3d, tmp_path / "run")
+    os.killpg(process.pid, signal.SIGINT)  # what a terminal sends to its foreground group
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    assert "--resume" in err
+    assert _wait_for(lambda: _servers_tagged(tag) == [], 10.0), _servers_tagged(tag)
+
+
+@pytest.mark.real_server
+@pytest.mark.slow
+def test_a_killed_optimizer_leaves_no_server(rcssserver3d: str, tmp_path: Path) -> None:
+    process, tag = _start_gala(rcssserver3d, tmp_path / "run")
+    process.kill()  # SIGKILL to the optimizer alone: its workers and their servers are orphaned
+    process.wait(10)
+    assert _wait_for(lambda: _servers_tagged(tag) == [], 20.0), _servers_tagged(tag)
+    for pid in _servers_tagged(tag):  # tidy up after a failure
+        os.kill(pid, signal.SIGKILL)
+
+
+@pytest.mark.real_server
+@pytest.mark.slow
+def test_tiny_gala_on_a_real_server_end_to_end(rcssserver3d: str, tmp_path: Path) -> None:
+    env, tag = _tagged_env(rcssserver3d)
+    out = tmp_path / "run"
+    done = subprocess.run(
+        [sys.executable, "-m", "optimizer.gala", "--real", "1", "--crossover", "0.8", "--population", "6",
+         "--iterations", "3", "--generations", "2", "--walk-time", "5", "--check-repeats", "3", "--seed", "5",
+         "--quiet", "--out", str(out)], cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["runtime"]["real"]["servers"] == 1 and manifest["settings"]["bounds"] == "robot"
+    logged = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
+    assert all(r["status"] == "ok" for r in logged), [r["reason"] for r in logged if r["status"] != "ok"]
+    assert all(0 < r["time"] <= 5.0 for r in logged)
+    [row] = list(csv.DictReader((out / "table1.csv").open()))
+    assert row["repeats"] == "3" and row["repeat_mean_distance_m"] != ""
+    for name in ("table1.md", "gala-pc0.8.png", "ga-pc0.8.png", "best_gait.json", "results.json"):
+        assert (out / name).stat().st_size > 0, name
+    assert _servers_tagged(tag) == []
