@@ -22,7 +22,7 @@ from gait import TFSGait, load_gait  # noqa: E402
 from protocol.framing import encode_frame  # noqa: E402
 from protocol.perception import parse_perception  # noqa: E402
 
-FIXTURES = Path(__file__).resolve().parents[2] / "shared" / "fixtures" / "rcssserver3d"
+FIXTURES = Path(__file__).resolve().parents[1] / "tests" / "data" / "rcssserver3d"
 
 
 def main() -> None:

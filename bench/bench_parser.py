@@ -22,7 +22,7 @@ import sexpdata  # noqa: E402
 from protocol.monitor import MonitorReader  # noqa: E402
 from protocol.perception import parse_perception  # noqa: E402
 
-FIXTURES = ROOT.parent / "shared" / "fixtures" / "rcssserver3d"
+FIXTURES = ROOT / "tests" / "data" / "rcssserver3d"
 PATTERNS = ("agent_perceptions_*.txt", "walk_calibration/run*_perceptions.txt")
 
 

@@ -20,7 +20,7 @@ from gait.params import GENE_NAMES, GENE_UNITS, TFSParams
 FORMAT = "tfs-gait/1"
 
 #: Shipped with the package: the slow TFS gait that walked 2.91-3.14 m in 15 s on a real
-#: rcssserver3d 0.7.3 (fixtures/rcssserver3d/walk_calibration), a safe start for any search.
+#: rcssserver3d 0.7.3 (tests/data/rcssserver3d/walk_calibration), a safe start for any search.
 DEFAULT_GAIT_PATH: Path = Path(__file__).with_name("default_gait.json")
 
 

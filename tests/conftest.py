@@ -6,8 +6,9 @@ from pathlib import Path
 
 import pytest
 
-#: Real traffic captured from rcssserver3d 0.7.3 lives beside the repository, in ../shared/.
-FIXTURES = Path(__file__).resolve().parents[1].parent / "shared" / "fixtures" / "rcssserver3d"
+#: Real traffic captured from rcssserver3d 0.7.3 (its README says how): data from the real server,
+#: kept with the tests so that a plain clone passes them.
+FIXTURES = Path(__file__).resolve().parent / "data" / "rcssserver3d"
 
 
 @pytest.fixture(scope="session")

@@ -1,6 +1,6 @@
 """The agent's cycle logic replayed against a real client's recorded walk on a real server.
 
-The calibration walk (fixtures/rcssserver3d/walk_calibration) was driven by a probe client with the
+The calibration walk (tests/data/rcssserver3d/walk_calibration) was driven by a probe client with the
 same gait, mapping and controller the agent implements; feeding the agent the perceptions that
 probe received must make it send the same commands, cycle by cycle.
 """

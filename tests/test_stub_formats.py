@@ -1,6 +1,6 @@
 """The stub's wire text looks like the real server's and parses with our own readers.
 
-Real traffic: ``fixtures/rcssserver3d`` (agent_perceptions_*.txt, monitor_messages.txt).
+Real traffic: ``tests/data/rcssserver3d`` (agent_perceptions_*.txt, monitor_messages.txt).
 """
 from __future__ import annotations
 

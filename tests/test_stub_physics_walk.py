@@ -1,4 +1,4 @@
-"""The real calibration walk (fixtures/rcssserver3d/walk_calibration) replayed on the stub."""
+"""The real calibration walk (tests/data/rcssserver3d/walk_calibration) replayed on the stub."""
 from __future__ import annotations
 
 import json

@@ -34,7 +34,7 @@ def _handshake(client: RawClient, team: str = "Raw", unum: int = 1, scene: str =
 def test_another_teams_raw_client_is_served(stub: StubProcess) -> None:
     client = RawClient(stub.agent_port)
     first, second = _handshake(client, scene="(scene rsg/agent/nao/nao_hetero.rsg 0)")
-    # shape of the real server's messages (fixtures/rcssserver3d/agent_perceptions_first20.txt)
+    # shape of the real server's messages (tests/data/rcssserver3d/agent_perceptions_first20.txt)
     assert first.startswith("(time (now ") and "(GS (sl 0) (sr 0) (t 0.00) (pm BeforeKickOff))" in first
     assert re.findall(r"\(HJ \(n (\w+)\)", first) == HJ_NAMES
     assert re.search(r"\(GYR \(n torso\) \(rt -?[\d.]+ -?[\d.]+ -?[\d.]+\)\)", first)
