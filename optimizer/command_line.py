@@ -115,6 +115,9 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     where.add_argument("--resume", type=existing_run, default=None, metavar="DIR",
                        help="continue the run in DIR: finished episodes are not run again")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--skip-bad-lines", action="store_true",
+                        help="with --resume: move lines of the episode log that cannot be used to "
+                             "episodes.jsonl.rejected (and say how many) instead of stopping")
 
 
 #: The gene box a new run searches; a run folder without the setting was searched in the legacy box.
@@ -287,6 +290,11 @@ def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, comma
             parser.error(f"--out: {exc}")
     else:
         seed = folder.manifest["seed"]
+        try:  # a damaged log: one line naming the file, the line and the problem, no traceback
+            for note in folder.check_log(skip_bad_lines=args.skip_bad_lines):
+                print(f"warning: {note}", file=sys.stderr)
+        except RunFolderError as exc:
+            parser.exit(1, f"{parser.prog}: error: {exc}\n")
         folder.note_resume(argv, runtime)
     setup = EvaluationSetup(settings["walk_time"], start, settings["agent_mode"], servers, workers, seed,
                             args.scheduler, args.dask_local, real_command)

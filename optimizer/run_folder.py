@@ -16,6 +16,7 @@ keys in the same order, and every key found in the log is answered from it inste
 from __future__ import annotations
 
 import json
+import math
 import os
 import platform
 import subprocess
@@ -28,6 +29,10 @@ from typing import Any
 MANIFEST = "manifest.json"
 EPISODES = "episodes.jsonl"
 MANIFEST_FORMAT = "gala-run/1"
+#: Where ``repair_episode_log`` moves the lines it cannot use, beside the log.
+REJECTED_SUFFIX = ".rejected"
+#: How a resumed run is told to go on past bad lines (named in the error that stops it).
+SKIP_FLAG = "--skip-bad-lines"
 _REPO = Path(__file__).resolve().parents[1]
 
 
@@ -155,41 +160,142 @@ class RunFolder:
     def open_log(self) -> "EpisodeLog":
         return EpisodeLog(self.episodes_path)
 
+    def check_log(self, skip_bad_lines: bool = False) -> list[str]:
+        """Before resuming: ``RunFolderError`` (one line: file, line number, problem) if the
+        episode log has bad lines, or with ``skip_bad_lines`` move them to
+        ``episodes.jsonl.rejected`` and return a note saying how many."""
+        if skip_bad_lines:
+            moved = repair_episode_log(self.episodes_path)
+            if moved:
+                return [f"{self.episodes_path}: moved {moved} bad line(s) to "
+                        f"{self.episodes_path.name}{REJECTED_SUFFIX}; the run goes on without them"]
+        read_episode_log(self.episodes_path)
+        return []
 
-def read_episode_log(path: Path) -> tuple[dict[str, dict[str, Any]], list[str], int]:
-    """Records by key, warnings, and the byte length of the complete lines.
 
-    Grammar: ``<json object>\\n`` per line. Only the last line may be incomplete (a writer killed
-    mid-write): it is ignored. A bad line anywhere else is corruption and an error, because
-    silently skipping it would re-run or lose a finished episode. A key logged twice keeps its
-    first record (the one a search was told) and gives a warning.
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _shown(value: Any) -> str:
+    text = json.dumps(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def record_problem(record: Any) -> str | None:
+    """What makes ``record`` unusable by a resumed run (None if nothing): the fields the optimizer
+    reads must have their types, or the run would fail later with a traceback far from the cause.
+    ``key``, ``genes`` and ``fitness`` are required; ``start``, ``status``, ``fell`` and
+    ``distance`` are checked when present (failed episodes and older runs may lack some)."""
+    if not isinstance(record, dict):
+        return f"expected a JSON object, found {_shown(record)}"
+    key = record.get("key")
+    if not isinstance(key, str) or not key:
+        return f'"key" must be a non-empty string, found {_shown(key)}'
+    genes = record.get("genes")
+    if not isinstance(genes, list) or not all(_is_number(g) for g in genes):
+        return f'"genes" must be a list of numbers, found {_shown(genes)}'
+    if not _is_number(record.get("fitness")):
+        return f'"fitness" must be a finite number, found {_shown(record.get("fitness"))}'
+    start = record.get("start")
+    if start is not None and not (isinstance(start, list) and len(start) == 3 and all(map(_is_number, start))):
+        return f'"start" must be 3 numbers, found {_shown(start)}'
+    for name, wanted, check in (("status", "a string", lambda v: isinstance(v, str)),
+                                ("fell", "true or false", lambda v: isinstance(v, bool)),
+                                ("distance", "a finite number", _is_number)):
+        if name in record and not check(record[name]):
+            return f'"{name}" must be {wanted}, found {_shown(record[name])}'
+    return None
+
+
+def _parse_line(line: bytes) -> tuple[dict[str, Any] | None, str | None]:
+    """(record, None) or (None, what is wrong with the line)."""
+    try:
+        record = json.loads(line)
+    except UnicodeDecodeError as exc:
+        return None, f"not UTF-8 text (byte {exc.start + 1} of the line)"
+    except json.JSONDecodeError as exc:
+        return None, f"not JSON ({exc.msg} at column {exc.colno})"
+    problem = record_problem(record)
+    return (None, problem) if problem else (record, None)
+
+
+def scan_episode_log(path: Path) -> tuple[dict[str, dict[str, Any]], list[str], int, list[tuple[int, str]]]:
+    """Records by key, warnings, the byte length of the complete lines, and the bad lines as
+    (line number, problem), in order.
+
+    Grammar: ``<json object>\\n`` per line. Only the last line may be incomplete or garbled (a
+    writer killed mid-write): it is left out with a warning, as a torn write. A key logged twice
+    keeps its first record (the one a search was told) and gives a warning.
     """
     records: dict[str, dict[str, Any]] = {}
     warnings: list[str] = []
+    bad: list[tuple[int, str]] = []
     try:
         data = Path(path).read_bytes()
     except FileNotFoundError:
-        return records, warnings, 0
+        return records, warnings, 0, bad
     lines = data.split(b"\n")
     complete = len(data) - len(lines[-1])  # bytes up to and including the last newline
     if lines[-1]:
         warnings.append(f"{path}: ignored an incomplete last line ({len(lines[-1])} bytes)")
     for number, line in enumerate(lines[:-1], start=1):
-        try:
-            record = json.loads(line)
-            key = record["key"]
-        except (json.JSONDecodeError, UnicodeDecodeError, TypeError, KeyError) as exc:
+        record, problem = _parse_line(line)
+        if record is None:
             if number == len(lines) - 1 and not lines[-1]:
                 # the last line ended by a newline but garbled: a torn write, same as truncated
-                warnings.append(f"{path}: ignored an unreadable last line ({exc})")
+                warnings.append(f"{path}: ignored an unreadable last line ({problem})")
                 complete -= len(line) + 1
-                continue
-            raise RunFolderError(f"{path}, line {number}: not an episode record ({exc})") from None
+            else:
+                bad.append((number, problem))
+            continue
+        key = record["key"]
         if key in records:
             warnings.append(f"{path}, line {number}: key {key!r} logged again; the first record is kept")
             continue
         records[key] = record
+    return records, warnings, complete, bad
+
+
+def read_episode_log(path: Path) -> tuple[dict[str, dict[str, Any]], list[str], int]:
+    """Records by key, warnings, and the byte length of the complete lines (``scan_episode_log``).
+
+    A bad line before the last is corruption and an error naming the file, the line and what is
+    wrong, because silently skipping it would re-run or lose a finished episode; the error says
+    how to go on (``repair_episode_log``, ``--skip-bad-lines``).
+    """
+    records, warnings, complete, bad = scan_episode_log(path)
+    if bad:
+        number, problem = bad[0]
+        more = f" (and {len(bad) - 1} more bad line(s))" if len(bad) > 1 else ""
+        raise RunFolderError(f"{path}, line {number}: {problem}{more}; to resume without the bad lines, add "
+                             f"{SKIP_FLAG} (they move to {Path(path).name}{REJECTED_SUFFIX})")
     return records, warnings, complete
+
+
+def repair_episode_log(path: Path) -> int:
+    """Move the log's bad lines (``scan_episode_log``) to ``<log>.rejected`` and return how many.
+
+    Appended to the rejected file first, then the log is rewritten without them through a
+    temporary file and a rename, so a kill at any point loses no line: every intact line stays
+    in the log, byte for byte, and a bad one is in the log or in the rejected file (or both).
+    """
+    path = Path(path)
+    bad = scan_episode_log(path)[3]
+    if not bad:
+        return 0
+    lines = path.read_bytes().split(b"\n")
+    numbers = {number for number, _ in bad}
+    rejected = path.with_name(path.name + REJECTED_SUFFIX)
+    with rejected.open("ab") as out:
+        out.writelines(lines[n - 1] + b"\n" for n in sorted(numbers))
+        out.flush()
+        os.fsync(out.fileno())
+    kept = [line for n, line in enumerate(lines[:-1], start=1) if n not in numbers]
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_bytes(b"".join(line + b"\n" for line in kept) + lines[-1])
+    os.replace(tmp, path)
+    return len(bad)
 
 
 class EpisodeLog:

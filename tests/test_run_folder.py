@@ -2,13 +2,18 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from optimizer.run_folder import EpisodeLog, RunFolder, RunFolderError, new_run_path, read_episode_log
+from optimizer.run_folder import (EpisodeLog, RunFolder, RunFolderError, new_run_path, read_episode_log,
+                                  repair_episode_log)
+
+REPO = Path(__file__).resolve().parents[1]
 
 
 def record(key: str, fitness: float = 1.0) -> dict:
@@ -108,3 +113,64 @@ def test_cutting_the_log_anywhere_keeps_exactly_the_complete_records(tmp_path_fa
     path.write_bytes(whole[:cut])
     complete_lines = whole[:cut].count(b"\n")
     assert list(read_episode_log(path)[0]) == [f"k{k}" for k in range(complete_lines)]
+
+
+def _lines(*records: dict) -> list[bytes]:
+    return [json.dumps(r).encode() for r in records]
+
+
+@pytest.mark.parametrize("bad, problem", [
+    (b"garbage{", "line 2: not JSON"),
+    (json.dumps(record("x", 1.0) | {"fitness": "oops"}).encode(), 'line 2: "fitness" must be a finite number, found "oops"'),
+    (json.dumps(record("x", 1.0) | {"key": ["x"]}).encode(), 'line 2: "key" must be a non-empty string, found ["x"]'),
+    (json.dumps(record("x", 1.0) | {"genes": [1, "a"]}).encode(), 'line 2: "genes" must be a list of numbers'),
+    (b'{"key": "\xff\xfe"}', "line 2: not UTF-8 text"),
+    (b"[1, 2]", "line 2: expected a JSON object"),
+])
+def test_a_damaged_line_is_one_line_error_naming_file_line_and_problem(tmp_path: Path, bad: bytes, problem: str) -> None:
+    path = tmp_path / "episodes.jsonl"
+    good = _lines(record("a"), record("b"))
+    path.write_bytes(b"\n".join([good[0], bad, good[1]]) + b"\n")
+    with pytest.raises(RunFolderError) as caught:
+        read_episode_log(path)
+    message = str(caught.value)
+    assert str(path) in message and problem in message and "\n" not in message
+    assert "--skip-bad-lines" in message
+
+
+def test_repair_moves_bad_lines_aside_and_keeps_every_intact_line(tmp_path: Path) -> None:
+    path = tmp_path / "episodes.jsonl"
+    good = _lines(record("a"), record("b"), record("c"))
+    bad = [b"garbage", json.dumps(record("x") | {"fitness": "oops"}).encode(), b"\xff\xfe"]
+    tail = b'{"key": "d", "gen'  # a torn last write stays for EpisodeLog to cut, as before
+    path.write_bytes(b"\n".join([good[0], bad[0], good[1], bad[1], bad[2], good[2]]) + b"\n" + tail)
+    assert repair_episode_log(path) == 3
+    assert path.read_bytes() == b"\n".join(good) + b"\n" + tail
+    assert (tmp_path / "episodes.jsonl.rejected").read_bytes() == b"\n".join(bad) + b"\n"
+    records, warnings, _ = read_episode_log(path)
+    assert list(records) == ["a", "b", "c"] and "incomplete last line" in warnings[0]
+    assert repair_episode_log(path) == 0
+
+
+def _ga(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "optimizer.ga", "--population", "2", "--generations", "1",
+                           "--walk-time", "0.2", "--check-repeats", "0", "--workers", "1", "--quiet", *args],
+                          cwd=REPO, capture_output=True, text=True, timeout=300)
+
+
+def test_resume_of_a_damaged_log_stops_with_one_line_then_goes_on_with_skip_bad_lines(tmp_path: Path) -> None:
+    run = tmp_path / "run"
+    assert _ga("--seed", "1", "--out", str(run)).returncode == 0
+    log = run / "episodes.jsonl"
+    intact = log.read_bytes().splitlines()
+    log.write_bytes(b"\n".join([intact[0], b'{"key": ["x"], "fitness": "oops"}', *intact[1:]]) + b"\n")
+    refused = _ga("--resume", str(run))
+    assert refused.returncode == 1
+    assert "Traceback" not in refused.stderr
+    error = [line for line in refused.stderr.splitlines() if "error:" in line]
+    assert len(error) == 1 and f"{log}, line 2: \"key\" must be a non-empty string" in error[0], refused.stderr
+    resumed = _ga("--resume", str(run), "--skip-bad-lines")
+    assert resumed.returncode == 0, resumed.stderr
+    assert "moved 1 bad line(s) to episodes.jsonl.rejected" in resumed.stderr
+    assert log.read_bytes().splitlines() == intact  # nothing re-run, nothing lost
+    assert (run / "episodes.jsonl.rejected").read_bytes() == b'{"key": ["x"], "fitness": "oops"}\n'
