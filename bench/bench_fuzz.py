@@ -18,7 +18,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from server_stub import fuzz  # noqa: E402
 
-FIXTURES = Path(__file__).resolve().parents[2] / "shared" / "fixtures" / "rcssserver3d"
+#: The real server's captured traffic, kept with the tests.
+FIXTURES = Path(__file__).resolve().parents[1] / "tests" / "data" / "rcssserver3d"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -50,6 +50,14 @@ def _alive_and_clean(stub: StubProcess) -> str:
     return log
 
 
+def _with_robot(port: int) -> RawClient:
+    """An agent whose robot exists, after its first perception."""
+    client = RawClient(port)
+    client.send("(scene rsg/agent/nao/nao.rsg)(syn)")
+    client.receive()
+    return client
+
+
 def _reset(sock: socket.socket) -> None:
     """Close with SO_LINGER 0: the kernel sends RST instead of FIN."""
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
@@ -81,9 +89,7 @@ def test_deep_nesting_on_the_monitor_port(stub: StubProcess, message: str) -> No
 
 @pytest.mark.parametrize("message", [f"(scene {NEST})(syn)", f"(say {NEST})(syn)"])
 def test_deep_nesting_on_the_agent_port(stub: StubProcess, message: str) -> None:
-    other = RawClient(stub.agent_port)
-    other.send("(scene rsg/agent/nao/nao.rsg)(syn)")
-    other.receive()
+    other = _with_robot(stub.agent_port)
     bad = RawClient(stub.agent_port)
     bad.send(message)
     other.send("(syn)")
@@ -93,9 +99,7 @@ def test_deep_nesting_on_the_agent_port(stub: StubProcess, message: str) -> None
 
 
 def test_say_before_scene_while_another_robot_exists(stub: StubProcess) -> None:
-    listener = RawClient(stub.agent_port)
-    listener.send("(scene rsg/agent/nao/nao.rsg)(syn)")
-    listener.receive()
+    listener = _with_robot(stub.agent_port)
     speaker = RawClient(stub.agent_port)
     speaker.send("(say hello)")
     for _ in range(3):  # the listener's perceptions after the say are where hearing once failed
@@ -106,9 +110,7 @@ def test_say_before_scene_while_another_robot_exists(stub: StubProcess) -> None:
 
 
 def test_a_speaker_that_leaves_before_it_is_heard(stub: StubProcess) -> None:
-    listener = RawClient(stub.agent_port)
-    listener.send("(scene rsg/agent/nao/nao.rsg)(syn)")
-    listener.receive()
+    listener = _with_robot(stub.agent_port)
     speaker = RawClient(stub.agent_port)
     speaker.send("(scene rsg/agent/nao/nao.rsg)(syn)")
     listener.send("(syn)")
