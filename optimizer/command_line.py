@@ -27,7 +27,7 @@ from optimizer.evaluation import EpisodeRunnerFactory, EvaluationError, Evaluato
 from optimizer.real_server import RealServerError, find_rcssserver3d
 from optimizer.run_folder import RunFolder, RunFolderError, new_run_path
 from optimizer.search_config import StabilityConfig
-from protocol.cli_values import count, non_negative, number, positive_float, positive_int, probability
+from protocol.cli_values import count, non_negative, number, positive_float, positive_int
 
 #: Exit status of an interrupted run (the shell's convention for SIGINT).
 EXIT_INTERRUPTED = 130

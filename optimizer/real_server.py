@@ -27,7 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from optimizer.servers import ServerAddress
+from optimizer.servers import ServerAddress, ServerProcess
 from protocol.framing import encode_frame
 
 #: Environment variable naming the real server's command.
@@ -162,25 +162,15 @@ START_TIMEOUT = 30.0
 KILLSIM_GRACE = 3.0
 
 
-class RealServerProcess:
-    """One real rcssserver3d in the sync profile on free loopback ports, owned by one worker.
-
-    The same interface as ``optimizer.servers.StubProcess``: ``ensure_running`` (start it, or
-    start it again after it died), ``restart`` and ``stop``.
-    """
+class RealServerProcess(ServerProcess):
+    """One real rcssserver3d in the sync profile on free loopback ports, owned by one worker, as
+    ``optimizer.servers.StubProcess`` is a stub."""
 
     def __init__(self, command: str, start_timeout: float = START_TIMEOUT) -> None:
+        super().__init__()
         self.command = command
         self.start_timeout = start_timeout
-        self.address: ServerAddress | None = None
-        self._process: subprocess.Popen[bytes] | None = None
         self._home: tempfile.TemporaryDirectory[str] | None = None
-
-    def ensure_running(self) -> ServerAddress:
-        if self._process is None or self._process.poll() is not None:
-            self.restart()
-        assert self.address is not None
-        return self.address
 
     def restart(self) -> None:
         self.stop()
@@ -241,11 +231,6 @@ class RealServerProcess:
         if self._home is not None:
             self._home.cleanup()
             self._home = None
-
-    @property
-    def pid(self) -> int | None:
-        """The server's process id while it is started."""
-        return None if self._process is None else self._process.pid
 
 
 def _listening(address: ServerAddress) -> bool:

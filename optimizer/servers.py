@@ -59,13 +59,12 @@ class ManagedServer(Protocol):
 START_TIMEOUT = 60.0
 
 
-class StubProcess:
-    """A ``server_stub`` in sync mode, real time off, on free loopback ports, owned by one worker."""
+class ServerProcess:
+    """A ``ManagedServer`` that is one child process: started on the first need, started again
+    when it died. Subclasses say how to ``restart`` (start) and ``stop`` it."""
 
-    def __init__(self, seed: int = 0, start_timeout: float = START_TIMEOUT) -> None:
-        self.seed = seed
-        self.start_timeout = start_timeout
-        self._process: subprocess.Popen[str] | None = None
+    def __init__(self) -> None:
+        self._process: subprocess.Popen | None = None
         self.address: ServerAddress | None = None
 
     def ensure_running(self) -> ServerAddress:
@@ -73,6 +72,26 @@ class StubProcess:
             self.restart()
         assert self.address is not None
         return self.address
+
+    @property
+    def pid(self) -> int | None:
+        """The server's process id while it is started (what an operator, or a test, would kill)."""
+        return None if self._process is None else self._process.pid
+
+    def restart(self) -> None:
+        raise NotImplementedError
+
+    def stop(self) -> None:
+        raise NotImplementedError
+
+
+class StubProcess(ServerProcess):
+    """A ``server_stub`` in sync mode, real time off, on free loopback ports, owned by one worker."""
+
+    def __init__(self, seed: int = 0, start_timeout: float = START_TIMEOUT) -> None:
+        super().__init__()
+        self.seed = seed
+        self.start_timeout = start_timeout
 
     def restart(self) -> None:
         self.stop()
@@ -94,11 +113,6 @@ class StubProcess:
             raise RuntimeError(f"server_stub did not start (exit code {code}, said {line.strip()!r})")
         ports = line[len(_LISTENING):].split(", monitor port ")
         self.address = ServerAddress("127.0.0.1", int(ports[0]), int(ports[1]))
-
-    @property
-    def pid(self) -> int | None:
-        """The stub's process id while it is started (what an operator, or a test, would kill)."""
-        return None if self._process is None else self._process.pid
 
     def stop(self) -> None:
         if self._process is not None:
