@@ -40,7 +40,7 @@ from protocol.monitor import MonitorReader, MonitorState, RobotPose
 log = logging.getLogger("optimizer.episode")
 
 __all__ = ["DEFAULT_START", "EpisodeConfig", "EpisodeResult", "EpisodeRunner", "ServerAddress", "Start",
-           "start_problem_on_real_server"]
+           "TracePoint", "start_problem_on_real_server"]
 
 #: A start point on the field: x, y (m) and heading (deg, 0 = +x).
 Start = tuple[float, float, float]
@@ -122,6 +122,20 @@ class EpisodeResult:
         return cls(0.0, False, 0.0, 0.0, 0.0, "failed", reason, wall)
 
 
+@dataclass(frozen=True)
+class TracePoint:
+    """What the judge saw of the torso in one PlayOn monitor state (``EpisodeRunner(trace=True)``):
+    the walk's shape (drift, turning, the moment of a fall), which the score alone hides.
+    ``heading`` is the azimuth of the torso's forward axis (deg, atan2 of its y over its x)."""
+
+    game_time: float
+    x: float
+    y: float
+    z: float
+    up_z: float
+    heading: float
+
+
 class EpisodeFailure(RuntimeError):
     """The server or the agent died, hung or misbehaved: not the gait's fault."""
 
@@ -179,11 +193,13 @@ class _Judge:
     settles away from the beamed point (by a median 2 mm, up to 6 cm for random gaits); measured
     from the target, each of these would be counted as walking."""
 
-    def __init__(self, config: EpisodeConfig) -> None:
+    def __init__(self, config: EpisodeConfig, trace: bool = False) -> None:
         self.config = config
         self.result: EpisodeResult | None = None
         self._heading = math.radians(config.heading)
         self._origin: tuple[float, float] | None = None
+        #: every PlayOn state judged, when asked for (None otherwise: the search does not pay for it)
+        self.trace: list[TracePoint] | None = [] if trace else None
 
     def feed(self, state: MonitorState) -> None:
         if self.result is not None or state.play_mode != "PlayOn":
@@ -194,6 +210,9 @@ class _Judge:
         x, y, z = robot.position
         if self._origin is None:
             self._origin = (x, y)
+        if self.trace is not None:
+            fx, fy = robot.forward[0], robot.forward[1]
+            self.trace.append(TracePoint(state.game_time, x, y, z, robot.up[2], math.degrees(math.atan2(fy, fx))))
         fell = robot.up[2] < self.config.fall_up_z or z < self.config.fall_height
         if fell or state.game_time >= self.config.walk_time - 1e-6:
             sx, sy = self._origin
@@ -212,11 +231,18 @@ class EpisodeRunner:
     if that fails too the episode is returned as failed with its reason. ``evaluate`` never raises
     for such failures, so a worker keeps going. Each episode may start elsewhere (``start``) on
     the same server: a stability check walks one gait from several nearby starts.
+
+    With ``trace=True`` each episode also keeps the torso as the judge saw it in every PlayOn
+    state (``last_trace``), for comparing how walks go on two servers; results and logs are the
+    same either way.
     """
 
     def __init__(self, config: EpisodeConfig = EpisodeConfig(),
-                 server: ServerAddress | ManagedServer | None = None, seed: int = 0) -> None:
+                 server: ServerAddress | ManagedServer | None = None, seed: int = 0, trace: bool = False) -> None:
         self.config = config
+        self.trace = trace
+        #: the torso track of the last episode evaluated (empty if it failed), when ``trace`` is on
+        self.last_trace: list[TracePoint] | None = None
         self._fixed_server = server if isinstance(server, ServerAddress) else None
         self._owned: ManagedServer | None = None
         if self._fixed_server is None:
@@ -236,6 +262,7 @@ class EpisodeRunner:
         params = genes if isinstance(genes, TFSParams) else TFSParams.from_array(list(genes))
         config = self.config if start is None else self.config.starting_at(start)
         started = time.monotonic()
+        self.last_trace = [] if self.trace else None
         reason = ""
         for attempt in (1, 2):
             try:
@@ -302,13 +329,14 @@ class EpisodeRunner:
         address = self._address()
         link = self._link()
         self._prepare(link, config)
-        judge = _Judge(config)
+        judge = _Judge(config, self.trace)
         deadline = time.monotonic() + config.episode_timeout
         if config.agent_mode == "inprocess":
             self._run_inprocess(params, address, link, judge, deadline)
         else:
             self._run_process(params, address, link, judge, deadline)
         assert judge.result is not None
+        self.last_trace = judge.trace
         return judge.result
 
     def _run_inprocess(self, params: TFSParams, address: ServerAddress, link: MonitorLink,
