@@ -73,8 +73,8 @@ def _measured(check: Mapping[str, Any] | None, walk: Mapping[str, Any] | None) -
 
 
 def reported_gaits(results: Mapping[str, Any]) -> list[ReportedGait]:
-    """The gaits of a GALA or GA run's ``results.json``, one entry per distinct gait, in the order
-    the run reports them (Table I rows, then the fastest walk)."""
+    """The gaits of a GALA, GA or comparison run's ``results.json``, one entry per distinct gait,
+    in the order the run reports them (Table I rows, then the fastest walk)."""
     found: list[tuple[str, Sequence[float], Mapping[str, Any] | None, Mapping[str, Any] | None]] = []
     if "rows" in results:  # GALA
         for row in results["rows"]:
@@ -83,6 +83,9 @@ def reported_gaits(results: Mapping[str, Any]) -> list[ReportedGait]:
         fastest = results.get("fastest_episode")
         if fastest is not None:
             found.append(("fastest", fastest["genes"], results.get("fastest_check"), fastest))
+    elif "reported" in results:  # a comparison: each method's best on each seed
+        for gait in results["reported"]:
+            found.append((gait["name"], gait["genes"], gait.get("check"), gait.get("walk")))
     elif "best_genes" in results:  # GA
         found.append(("GA best", results["best_genes"], results.get("check"), results.get("best_episode")))
     gaits: dict[tuple[float, ...], ReportedGait] = {}

@@ -1,0 +1,172 @@
+"""``python -m optimizer.compare``: search methods at equal episode budgets over many seeds.
+
+    python -m optimizer.compare --preset quick               # a first look: minutes on 2 cores
+    python -m optimizer.compare                              # 6 methods x 10 seeds x 800 episodes (hours)
+    python -m optimizer.compare --methods gala,cmaes --seeds 20 --budget 400
+    python -m optimizer.compare --robust 3 --robust-quantile 0.25   # score every gait over 3 moved starts
+    python -m optimizer.compare --resume runs/compare-...   # continue after Ctrl-C or kill -9
+
+Methods (each a module of ``optimizer/compare/methods``): GALA at the paper's settings, the GA
+with De Jong's, Grefenstette's and the paper's best rates, CMA-ES (the ``cma`` library) and
+uniform random search. Each run of a method on a seed gets the same budget of search episodes;
+its best gait is then checked for stability (``--check-repeats`` walks from moved starts,
+counted apart). Writes into the run folder: runs.csv (every method x seed), summary.csv
+(median, interquartile range, best and success rate per method), pairs.csv and comparison.md
+(pairwise Mann-Whitney U tests, Holm-corrected, with effect sizes), convergence.png and
+results.json (its ``reported`` gaits work with ``python -m optimizer.transfer``), and
+episodes.jsonl as each episode finishes (what ``--resume`` continues from).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+from optimizer.command_line import (
+    EvaluatorMaker, add_run_arguments, pool_evaluator, prepare_run, run_session, search_box, stability_config,
+)
+from optimizer.compare.budget import RobustScore, Scored, drive
+from optimizer.compare.methods import Method, Problem, discover
+from optimizer.compare.report import RunOutcome, plot_convergence, write_tables
+from optimizer.compare.statistics import pairwise, summarise
+from optimizer.driver import Driver
+from optimizer.evaluation import stable_seed
+from optimizer.run_folder import write_json
+from optimizer.stability import check_best
+from protocol.cli_values import count, non_negative, positive_int, probability
+
+#: Settings a comparison stores. The default budget runs 6 methods x 10 seeds x 800 episodes,
+#: about 48,000 search episodes: 2-3 hours on the stub with 2 workers (5-7 episodes a second).
+DEFAULTS: dict[str, Any] = {
+    "methods": None,  # None: every method found
+    "seeds": 10,
+    "budget": 800,
+    "population": 40,
+    "elitism": True,
+    "robust_walks": 0,
+    "robust_quantile": None,
+    "success_distance": 4.95,  # the paper's headline walk
+}
+
+PRESETS: dict[str, dict[str, Any]] = {
+    "default": {},
+    #: ~1,900 episodes: 4-7 minutes on the stub with 2 workers
+    "quick": {"seeds": 3, "budget": 100, "population": 10, "check_repeats": 5},
+}
+
+
+def method_list(text: str) -> list[str]:
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    known = discover()
+    unknown = [n for n in names if n not in known]
+    if unknown or not names:
+        raise argparse.ArgumentTypeError(f"unknown method(s) {', '.join(unknown) or '(none given)'}; "
+                                         f"known: {', '.join(known)}")
+    if len(set(names)) != len(names):
+        raise argparse.ArgumentTypeError(f"a method is named twice in {text!r}")
+    return names
+
+
+def build_parser() -> argparse.ArgumentParser:
+    known = discover()
+    p = argparse.ArgumentParser(prog="python -m optimizer.compare", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--preset", choices=sorted(PRESETS), default=None,
+                   help="quick: 3 seeds x 100 episodes, population 10, 5 check walks (minutes); flags given "
+                        "override it")
+    p.add_argument("--methods", type=method_list, default=None, metavar="A,B,...",
+                   help=f"methods to compare (default all: {', '.join(known)})")
+    p.add_argument("--seeds", type=positive_int, default=None, help="runs per method (default 10)")
+    p.add_argument("--budget", type=positive_int, default=None, metavar="EPISODES",
+                   help="search episodes per run, the same for every method (default 800); with --robust K "
+                        "each gait costs K of them")
+    p.add_argument("--robust", dest="robust_walks", type=count, default=None, metavar="K",
+                   help="score each gait over K walks from starts moved within the check jitter (default 0: "
+                        "one walk from the run's start)")
+    p.add_argument("--robust-quantile", type=probability, default=None, metavar="Q",
+                   help="with --robust: score by this quantile of the K walks instead of their mean")
+    p.add_argument("--success-distance", type=non_negative, default=None, metavar="M",
+                   help="a run succeeds when its best walks at least M metres without a fall in its check "
+                        "(default 4.95, the paper's)")
+    add_run_arguments(p)
+    return p
+
+
+def _outcome(method: Method, index: int, scored: Sequence[Scored], best: Scored, check_report: Any,
+             success_distance: float) -> RunOutcome:
+    curve: list[float] = []
+    so_far = float("-inf")
+    for candidate in scored:
+        so_far = max(so_far, candidate.fitness / 10.0)
+        curve.extend([so_far] * len(candidate.records))  # each episode the candidate took
+    spread = None if check_report is None else check_report.spread()
+    stable = check_report is None or check_report.stable
+    return RunOutcome(method.name, index, best.key, best.genes, best.fitness / 10.0,
+                      0 if check_report is None else len(check_report.repeats),
+                      0 if check_report is None else check_report.falls,
+                      None if spread is None else spread[2], stable and best.fitness / 10.0 >= success_distance,
+                      tuple(curve), None if check_report is None else check_report.to_dict())
+
+
+def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = pool_evaluator) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    for name, value in PRESETS[args.preset or "default"].items():  # a preset stands for the flags it sets
+        if getattr(args, name) is None:
+            setattr(args, name, value)
+    if args.robust_quantile is not None and not args.robust_walks:
+        parser.error("--robust-quantile needs --robust K (K >= 1)")
+    run = prepare_run(parser, args, "compare", DEFAULTS, argv)
+    settings = run.settings
+    methods = [discover()[name] for name in settings["methods"] or discover()]
+    bounds, repair = search_box(settings)
+    stability = stability_config(settings)
+    robust = (RobustScore(settings["robust_walks"], stability.jitter, settings["robust_quantile"])
+              if settings["robust_walks"] else None)
+    per_candidate = robust.walks if robust else 1
+    budget = settings["budget"] // per_candidate  # candidates, so that every run spends the same episodes
+    if budget < 1:
+        parser.error(f"--budget {settings['budget']} is less than one gait's {per_candidate} robust walks")
+    seeds = settings["seeds"]
+
+    def body(driver: Driver) -> str:
+        runs: list[RunOutcome] = []
+        for method in methods:
+            for index in range(seeds):
+                prefix = f"{method.name}/s{index:02d}"
+                problem = Problem(bounds, repair, stable_seed(run.seed, prefix), budget, settings["population"],
+                                  settings["elitism"])
+                scored = drive(driver, method.program(problem), budget, prefix, run.setup.start, robust)
+                best = max(scored, key=lambda s: s.fitness)  # the first of equals: the earliest found
+                walk = {"key": best.key, "genes": list(best.genes), "fitness": best.fitness}
+                report = check_best(driver, walk, run.setup.start, stability)
+                runs.append(_outcome(method, index, scored, best, report, settings["success_distance"]))
+            _write(run.folder.path, runs, settings, budget * per_candidate)
+        return (run.folder.path / "comparison.md").read_text() + f"results in {run.folder.path}"
+
+    planned = len(methods) * seeds * (budget * per_candidate + stability.repeats)
+    return run_session(run, planned, body, make_evaluator=make_evaluator, quiet=args.quiet)
+
+
+def _write(folder: Any, runs: Sequence[RunOutcome], settings: dict[str, Any], episodes: int) -> None:
+    """Every output file for the runs finished so far (rewritten after each method)."""
+    methods = list(dict.fromkeys(r.method for r in runs))
+    distances = {m: [r.best_distance for r in runs if r.method == m] for m in methods}
+    summaries = [summarise(m, distances[m], [r.success for r in runs if r.method == m]) for m in methods]
+    pairs = pairwise(distances) if all(len(d) > 0 for d in distances.values()) else []
+    write_tables(runs, summaries, pairs, folder, settings["success_distance"], episodes)
+    plot_convergence(runs, folder / "convergence.png")
+    write_json(folder / "results.json", {
+        "settings": settings,
+        "summaries": [s.__dict__ for s in summaries],
+        "pairs": [p.__dict__ for p in pairs],
+        "runs": [{**r.row(), "best_genes": list(r.best_genes), "curve": list(r.curve)} for r in runs],
+        "reported": [{"name": f"{r.method} s{r.seed_index:02d}", "genes": list(r.best_genes), "check": r.check,
+                      "walk": {"distance": r.best_distance, "fell": False}} for r in runs],
+    })
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
