@@ -12,7 +12,9 @@ import functools
 import math
 import os
 import secrets
+import signal
 import sys
+import threading
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -301,6 +303,10 @@ def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, comma
     return Run(command, folder, settings, seed, setup, resumed=stored is not None)
 
 
+def _interrupt(*_: object) -> None:
+    raise KeyboardInterrupt
+
+
 def run_session(run: Run, planned_episodes: int, body: Callable[[Driver], str], *,
                 make_evaluator: EvaluatorMaker = pool_evaluator, quiet: bool = False) -> int:
     """Open the log and the evaluator, run ``body`` with a driver and print the summary it returns
@@ -316,6 +322,10 @@ def run_session(run: Run, planned_episodes: int, body: Callable[[Driver], str], 
     searched = (r["fitness"] for r in logged if is_search_walk(r))
     progress = BarProgress(planned_episodes, len(logged), max(searched, default=-math.inf), quiet=quiet)
     evaluator: Evaluator | None = None
+    # SIGTERM (a scheduler's or a service manager's stop) ends the run as Ctrl-C does: resumable,
+    # workers and the servers they started stopped
+    previous = signal.signal(signal.SIGTERM, _interrupt) if threading.current_thread() is threading.main_thread() \
+        else None
     try:
         evaluator = make_evaluator(run.setup)
         summary = body(Driver(evaluator, log, run.seed, progress))
@@ -332,6 +342,8 @@ def run_session(run: Run, planned_episodes: int, body: Callable[[Driver], str], 
         if evaluator is not None:
             evaluator.close()
         log.close()
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
     progress.close(finished=True)
     print(summary)
     return 0

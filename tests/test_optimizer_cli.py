@@ -4,6 +4,8 @@ the workers (no physics); the end-to-end runs on the stub are the lead's slow te
 from __future__ import annotations
 
 import json
+import os
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -236,6 +238,21 @@ def test_a_new_run_searches_the_box_derived_from_the_robot(tmp_path: Path) -> No
     assert np.all(genes >= GENE_BOUNDS[:, 0]) and np.all(genes <= GENE_BOUNDS[:, 1])
     outside_legacy = (genes < LEGACY_GENE_BOUNDS[:, 0]) | (genes > LEGACY_GENE_BOUNDS[:, 1])
     assert outside_legacy.any(axis=0)[[0, 1, 4]].all()  # c_h, c_k and C reach beyond the old box
+
+
+def test_sigterm_ends_a_run_as_ctrl_c_does(tmp_path: Path, capsys) -> None:
+    class Terminated(FakeEvaluator):
+        def evaluate(self, tasks):
+            yield from list(super().evaluate(tasks))[:3]
+            os.kill(os.getpid(), signal.SIGTERM)  # what a scheduler sends to stop a job
+
+    before = signal.getsignal(signal.SIGTERM)
+    code = gala_command.main(["--crossover", "0.8", *SMALL, "--out", str(tmp_path / "r")],
+                             make_evaluator=lambda s: Terminated())
+    assert code == 130
+    assert f"--resume {tmp_path / 'r'}" in capsys.readouterr().err
+    assert len((tmp_path / "r" / "episodes.jsonl").read_text().splitlines()) == 3  # nothing finished is lost
+    assert signal.getsignal(signal.SIGTERM) is before  # the handler is the run's alone
 
 
 def test_an_interrupted_run_says_how_to_resume(tmp_path: Path, capsys) -> None:

@@ -235,9 +235,13 @@ def _start_gala(rcssserver3d: str, out: Path) -> tuple[subprocess.Popen, str]:
 
 @pytest.mark.real_server
 @pytest.mark.slow
-def test_ctrl_c_stops_every_server(rcssserver3d: str, tmp_path: Path) -> None:
+@pytest.mark.parametrize("stop", ["ctrl-c", "sigterm"])
+def test_ctrl_c_or_sigterm_stops_every_server(rcssserver3d: str, tmp_path: Path, stop: str) -> None:
     process, tag = _start_gala(rcssserver3d, tmp_path / "run")
-    os.killpg(process.pid, signal.SIGINT)  # what a terminal sends to its foreground group
+    if stop == "ctrl-c":
+        os.killpg(process.pid, signal.SIGINT)  # what a terminal sends to its foreground group
+    else:
+        process.terminate()  # what a scheduler sends to the job
     _, err = process.communicate(timeout=60)
     assert process.returncode == 130, err
     assert "--resume" in err
