@@ -1,5 +1,5 @@
 """Length-prefixed framing: every message on both ports, in both directions, is a 4-byte
-big-endian unsigned length followed by that many bytes (facts sheet section 6).
+big-endian unsigned length followed by that many bytes (docs/robot_and_server.md section 6).
 
 The decoder is incremental because TCP delivers arbitrary chunks, and it checks every prefix
 against a cap before buffering the body, so a hostile or corrupt prefix (up to 4 GiB) costs nothing.

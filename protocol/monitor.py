@@ -1,6 +1,6 @@
 """Reader of the monitor stream (server -> monitor, port 3200): game state and robot torso poses.
 
-Grammar read (facts sheet section 9)::
+Grammar read (docs/robot_and_server.md section 9)::
 
     message := '(' header* ')' [ '(RSG 0 1)' scene | '(RDS 0 1)' delta ]
     header  := '(' <name> <value>* ')'     full: FieldLength ... play_modes time [team_left]

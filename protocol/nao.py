@@ -2,7 +2,7 @@
 
 These are the facts every package needs to agree on (the agent to command joints, the gait to
 clamp targets through the agent, the stub to enforce the same rules), so they live here once.
-Source of every number: ``NAO_MODEL_FACTS.md`` (read off rcssserver3d 0.7.3 / SimSpark 0.3.2).
+Source of every number: ``docs/robot_and_server.md`` (rcssserver3d 0.7.3 / SimSpark 0.3.2).
 """
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ class Joint:
 
 
 #: All 22 hinge joints of robot type 0, in the order the server sends their ``HJ`` perceptors
-#: (facts sheet section 5); limits from section 3's table.
+#: (docs/robot_and_server.md section 5); limits from section 3's table.
 JOINTS: tuple[Joint, ...] = (
     Joint("he1", "hj1", -120.0, 120.0),
     Joint("he2", "hj2", -45.0, 45.0),

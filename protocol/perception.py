@@ -1,7 +1,7 @@
 """Perceptions (server -> agent): one message per cycle, read into a typed ``Perception``.
 
 Two readers produce the same result. The fast path is a set of compiled regular expressions over
-the exact shapes rcssserver3d 0.7.3 prints (facts sheet section 5); it runs only when one regular
+the exact shapes rcssserver3d 0.7.3 prints (docs/robot_and_server.md section 5); it runs only when one regular
 expression accounts for the whole message, so nothing is skipped silently. Anything else (other
 spacing, another perceptor order, ``hear``, unknown perceptors, malformed text) goes to the slow
 path: the generic reader plus a validating walk that keeps unknown perceptors and raises

@@ -1,5 +1,5 @@
 """Trainer commands (monitor port, monitor -> server), as in ``monitor_commands_sent.txt`` and
-facts sheet section 9. On this port team sides are capitalised: ``Left``, ``Right``.
+docs/robot_and_server.md section 9. On this port team sides are capitalised: ``Left``, ``Right``.
 
 Numbers keep their Python type in the text (``-3.0`` for a float, ``90`` for an int), which is
 how the captured commands look; the server reads either.
@@ -56,7 +56,7 @@ def agent_pos(unum: int, team: str, x: float, y: float, z: float) -> str:
 def agent_move(unum: int, team: str, x: float, y: float, z: float, a: float) -> str:
     """``(agent (unum 1) (team Left) (move x y z a))``: like ``agent_pos`` but also sets the torso
     upright with yaw ``a`` degrees, where **a = 0 faces world +y and a = -90 faces +x** (no team
-    offset, unlike ``beam``; facts sheet section 9)."""
+    offset, unlike ``beam``; docs/robot_and_server.md section 9)."""
     return f"(agent {_player(unum, team)} (move {_numbers(x, y, z, a)}))"
 
 

@@ -1,4 +1,4 @@
-"""The stub's physics core against the real server's numbers (NAO_MODEL_FACTS.md)."""
+"""The stub's physics core against the real server's numbers (docs/robot_and_server.md)."""
 from __future__ import annotations
 
 import math
@@ -340,7 +340,7 @@ def test_ball_rests_on_the_ground_and_can_be_set(world):
     settle(world, 0.5)
     x, y, z = world.ball_position()
     assert (x, y) == pytest.approx((0.0, 0.0), abs=1e-6)
-    # radius 0.042, sunk into the ground by at most ODE's contact surface layer (facts section 4)
+    # radius 0.042, sunk into the ground by at most ODE's contact surface layer (docs/robot_and_server.md section 4)
     assert BALL_RADIUS - PhysicsConfig().contact_slop - 1e-4 <= z <= BALL_RADIUS + 1e-4
     world.set_ball((1.0, 2.0, 0.042), (1.0, 0.0, 0.0))
     world.step()

@@ -270,7 +270,7 @@ def test_beams_carry_the_real_servers_seeded_noise_unless_turned_off() -> None:
         exact = _beamed_poses(server, 2)
     for x, y, heading in exact:
         assert abs(x + 5) < 0.005 and abs(y - 2) < 0.005 and abs(heading - 30) < 0.5
-    for x, y, heading in noisy:  # uniform within 0.05 m and 10 deg (facts section 6), plus settling
+    for x, y, heading in noisy:  # uniform within 0.05 m and 10 deg (docs/robot_and_server.md section 6), plus settling
         assert abs(x + 5) < 0.055 and abs(y - 2) < 0.055 and abs(heading - 30) < 10.5
     assert len(set(noisy)) == 4
     assert max(max(abs(x + 5), abs(y - 2)) for x, y, _ in noisy) > 0.01

@@ -9,7 +9,7 @@ quantile: a search then cannot win by a gait that only walks from one exact star
 """
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Generator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -32,7 +32,7 @@ def program_of(search: KeyedSearch) -> SearchProgram:
         search.tell({c.key: float(f) for c, f in zip(candidates, fitness)})
 
 
-def budgeted(program: SearchProgram, budget: int) -> Iterator[Batch]:
+def budgeted(program: SearchProgram, budget: int) -> Generator[Batch, np.ndarray | None, None]:
     """The batches ``program`` asks for, until ``budget`` candidates have been asked; the batch
     that crosses the budget is cut. Fitness sent in is passed on to the program."""
     asked = 0
@@ -94,7 +94,7 @@ def drive(driver: Driver, program: SearchProgram, budget: int, prefix: str, base
     fitness: np.ndarray | None = None
     while True:
         try:
-            batch = batches.send(fitness)  # type: ignore[arg-type]
+            batch = batches.send(fitness)
         except StopIteration:
             return scored
         keys = [f"{prefix}/{batch.prefix}/i{i:03d}" for i in range(len(batch.genes))]
