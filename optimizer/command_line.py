@@ -246,6 +246,13 @@ class Run:
     resumed: bool
 
 
+def apply_preset(args: argparse.Namespace, values: Mapping[str, Any]) -> None:
+    """A preset (a budget) stands for the flags it sets; a flag given on the command line wins."""
+    for name, value in values.items():
+        if getattr(args, name) is None:
+            setattr(args, name, value)
+
+
 def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, command: str,
                 defaults: Mapping[str, Any], argv: Sequence[str]) -> Run:
     """Resolve settings, seed and workers, and create or reopen the run folder. Every refusal goes

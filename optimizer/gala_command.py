@@ -27,8 +27,16 @@ from typing import Any
 import numpy as np
 
 from optimizer.command_line import (
-    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, prepare_run, run_session, search_box,
-    stability_config, write_gait,
+    EvaluatorMaker,
+    add_run_arguments,
+    apply_preset,
+    best_episode,
+    pool_evaluator,
+    prepare_run,
+    run_session,
+    search_box,
+    stability_config,
+    write_gait,
 )
 from optimizer.driver import Driver
 from optimizer.episode import Start
@@ -36,8 +44,7 @@ from optimizer.evaluation import stable_seed
 from optimizer.ga_command import planned_episodes as ga_episodes
 from optimizer.gala import GALA, GALAResult
 from optimizer.la import LearningScheme, LinearRewardInaction, LinearRewardPenalty
-from optimizer.report import TableRow, plot_ga_convergence, plot_gala_convergence, write_table_csv, \
-    write_table_markdown
+from optimizer.report import TableRow, plot_ga_convergence, plot_gala_convergence, write_table_csv, write_table_markdown
 from optimizer.run_folder import RunFolder, write_json
 from optimizer.search_config import GAConfig, GALAConfig, StabilityConfig
 from optimizer.stability import StabilityReport, check_best, fastest_stable, standing_walks
@@ -211,9 +218,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     args = parser.parse_args(argv)
-    for name, value in BUDGETS[args.budget or "paper"].items():  # a budget stands for the flags it sets
-        if getattr(args, name) is None:
-            setattr(args, name, value)
+    apply_preset(args, BUDGETS[args.budget or "paper"])
     tags = [f"pc{pc:g}" for pc in args.crossover or ()]
     if len(set(tags)) != len(tags):
         parser.error(f"--crossover: a rate is given twice ({' '.join(t[2:] for t in tags)})")

@@ -24,7 +24,14 @@ from collections.abc import Sequence
 from typing import Any
 
 from optimizer.command_line import (
-    EvaluatorMaker, add_run_arguments, pool_evaluator, prepare_run, run_session, search_box, stability_config,
+    EvaluatorMaker,
+    add_run_arguments,
+    apply_preset,
+    pool_evaluator,
+    prepare_run,
+    run_session,
+    search_box,
+    stability_config,
 )
 from optimizer.compare.budget import RobustScore, Scored, drive
 from optimizer.compare.methods import Method, Problem, discover
@@ -113,9 +120,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     args = parser.parse_args(argv)
-    for name, value in PRESETS[args.preset or "default"].items():  # a preset stands for the flags it sets
-        if getattr(args, name) is None:
-            setattr(args, name, value)
+    apply_preset(args, PRESETS[args.preset or "default"])
     if args.robust_quantile is not None and not args.robust_walks:
         parser.error("--robust-quantile needs --robust K (K >= 1)")
     run = prepare_run(parser, args, "compare", DEFAULTS, argv)
