@@ -1,0 +1,80 @@
+"""How faithfully the stand-in walks, against a real rcssserver3d (issue 15).
+
+Walks a stored gait set (``bench/fidelity_gaits/``) once each on the embedded stand-in and
+``--real-repeats`` times each on a real server started here (found through ``RCSSSERVER3D``, then
+``rcssserver3d`` on PATH; sync profile; stopped with ``(killsim)``, then SIGKILL), with the same
+agent and episode code from the same start, and prints per gait and over the set: Spearman rank
+correlation of the distances, fall agreement, median and worst |1 - stand-in/real distance| over
+the gaits walking >= 3 m on the real server without a fall, and how far the heading changes are
+apart. Writes ``fidelity.csv``, ``fidelity.png`` (stand-in against real, the real spread as bars)
+and ``fidelity.json`` (every walk with its torso track) into ``--out``.
+
+    python bench/bench_fidelity.py --set all --real-repeats 3 --out /tmp/fidelity
+    python bench/bench_fidelity.py --set held_aside --gaits line-05,fast --real-repeats 1 --out /tmp/f
+
+Exit status 0 whatever the figures (they are a measurement), 1 when no real server is found or a
+gait named in ``--gaits`` is not in the set.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from optimizer.fidelity import (  # noqa: E402
+    GAIT_SET_DIR, SET_NAMES, FidelityConfig, compare, gait_set, plot, print_progress, real_server_or_none, report,
+    summarize, write_csv, write_tracks,
+)
+from protocol.cli_values import positive_float, positive_int  # noqa: E402
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python bench/bench_fidelity.py", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--set", choices=SET_NAMES + ("all",), default="training", dest="gait_set",
+                   help="which stored gait set (default training; held_aside is for the final word only)")
+    p.add_argument("--gaits", default=None, metavar="NAME,...", help="only these gaits of the set")
+    p.add_argument("--real-repeats", type=positive_int, default=FidelityConfig.real_repeats, metavar="R",
+                   help=f"walks per gait on the real server (default {FidelityConfig.real_repeats})")
+    p.add_argument("--walk-time", type=positive_float, default=FidelityConfig.walk_time, metavar="S")
+    p.add_argument("--gait-dir", type=Path, default=GAIT_SET_DIR, help=argparse.SUPPRESS)
+    p.add_argument("--out", type=Path, required=True, metavar="DIR")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    command = real_server_or_none()
+    if command is None:
+        return 1
+    gaits = gait_set(args.gait_set, args.gait_dir)
+    if args.gaits:
+        wanted = [name.strip() for name in args.gaits.split(",") if name.strip()]
+        unknown = sorted(set(wanted) - {g.name for g in gaits})
+        if unknown:
+            print(f"error: not in the {args.gait_set} set: {', '.join(unknown)}", file=sys.stderr)
+            return 1
+        gaits = [g for g in gaits if g.name in wanted]
+    config = FidelityConfig(real_repeats=args.real_repeats, walk_time=args.walk_time)
+    print(f"fidelity: {len(gaits)} gaits of set {args.gait_set}: 1 walk each on the stand-in, {config.real_repeats} "
+          f"on the real server ({command})", file=sys.stderr)
+    started = time.monotonic()
+    comparisons = compare(gaits, command, config, print_progress)
+    summary = summarize(comparisons, config.targets)
+    args.out.mkdir(parents=True, exist_ok=True)
+    write_csv(comparisons, args.out / "fidelity.csv", config.targets)
+    plot(comparisons, args.out / "fidelity.png", summary)
+    write_tracks(comparisons, summary, config, args.out / "fidelity.json",
+                 {"set": args.gait_set, "real_command": command, "command_line": " ".join(["python",
+                  "bench/bench_fidelity.py", *(sys.argv[1:] if argv is None else argv)])})
+    print(report(comparisons, summary, config.targets))
+    print(f"({time.monotonic() - started:.0f} s; written to {args.out}/fidelity.{{csv,png,json}})")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
