@@ -10,7 +10,8 @@ apart. Writes ``fidelity.csv``, ``fidelity.png`` (stand-in against real, the rea
 and ``fidelity.json`` (every walk with its torso track) into ``--out``.
 
     python bench/bench_fidelity.py --set all --real-repeats 3 --out /tmp/fidelity
-    python bench/bench_fidelity.py --set held_aside --gaits line-05,fast --real-repeats 1 --out /tmp/f
+    python bench/bench_fidelity.py --set held_aside --gaits line-01,line-10 --real-repeats 1 --out /tmp/f
+    python bench/bench_fidelity.py --from-json /tmp/fidelity/fidelity.json --out /tmp/again   # no walking
 
 Exit status 0 whatever the figures (they are a measurement), 1 when no real server is found or a
 gait named in ``--gaits`` is not in the set.
@@ -26,8 +27,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from optimizer.fidelity import (  # noqa: E402
-    GAIT_SET_DIR, SET_NAMES, FidelityConfig, compare, gait_set, plot, print_progress, real_server_or_none, report,
-    summarize, write_csv, write_tracks,
+    GAIT_SET_DIR, SET_NAMES, FidelityConfig, compare, gait_set, plot, print_progress, read_run, real_server_or_none,
+    report, summarize, write_csv, write_tracks,
 )
 from protocol.cli_values import positive_float, positive_int  # noqa: E402
 
@@ -43,38 +44,45 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--walk-time", type=positive_float, default=FidelityConfig.walk_time, metavar="S")
     p.add_argument("--gait-dir", type=Path, default=GAIT_SET_DIR, help=argparse.SUPPRESS)
     p.add_argument("--out", type=Path, required=True, metavar="DIR")
+    p.add_argument("--from-json", type=Path, default=None, metavar="FILE",
+                   help="walk nothing: take the figures again from a stored fidelity.json (its walks and tracks)")
     return p
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    command = real_server_or_none()
-    if command is None:
-        return 1
-    gaits = gait_set(args.gait_set, args.gait_dir)
-    if args.gaits:
-        wanted = [name.strip() for name in args.gaits.split(",") if name.strip()]
-        unknown = sorted(set(wanted) - {g.name for g in gaits})
-        if unknown:
-            print(f"error: not in the {args.gait_set} set: {', '.join(unknown)}", file=sys.stderr)
-            return 1
-        gaits = [g for g in gaits if g.name in wanted]
-    config = FidelityConfig(real_repeats=args.real_repeats, walk_time=args.walk_time)
-    print(f"fidelity: {len(gaits)} gaits of set {args.gait_set}: 1 walk each on the stand-in, {config.real_repeats} "
-          f"on the real server ({command})", file=sys.stderr)
     started = time.monotonic()
-    comparisons = compare(gaits, command, config, print_progress)
+    if args.from_json is not None:
+        comparisons, stored = read_run(args.from_json)
+        config = FidelityConfig(real_repeats=stored["real_repeats"], walk_time=stored["walk_time"],
+                                start=tuple(stored["start"]))
+        about = {k: stored[k] for k in ("set", "real_command", "command_line") if k in stored}
+    else:
+        command = real_server_or_none()
+        if command is None:
+            return 1
+        gaits = gait_set(args.gait_set, args.gait_dir)
+        if args.gaits:
+            wanted = [name.strip() for name in args.gaits.split(",") if name.strip()]
+            unknown = sorted(set(wanted) - {g.name for g in gaits})
+            if unknown:
+                print(f"error: not in the {args.gait_set} set: {', '.join(unknown)}", file=sys.stderr)
+                return 1
+            gaits = [g for g in gaits if g.name in wanted]
+        config = FidelityConfig(real_repeats=args.real_repeats, walk_time=args.walk_time)
+        print(f"fidelity: {len(gaits)} gaits of set {args.gait_set}: 1 walk each on the stand-in, "
+              f"{config.real_repeats} on the real server ({command})", file=sys.stderr)
+        comparisons = compare(gaits, command, config, print_progress)
+        about = {"set": args.gait_set, "real_command": command, "command_line": " ".join(
+            ["python", "bench/bench_fidelity.py", *(sys.argv[1:] if argv is None else argv)])}
     summary = summarize(comparisons, config.targets)
     args.out.mkdir(parents=True, exist_ok=True)
     write_csv(comparisons, args.out / "fidelity.csv", config.targets)
     plot(comparisons, args.out / "fidelity.png", summary)
-    write_tracks(comparisons, summary, config, args.out / "fidelity.json",
-                 {"set": args.gait_set, "real_command": command, "command_line": " ".join(["python",
-                  "bench/bench_fidelity.py", *(sys.argv[1:] if argv is None else argv)])})
+    write_tracks(comparisons, summary, config, args.out / "fidelity.json", about)
     print(report(comparisons, summary, config.targets))
     print(f"({time.monotonic() - started:.0f} s; written to {args.out}/fidelity.{{csv,png,json}})")
     return 0
-
 
 if __name__ == "__main__":
     raise SystemExit(main())

@@ -102,12 +102,19 @@ def gait_set(name: str, directory: Path = GAIT_SET_DIR) -> list[FidelityGait]:
 
 # ----- one walk -----
 
-def heading_change(track: Sequence[TracePoint]) -> float:
-    """Degrees the torso turned about the vertical from the first traced state to the last, left
-    positive; unwrapped, so a walk that turns past +-180 deg is not read as a small turn."""
-    if len(track) < 2:
+#: The forward axis's azimuth is the robot's heading only while the torso is upright: a torso
+#: tipping over swings it by tens of degrees in a few states (up z 0.8 = 37 deg of tilt).
+UPRIGHT_UP_Z = 0.8
+
+
+def heading_change(track: Sequence[TracePoint], upright_up_z: float = UPRIGHT_UP_Z) -> float:
+    """Degrees the torso turned about the vertical from the first traced state to the last one in
+    which it was still upright (up z >= ``upright_up_z``), left positive; unwrapped, so a walk
+    that turns past +-180 deg is not read as a small turn."""
+    upright = [i for i, p in enumerate(track) if p.up_z >= upright_up_z]
+    if len(track) < 2 or not upright:
         return 0.0
-    headings = np.unwrap(np.radians([p.heading for p in track]))
+    headings = np.unwrap(np.radians([p.heading for p in track[:upright[-1] + 1]]))
     return float(math.degrees(headings[-1] - headings[0]))
 
 
@@ -433,6 +440,24 @@ def write_tracks(comparisons: Sequence[GaitComparison], summary: FidelitySummary
         "track_columns": ["game_time", "x", "y", "z", "up_z", "heading"],
         "gaits": [{**c.gait.to_dict(), "row": c.row(config.targets), "stand_in": c.stand_in.to_dict(),
                    "real": [w.to_dict() for w in c.real]} for c in comparisons]})
+
+
+def read_run(path: Path) -> tuple[list[GaitComparison], dict[str, Any]]:
+    """A stored run (``write_tracks``) back as comparisons, with its document: the figures can be
+    taken again (other thresholds, a corrected statistic) without walking again. Drift and heading
+    change are taken again from the tracks where a walk has one."""
+    document = json.loads(Path(path).read_text())
+
+    def walk(item: Mapping[str, Any]) -> Walk:
+        track = [TracePoint(*point) for point in item.get("track", [])]
+        if not track:
+            return Walk(item["distance"], item["fell"], item["time"], item["drift"], item["heading_change"],
+                        item["status"])
+        return Walk.from_episode(item["distance"], item["fell"], item["time"], item["status"], track,
+                                 float(document["start"][2]))
+
+    return [GaitComparison(FidelityGait.from_dict(g), walk(g["stand_in"]), tuple(walk(w) for w in g["real"]))
+            for g in document["gaits"]], document
 
 
 def plot(comparisons: Sequence[GaitComparison], path: Path, summary: FidelitySummary) -> None:
