@@ -1,0 +1,296 @@
+"""The fidelity benchmark (issue 15): its statistics on data with known answers, the stored gait
+sets, its output files, the episode trace it reads, and a small end-to-end gate on a real server."""
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from gait import GENE_BOUNDS, GENE_NAMES, load_gait, repair_genes
+from optimizer import fidelity
+from optimizer.episode import EpisodeConfig, EpisodeRunner, TracePoint
+from optimizer.fidelity import (
+    CSV_COLUMNS, FAST_REAL, FidelityConfig, FidelityGait, FidelityTargets, GaitComparison, Walk, agreement,
+    fell_in_majority, heading_change, ratio_error, sideways_drift, spearman, summarize, turn_factor,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+# ----- statistics -----
+
+def test_spearman_of_a_known_pairing() -> None:
+    # ranks differ by 1, 1, 1, 1, 0: rho = 1 - 6 * 4 / (5 * 24) = 0.8
+    assert spearman([1, 2, 3, 4, 5], [2, 1, 4, 3, 5]) == pytest.approx(0.8)
+
+
+@given(st.lists(st.integers(-1000, 1000), min_size=3, max_size=30, unique=True))
+def test_spearman_sees_ranks_only(xs: list[int]) -> None:
+    """Any increasing transform ranks the same (1), any decreasing one the other way (-1)."""
+    assert spearman(xs, [x ** 3 + 7 for x in xs]) == pytest.approx(1.0)
+    assert spearman(xs, [-(x ** 3) for x in xs]) == pytest.approx(-1.0)
+
+
+def test_spearman_is_nan_where_undefined() -> None:
+    assert math.isnan(spearman([1, 2], [2, 1]))
+    assert math.isnan(spearman([1, 2, 3], [4, 4, 4]))
+    with pytest.raises(ValueError):
+        spearman([1, 2, 3], [1, 2])
+
+
+def test_agreement_and_the_majority_verdict() -> None:
+    assert agreement([True, False, True, False], [True, True, True, True]) == 0.5
+    assert math.isnan(agreement([], []))
+    assert fell_in_majority(2, 3) and not fell_in_majority(1, 2) and not fell_in_majority(0, 1)
+
+
+@given(st.floats(0.1, 50), st.floats(0.0, 0.9))
+def test_ratio_error_is_symmetric_around_the_real_distance(real: float, off: float) -> None:
+    assert ratio_error(real * (1 + off), real) == pytest.approx(off)
+    assert ratio_error(real * (1 - off), real) == pytest.approx(off)
+
+
+def test_ratio_error_of_no_real_distance_is_refused() -> None:
+    with pytest.raises(ValueError):
+        ratio_error(1.0, 0.0)
+
+
+def test_turn_factor_with_slack() -> None:
+    assert turn_factor(1.0, -3.0, slack=5.0) == 1.0  # both straight
+    assert turn_factor(2.0, 40.0, slack=5.0) == pytest.approx(8.0)
+    assert turn_factor(-60.0, 20.0, slack=5.0) == pytest.approx(3.0)  # by magnitude
+
+
+@given(st.floats(-180, 180), st.floats(-180, 180), st.floats(0.5, 20))
+def test_turn_factor_is_symmetric_and_at_least_one(a: float, b: float, slack: float) -> None:
+    assert turn_factor(a, b, slack) == pytest.approx(turn_factor(b, a, slack))
+    assert turn_factor(a, b, slack) >= 1.0
+
+
+def _track(points: list[tuple[float, float, float]]) -> list[TracePoint]:
+    """(x, y, heading) per state, 0.04 s apart."""
+    return [TracePoint(0.04 * (i + 1), x, y, 0.37, 0.99, h) for i, (x, y, h) in enumerate(points)]
+
+
+@given(st.floats(-180, 180), st.lists(st.floats(-170, 170), min_size=1, max_size=40))
+def test_heading_change_unwraps_past_180(first: float, steps: list[float]) -> None:
+    """The change is the sum of the steps, however often the heading crosses +-180 deg."""
+    headings = np.cumsum([first, *steps])
+    wrapped = (headings + 180.0) % 360.0 - 180.0
+    track = _track([(0.0, 0.0, float(h)) for h in wrapped])
+    assert heading_change(track) == pytest.approx(sum(steps), abs=1e-6)
+
+
+def test_heading_change_of_a_known_turn() -> None:
+    assert heading_change(_track([(0, 0, 170.0), (0, 0, 179.0), (0, 0, -175.0)])) == pytest.approx(15.0)
+    assert heading_change(_track([(0, 0, 10.0)])) == 0.0
+
+
+def test_heading_change_stops_where_the_torso_stopped_being_upright() -> None:
+    """A torso tipping over swings its forward axis: the turn is read up to the last upright state."""
+    track = [TracePoint(0.04, 0, 0, 0.37, 0.99, 0.0), TracePoint(0.08, 0, 0, 0.37, 0.95, 5.0),
+             TracePoint(0.12, 0, 0, 0.30, 0.70, 40.0), TracePoint(0.16, 0, 0, 0.20, 0.50, 80.0)]
+    assert heading_change(track) == pytest.approx(5.0)
+    assert heading_change(track, upright_up_z=0.4) == pytest.approx(80.0)
+    assert heading_change([TracePoint(0.04, 0, 0, 0.1, 0.1, 0.0), TracePoint(0.08, 0, 0, 0.1, 0.1, 30.0)]) == 0.0
+
+
+def test_sideways_drift_is_to_the_left_of_the_start_line() -> None:
+    # facing +y: +x is to the right
+    assert sideways_drift(_track([(1.0, 1.0, 90.0), (1.5, 3.0, 90.0)]), 90.0) == pytest.approx(-0.5)
+    assert sideways_drift(_track([(-5.0, 0.0, 0.0), (3.0, 0.4, 0.0)]), 0.0) == pytest.approx(0.4)
+
+
+# ----- over a set -----
+
+def _walk(distance: float, fell: bool = False, turn: float = 0.0, status: str = "ok") -> Walk:
+    return Walk(distance, fell, 1.0 if fell else 15.0, 0.0, turn, status)
+
+
+def _gait(name: str) -> FidelityGait:
+    return FidelityGait(name, "test", tuple(float(v) for v in load_gait().as_array()))
+
+
+def _comparisons() -> list[GaitComparison]:
+    """Five gaits with known figures: a (walks on both, 10% short), b (walks on both, 30% long, turns
+    20 deg where real turns 4), c (real falls in 2 of 3, the stand-in stands), d (both fall),
+    e (the stand-in's walk could not be run: left out)."""
+    return [
+        GaitComparison(_gait("a"), _walk(9.0), (_walk(9.5), _walk(10.0), _walk(10.5))),
+        GaitComparison(_gait("b"), _walk(5.2, turn=20.0), (_walk(4.0, turn=4.0), _walk(4.0, turn=4.0),
+                                                           _walk(4.0, turn=4.0))),
+        GaitComparison(_gait("c"), _walk(2.0), (_walk(1.0, True), _walk(1.0, True), _walk(4.0))),
+        GaitComparison(_gait("d"), _walk(0.1, True), (_walk(0.2, True), _walk(0.3, True), _walk(0.1, True))),
+        GaitComparison(_gait("e"), _walk(0.0, status="failed"), (_walk(8.0),)),
+    ]
+
+
+def test_summary_of_known_comparisons() -> None:
+    s = summarize(_comparisons())
+    assert s.gaits == 4
+    # stand-in 9, 5.2, 2, 0.1 against real means 10, 4, 2, 0.2: the same order
+    assert s.spearman == pytest.approx(1.0)
+    assert s.fall_agreement == pytest.approx(0.75)  # c: real fell in the majority, the stand-in did not
+    assert s.walking_gaits == 2  # a and b (c fell on the real server, d too)
+    assert s.median_ratio_error == pytest.approx((0.1 + 0.3) / 2)
+    assert s.worst_ratio_error == pytest.approx(0.3)
+    assert s.median_turn_factor == pytest.approx((1.0 + 4.0) / 2)  # a straight on both; b 20 vs max(4, 5)
+    assert s.worst_turn_factor == pytest.approx(4.0)
+    assert s.real_fall_fraction == pytest.approx(5 / 12)
+    misses = " ".join(s.misses(FidelityTargets()))
+    assert "Spearman" not in misses and "fall agreement 0.750" in misses
+    assert "median |1-ratio| 0.200" in misses and "worst |1-ratio| 0.300" in misses and "heading" in misses
+    a, b, _, d, _ = _comparisons()
+    assert summarize([a, b, d]).misses(FidelityTargets(median_ratio_error=0.25, worst_ratio_error=0.35,
+                                                       turn_factor=4.0)) == []
+    assert summarize([a, b]).misses(FidelityTargets(median_ratio_error=0.25, worst_ratio_error=0.35,
+                                                    turn_factor=4.0)) == ["Spearman - (target >= 0.9)"]
+
+
+def test_a_real_walk_that_could_not_be_run_is_left_out() -> None:
+    c = GaitComparison(_gait("x"), _walk(3.0), (_walk(3.0), _walk(0.0, status="failed"), _walk(3.3)))
+    assert len(c.real_ran) == 2 and c.real_mean("distance") == pytest.approx(3.15) and c.walks_on_real(FidelityTargets())
+
+
+def test_output_files(tmp_path: Path) -> None:
+    comparisons = _comparisons()
+    for c in comparisons:  # give walks a track to write
+        object.__setattr__(c.stand_in, "track", tuple(_track([(-5.0, 0.0, 0.0), (-4.0, 0.1, 2.0)])))
+    summary = summarize(comparisons)
+    config = FidelityConfig(real_repeats=3)
+    fidelity.write_csv(comparisons, tmp_path / "f.csv")
+    fidelity.plot(comparisons, tmp_path / "f.png", summary)
+    fidelity.write_tracks(comparisons, summary, config, tmp_path / "f.json", {"set": "test"})
+    rows = list(csv.DictReader((tmp_path / "f.csv").open()))
+    assert [r["gait"] for r in rows] == ["a", "b", "c", "d", "e"] and tuple(rows[0]) == CSV_COLUMNS
+    assert float(rows[0]["real_mean_m"]) == pytest.approx(10.0) and rows[2]["real_fell"] == "True"
+    assert (tmp_path / "f.png").read_bytes()[:4] == b"\x89PNG"
+    document = json.loads((tmp_path / "f.json").read_text())
+    assert document["summary"]["gaits"] == 4 and document["set"] == "test"
+    assert document["gaits"][0]["stand_in"]["track"][1] == [0.08, -4.0, 0.1, 0.37, 0.99, 2.0]
+    again, stored = fidelity.read_run(tmp_path / "f.json")
+    assert stored["real_repeats"] == 3 and [c.gait for c in again] == [c.gait for c in comparisons]
+    assert [(c.stand_in.distance, c.stand_in.fell, c.real) for c in again] == [
+        (c.stand_in.distance, c.stand_in.fell, c.real) for c in comparisons]  # real walks: no track, as stored
+    # the stand-in's turn and drift are taken again from its track: 0 -> 2 deg, 0.1 m to the left
+    assert again[1].stand_in.heading_change == pytest.approx(2.0) and again[1].stand_in.drift == pytest.approx(0.1)
+    report = fidelity.report(comparisons, summary)
+    assert "Spearman rank correlation of the distances: 1.000" in report and "targets missed" in report
+
+
+# ----- the stored gait sets -----
+
+def test_the_gait_sets_load_and_are_valid_gaits_inside_the_box() -> None:
+    training, held = fidelity.gait_set("training"), fidelity.gait_set("held_aside")
+    everything = training + held
+    assert 40 <= len(everything) <= 60
+    assert 0.55 <= len(training) / len(everything) <= 0.75
+    names = [g.name for g in everything]
+    assert len(set(names)) == len(names)
+    assert {g.family for g in everything} == {"line", "neighbour", "random", "found", "turning"}
+    for family in {g.family for g in everything}:  # each family on both sides of the split
+        assert any(g.family == family for g in training) and any(g.family == family for g in held), family
+    for g in everything:
+        genes = np.asarray(g.genes)
+        assert np.all(genes >= GENE_BOUNDS[:, 0]) and np.all(genes <= GENE_BOUNDS[:, 1]), g.name
+        assert np.allclose(repair_genes(genes), genes, atol=1e-3), g.name
+        assert g.params.period > g.params.t2 > 0 and g.how and g.screen
+    assert tuple(FAST_REAL) in {g.genes for g in everything}
+    assert tuple(np.round(load_gait().as_array(), 4)) in {g.genes for g in everything}
+    assert fidelity.gait_set("all") == everything
+
+
+def test_a_set_file_must_say_its_format(tmp_path: Path) -> None:
+    bad = tmp_path / "x.json"
+    bad.write_text(json.dumps({"format": "something-else", "gaits": []}))
+    with pytest.raises(ValueError, match="fidelity-gaits"):
+        fidelity.load_gait_set(bad)
+    with pytest.raises(ValueError, match="unknown gait set"):
+        fidelity.gait_set("tuning")
+    item = {"name": "x", "family": "f", "params": dict(zip(GENE_NAMES, [15, 30, 10, 10, 20, 0.5, 15.708]))}
+    with pytest.raises(ValueError, match="t2"):  # t2 beyond the period (0.4 s): eq. 5
+        FidelityGait.from_dict(item)
+
+
+# ----- the trace the benchmark reads -----
+
+def test_the_episode_trace_is_what_the_judge_scored() -> None:
+    config = EpisodeConfig(walk_time=1.0, start=(-6.0, 1.0), heading=30.0)
+    with EpisodeRunner(config, trace=True) as runner:
+        result = runner.evaluate(load_gait())
+        track = runner.last_trace
+    assert result.status == "ok" and track
+    first, last = track[0], track[-1]
+    h = math.radians(30.0)
+    assert (last.x - first.x) * math.cos(h) + (last.y - first.y) * math.sin(h) == pytest.approx(result.distance)
+    assert abs(first.heading - 30.0) < 5.0 and 0.3 < first.z < 0.45 and first.up_z > 0.9
+    assert all(b.game_time > a.game_time for a, b in zip(track, track[1:]))
+    assert last.game_time >= 1.0 - 1e-6
+
+
+def test_no_trace_unless_asked() -> None:
+    with EpisodeRunner(EpisodeConfig(walk_time=0.2)) as runner:
+        assert runner.evaluate(load_gait()).status == "ok"
+        assert runner.last_trace is None
+    with EpisodeRunner(EpisodeConfig(walk_time=0.2)) as runner, pytest.raises(ValueError, match="trace=True"):
+        fidelity.walk_gaits(runner, [_gait("a")], 1)
+
+
+# ----- a small gate on a real server -----
+
+#: A fixed subset spanning the families: the shipped gait, the line's middle, the fast real walk,
+#: a stand-in find that falls on the real server, a fast walk of the GALA row on real servers.
+GATE_GAITS = ("line-00", "line-05", "line-10", "found-stub0", "centre-realrun0")
+
+
+@pytest.fixture(scope="module")
+def gate(rcssserver3d: str, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("fidelity")
+    done = subprocess.run(
+        [sys.executable, str(ROOT / "bench" / "bench_fidelity.py"), "--set", "all", "--gaits", ",".join(GATE_GAITS),
+         "--real-repeats", "1", "--out", str(out)],
+        cwd=ROOT, capture_output=True, text=True, timeout=600, env={**os.environ, "RCSSSERVER3D": rcssserver3d})
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "Spearman rank correlation of the distances" in done.stdout
+    return out
+
+
+@pytest.mark.real_server
+@pytest.mark.slow
+def test_the_gate_runs_end_to_end_and_writes_its_files(gate: Path) -> None:
+    rows = list(csv.DictReader((gate / "fidelity.csv").open()))
+    assert sorted(r["gait"] for r in rows) == sorted(GATE_GAITS)
+    by_name = {r["gait"]: r for r in rows}
+    # the shipped gait walks 2.6-3.2 m on the real server (README), the fast one ~13.3 m
+    assert 2.3 < float(by_name["line-00"]["real_mean_m"]) < 3.6
+    assert 11.0 < float(by_name["line-10"]["real_mean_m"]) < 14.5
+    assert (gate / "fidelity.png").stat().st_size > 10_000
+    document = json.loads((gate / "fidelity.json").read_text())
+    for item in document["gaits"]:
+        assert item["stand_in"]["track"] and len(item["real"]) == 1 and item["real"][0]["track"]
+        assert item["real"][0]["track"][-1][0] == pytest.approx(item["real"][0]["time"], abs=0.05)
+
+
+@pytest.mark.real_server
+@pytest.mark.slow
+@pytest.mark.xfail(strict=False, reason="stand-in not yet faithful at walking speed (issue 15): measured on all 50 "
+                   "gaits, 3 real walks each: Spearman -0.09, fall agreement 0.52, |1-ratio| median 1.00 and worst "
+                   "1.05 over the 22 gaits walking >= 3 m on the real server, heading change up to 6.8x apart; "
+                   "the 13.27 m gait falls at 0.46 s on the stand-in")
+def test_the_gate_meets_the_issue_targets(gate: Path) -> None:
+    summary = json.loads((gate / "fidelity.json").read_text())["summary"]
+    targets = FidelityTargets()
+    assert summary["spearman"] is not None and summary["spearman"] >= targets.spearman
+    assert summary["fall_agreement"] >= targets.fall_agreement
+    assert summary["median_ratio_error"] is not None and summary["median_ratio_error"] <= targets.median_ratio_error
+    assert summary["worst_ratio_error"] <= targets.worst_ratio_error
+    assert summary["worst_turn_factor"] <= targets.turn_factor
