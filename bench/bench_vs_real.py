@@ -1,0 +1,129 @@
+"""Speed, stand-in against a real rcssserver3d, side by side in one sitting (issue 15, item 6).
+
+The stand-in exists to be a faster, easier judge than the real server; this says whether it is.
+The same ``EpisodeRunner`` walks the shipped gait and the fast real walk (``FAST_REAL``) from
+(-5, 0, 0), ``--episodes`` times each, first on the embedded stand-in, then on a real server
+started here (``RCSSSERVER3D``, then PATH; sync profile): one server alive at a time. Then the
+agent alone (``agent.NaoAgent``, no monitor, no trainer) walks the shipped gait on each, the same
+number of times. Each server is warmed up by one untimed walk (its start, the stand-in's kernel
+load, the first connection are not counted).
+
+Figures per case: wall seconds per episode, episodes per wall second, and x real time = seconds
+walked (game time from the walk's start to its end or fall) per wall second. A gait that falls
+early walks few seconds: the stand-in falls with the fast gait in 0.5 s, so its episodes are
+short and its x real time is set by the fixed cost of an episode (connect, beam, settle, remove).
+The load average is printed: the machine is shared, and rates move with it.
+
+    python bench/bench_vs_real.py [--episodes 5] [--walk-time 15]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from agent import AgentConfig, NaoAgent  # noqa: E402
+from gait import TFSParams, load_gait  # noqa: E402
+from optimizer.episode import DEFAULT_START, EpisodeConfig, EpisodeRunner  # noqa: E402
+from optimizer.fidelity import FAST_REAL, real_server_or_none  # noqa: E402
+from optimizer.real_server import RealServerProcess  # noqa: E402
+from optimizer.servers import ServerProcess, StubProcess  # noqa: E402
+from protocol.cli_values import positive_float, positive_int  # noqa: E402
+
+
+@dataclass(frozen=True)
+class Timing:
+    """Timed walks of one case: each walk's wall seconds and seconds walked."""
+
+    server: str
+    case: str
+    walls: tuple[float, ...]
+    walked: tuple[float, ...]
+    falls: int
+
+    def line(self) -> str:
+        wall = statistics.fmean(self.walls)
+        speed = sum(self.walked) / sum(self.walls)
+        return (f"{self.server:<9} {self.case:<28} {len(self.walls):>3} walks ({self.falls} fell): "
+                f"{wall:6.3f} s each, {1 / wall:5.2f} episodes/s, {speed:5.1f}x real time "
+                f"(walked {statistics.fmean(self.walked):5.2f} s each)")
+
+
+def _episodes(server: str, runner: EpisodeRunner, gaits: dict[str, TFSParams], count: int) -> list[Timing]:
+    runner.evaluate(gaits["shipped gait"])  # warm-up: server start, first connection
+    out = []
+    for name, params in gaits.items():
+        walls, walked, falls = [], [], 0
+        for _ in range(count):
+            started = time.perf_counter()
+            result = runner.evaluate(params)
+            walls.append(time.perf_counter() - started)
+            if result.status != "ok":
+                raise RuntimeError(f"{server}: an episode could not be run: {result.reason}")
+            walked.append(result.time)
+            falls += result.fell
+        out.append(Timing(server, f"EpisodeRunner, {name}", tuple(walls), tuple(walked), falls))
+    return out
+
+
+def _agent_alone(server: str, process: ServerProcess, params: TFSParams, count: int, walk_time: float,
+                 nudge: float | None) -> Timing:
+    """The agent walking on its own: no monitor connection, no trainer; start at once, walk
+    ``walk_time`` s, disconnect."""
+    address = process.ensure_running()
+    config = AgentConfig(host=address.host, port=address.agent_port, beam=DEFAULT_START, sync=True,
+                         duration=walk_time, start_now=True, syn_nudge_interval=nudge)
+    walls, walked, falls = [], [], 0
+    for i in range(count + 1):
+        started = time.perf_counter()
+        report = NaoAgent(config, gait=params).run()
+        wall = time.perf_counter() - started
+        time.sleep(0.2)  # the server removes the robot of an agent that left
+        if i == 0:
+            continue  # warm-up
+        walls.append(wall)
+        walked.append(report.walk_time)
+        falls += report.fell
+    return Timing(server, "agent alone, shipped gait", tuple(walls), tuple(walked), falls)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--episodes", type=positive_int, default=5, help="timed walks per gait and server (default 5)")
+    p.add_argument("--walk-time", type=positive_float, default=15.0)
+    args = p.parse_args(argv)
+    command = real_server_or_none()
+    if command is None:
+        return 1
+    gaits = {"shipped gait": load_gait(), "fast gait (13.3 m real)": TFSParams(*FAST_REAL)}
+    config = EpisodeConfig(walk_time=args.walk_time)
+    servers: list[tuple[str, Callable[[], ServerProcess], float | None]] = [
+        ("stand-in", StubProcess, None),  # the stub answers scene at once: no (syn) nudge
+        ("real", lambda: RealServerProcess(command), AgentConfig.syn_nudge_interval),
+    ]
+    print(f"load average before: {os.getloadavg()[0]:.2f}; real server: {command}", file=sys.stderr)
+    timings: list[Timing] = []
+    for name, make, _ in servers:
+        with EpisodeRunner(config, make()) as runner:
+            timings += _episodes(name, runner, gaits, args.episodes)
+    for name, make, nudge in servers:
+        process = make()
+        try:
+            timings.append(_agent_alone(name, process, gaits["shipped gait"], args.episodes, args.walk_time, nudge))
+        finally:
+            process.stop()
+    for timing in timings:
+        print(timing.line())
+    print(f"load average after: {os.getloadavg()[0]:.2f} (2 cores: above ~2 the figures are shared with others)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
