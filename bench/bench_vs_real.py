@@ -51,7 +51,7 @@ class Timing:
     def line(self) -> str:
         wall = statistics.fmean(self.walls)
         speed = sum(self.walked) / sum(self.walls)
-        return (f"{self.server:<9} {self.case:<28} {len(self.walls):>3} walks ({self.falls} fell): "
+        return (f"{self.server:<9} {self.case:<38} {len(self.walls):>3} walks ({self.falls} fell): "
                 f"{wall:6.3f} s each, {1 / wall:5.2f} episodes/s, {speed:5.1f}x real time "
                 f"(walked {statistics.fmean(self.walked):5.2f} s each)")
 
