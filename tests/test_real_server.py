@@ -279,3 +279,19 @@ def test_tiny_gala_on_a_real_server_end_to_end(rcssserver3d: str, tmp_path: Path
     for name in ("table1.md", "gala-pc0.8.png", "ga-pc0.8.png", "best_gait.json", "results.json"):
         assert (out / name).stat().st_size > 0, name
     assert _servers_tagged(tag) == []
+
+
+@pytest.mark.real_server
+@pytest.mark.slow
+def test_each_dask_worker_starts_and_stops_its_own_real_server(rcssserver3d: str, tmp_path: Path) -> None:
+    pytest.importorskip("distributed", reason="Dask is an optional extra: pip install '.[dask]'")
+    env, tag = _tagged_env(rcssserver3d)
+    out = tmp_path / "run"
+    done = subprocess.run(
+        [sys.executable, "-m", "optimizer.gala", "--real", "1", "--dask-local", "1", "--crossover", "0.8",
+         "--population", "4", "--iterations", "2", "--generations", "2", "--walk-time", "2", "--check-repeats", "0",
+         "--seed", "2", "--quiet", "--out", str(out)], cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    logged = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
+    assert logged and all(r["status"] == "ok" for r in logged), [r["reason"] for r in logged if r["status"] != "ok"]
+    assert _wait_for(lambda: _servers_tagged(tag) == [], 10.0), _servers_tagged(tag)
