@@ -9,7 +9,10 @@ number of times. Each server is warmed up by one untimed walk (its start, the st
 load, the first connection are not counted).
 
 Figures per case: wall seconds per episode, episodes per wall second, and x real time = seconds
-walked (game time from the walk's start to its end or fall) per wall second. A gait that falls
+walked (game time from the walk's start to its end or fall) per wall second. On a shared machine
+the wall figures move with everyone else's load, so each case also gives its CPU seconds (the
+server's, from /proc, plus this process's: agent and judge) and x real time per CPU second, the
+speed on one core of its own, which the load hardly moves. A gait that falls
 early walks few seconds: the stand-in falls with the fast gait in 0.5 s, so its episodes are
 short and its x real time is set by the fixed cost of an episode (connect, beam, settle, remove).
 The load average is printed: the machine is shared, and rates move with it.
@@ -47,20 +50,36 @@ class Timing:
     walls: tuple[float, ...]
     walked: tuple[float, ...]
     falls: int
+    #: CPU seconds of all the walks: the server's, and this process's (agent and judge)
+    server_cpu: float
+    own_cpu: float
 
     def line(self) -> str:
         wall = statistics.fmean(self.walls)
         speed = sum(self.walked) / sum(self.walls)
         return (f"{self.server:<9} {self.case:<38} {len(self.walls):>3} walks ({self.falls} fell): "
                 f"{wall:6.3f} s each, {1 / wall:5.2f} episodes/s, {speed:5.1f}x real time "
-                f"(walked {statistics.fmean(self.walked):5.2f} s each)")
+                f"(walked {statistics.fmean(self.walked):5.2f} s each); CPU {self.server_cpu / len(self.walls):.3f} s "
+                f"server + {self.own_cpu / len(self.walls):.3f} s agent each, "
+                f"{sum(self.walked) / (self.server_cpu + self.own_cpu):5.1f}x real time per CPU second")
 
 
-def _episodes(server: str, runner: EpisodeRunner, gaits: dict[str, TFSParams], count: int) -> list[Timing]:
+def _process_cpu(pid: int | None) -> float:
+    """CPU seconds (user + system) a process has used so far, from /proc (0 where unreadable)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return 0.0
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _episodes(server: str, process: ServerProcess, runner: EpisodeRunner, gaits: dict[str, TFSParams],
+              count: int) -> list[Timing]:
     runner.evaluate(gaits["shipped gait"])  # warm-up: server start, first connection
     out = []
     for name, params in gaits.items():
         walls, walked, falls = [], [], 0
+        server_cpu, own_cpu = _process_cpu(process.pid), time.process_time()
         for _ in range(count):
             started = time.perf_counter()
             result = runner.evaluate(params)
@@ -69,7 +88,8 @@ def _episodes(server: str, runner: EpisodeRunner, gaits: dict[str, TFSParams], c
                 raise RuntimeError(f"{server}: an episode could not be run: {result.reason}")
             walked.append(result.time)
             falls += result.fell
-        out.append(Timing(server, f"EpisodeRunner, {name}", tuple(walls), tuple(walked), falls))
+        out.append(Timing(server, f"EpisodeRunner, {name}", tuple(walls), tuple(walked), falls,
+                          _process_cpu(process.pid) - server_cpu, time.process_time() - own_cpu))
     return out
 
 
@@ -81,17 +101,21 @@ def _agent_alone(server: str, process: ServerProcess, params: TFSParams, count: 
     config = AgentConfig(host=address.host, port=address.agent_port, beam=DEFAULT_START, sync=True,
                          duration=walk_time, start_now=True, syn_nudge_interval=nudge)
     walls, walked, falls = [], [], 0
+    server_cpu = own_cpu = 0.0
     for i in range(count + 1):
+        cpu_before = (_process_cpu(process.pid), time.process_time())
         started = time.perf_counter()
         report = NaoAgent(config, gait=params).run()
         wall = time.perf_counter() - started
         time.sleep(0.2)  # the server removes the robot of an agent that left
         if i == 0:
             continue  # warm-up
+        server_cpu += _process_cpu(process.pid) - cpu_before[0]
+        own_cpu += time.process_time() - cpu_before[1]
         walls.append(wall)
         walked.append(report.walk_time)
         falls += report.fell
-    return Timing(server, "agent alone, shipped gait", tuple(walls), tuple(walked), falls)
+    return Timing(server, "agent alone, shipped gait", tuple(walls), tuple(walked), falls, server_cpu, own_cpu)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -111,8 +135,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"load average before: {os.getloadavg()[0]:.2f}; real server: {command}", file=sys.stderr)
     timings: list[Timing] = []
     for name, make, _ in servers:
-        with EpisodeRunner(config, make()) as runner:
-            timings += _episodes(name, runner, gaits, args.episodes)
+        process = make()
+        with EpisodeRunner(config, process) as runner:
+            timings += _episodes(name, process, runner, gaits, args.episodes)
     for name, make, nudge in servers:
         process = make()
         try:
