@@ -42,7 +42,7 @@ def main(argv: list[str] | None = None) -> int:
         mode_started = time.perf_counter()
 
         def progress(report: fuzz.FuzzReport, mode: str = mode, t0: float = mode_started) -> None:
-            if report.sessions % 2000 == 0:
+            if report.sessions % 1000 == 0:
                 rate = report.messages / (time.perf_counter() - t0)
                 print(f"  {mode}: {report.messages} messages, {report.crashes} crashes, "
                       f"peak RSS {report.peak_rss_mib:.1f} MiB, {rate:.0f} messages/s", flush=True)

@@ -30,10 +30,12 @@ _SEED_AGENT = [b"(scene rsg/agent/nao/nao.rsg)", b"(init (unum 1)(teamname Fuzz)
                b"(he1 0.5)(lle3 -0.2)(syn)", b"(say hello)", b"(syn)"]
 _SEED_MONITOR = [b"(playMode PlayOn)", b"(agent (unum 1) (team Left) (pos -4.0 -1.0 0.5))",
                  b"(ball (pos 1.0 0.5 0.042) (vel 0.0 0.0 0.0))", b"(time 0)", b"(reqfullstate)"]
+#: ``(killsim)`` is a trainer's way to end the server, not a crash: the fuzzer never sends it.
+_KILLSIM = re.compile(rb"killsim", re.IGNORECASE)
 #: Atoms a mutation swaps in: numbers a parser or the physics may choke on, names of the protocol.
 _ATOMS = [b"nan", b"inf", b"-inf", b"1e400", b"-0", b"1e-320", b"9" * 40, b"0x10", b"1_0", b"", b"\x00",
           b"\xff\xfe", b"\x1b[2J", b"rsg/agent/nao/nao_hetero.rsg", b"4", b"-1", b"Left", b"Right",
-          b"PlayOn", b"killsim", b"kill", b"scene", b"init", b"beam", b"say", b"syn", b"unum", b"team"]
+          b"PlayOn", b"kill", b"scene", b"init", b"beam", b"say", b"syn", b"unum", b"team"]
 
 
 def load_corpus(fixtures: Path | None) -> tuple[list[bytes], list[bytes]]:
@@ -187,20 +189,22 @@ class Fuzzer:
             return _PREFIX.pack(rng.choice(((1 << 20) + 1, 0xFFFFFFFF, 0x7FFFFFFF)))
         return bytes(rng.randrange(256) for _ in range(rng.randrange(1, 12)))
 
-    def session(self, stub: _Stub, report: FuzzReport) -> None:
+    def session(self, stub: _Stub, report: FuzzReport) -> bool:
+        """One client's session; False if the stub could not be reached."""
         rng = self.rng
         agent = rng.random() < 0.6
         corpus = self.agent_corpus if agent else self.monitor_corpus
         try:
             sock = socket.create_connection(("127.0.0.1", stub.agent_port if agent else stub.monitor_port), timeout=5)
         except OSError:
-            return
+            return False
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         report.sessions += 1
         script = list(_SEED_AGENT[:3]) if agent and rng.random() < 0.7 else []
         for _ in range(rng.randrange(1, self.session_messages)):
             message = rng.choice(corpus)
-            script.append(self.mutator.mutate(message, corpus) if rng.random() < 0.8 else message)
+            message = self.mutator.mutate(message, corpus) if rng.random() < 0.8 else message
+            script.append(_KILLSIM.sub(b"killsym", message))
             if agent and rng.random() < 0.5:
                 script.append(b"(syn)")
         for message in script:
@@ -223,6 +227,7 @@ class Fuzzer:
             sock.close()
         else:
             sock.close()
+        return True
 
     @staticmethod
     def _drain(sock: socket.socket) -> None:
@@ -281,10 +286,10 @@ def run(messages: int, seed: int = 0, fixtures: Path | None = None, sync: bool =
     stub = _Stub(args, log_path)
     try:
         while report.messages < messages:
-            fuzzer.session(stub, report)
+            reached = fuzzer.session(stub, report)
             if report.sessions % storm_every == 0:
                 fuzzer.storm(stub, report, 50)
-            if report.sessions % canary_every == 0 or report.messages >= messages:
+            if not reached or report.sessions % canary_every == 0 or report.messages >= messages:
                 report.peak_rss_mib = max(report.peak_rss_mib, stub.peak_rss_mib())
                 if stub.proc.poll() is not None or not canary(stub):
                     report.crashes += 1

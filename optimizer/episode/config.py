@@ -1,0 +1,85 @@
+"""What an episode is: where it starts, how long it walks, when the robot counts as fallen, and
+what it gives back."""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, replace
+
+#: A start point on the field: x, y (m) and heading (deg, 0 = +x).
+Start = tuple[float, float, float]
+
+#: Where walks start unless told otherwise: 5 m into the own half, facing the opponent goal. Not
+#: the paper's x = y = 0: that is the origin of the measurement (the distance is counted from where
+#: the torso stands at PlayOn), not a field position. A real server's referee moves a left-team
+#: robot whose body reaches into the right half (x > 0) 2.5 m back before kick-off, so a walk
+#: beamed to (0, 0) would start at about x = -2.5 while the trainer believes it at 0. From x = -5
+#: the fastest walks known (0.9 m/s for 15 s) end near x = 8.5, inside the 15 m half.
+DEFAULT_START: Start = (-5.0, 0.0, 0.0)
+
+#: The left team's robot must stay this far behind the centre line to be left alone before
+#: kick-off on a real server (its colliders reach ~0.15 m from the torso; the referee moves any
+#: robot whose bounding box enters the right half).
+_REFEREE_MARGIN = 0.5
+
+
+def start_problem_on_real_server(start: Start) -> str | None:
+    """Why a real server would not leave a robot beamed to ``start`` where it was put (None when
+    it would): its referee clears the opponent half before kick-off."""
+    if start[0] > -_REFEREE_MARGIN:
+        return (f"x = {start[0]:g} m: a real server's referee moves a left-team robot within "
+                f"{_REFEREE_MARGIN:g} m of the centre line (or past it) 2.5 m back before kick-off, so the walk "
+                f"would not start there; start at x <= {-_REFEREE_MARGIN:g} (default {DEFAULT_START[0]:g})")
+    return None
+
+
+@dataclass(frozen=True)
+class EpisodeConfig:
+    #: Seconds of walking (game time after PlayOn) before the walk is scored (paper: 15 s).
+    walk_time: float = 15.0
+    #: Start point (x, y) and heading (deg, 0 = +x) on the field: where the robot is beamed, and
+    #: the direction along which its distance is measured (from where its torso is at PlayOn).
+    start: tuple[float, float] = DEFAULT_START[:2]
+    heading: float = DEFAULT_START[2]
+    #: "inprocess": a fresh ``agent.NaoAgent`` per episode in this process, over the same socket
+    #: protocol (fast, default); "process": a fresh ``python -m agent`` process per episode.
+    agent_mode: str = "inprocess"
+    #: Wall seconds an episode may take before the server or agent is declared hung.
+    episode_timeout: float = 60.0
+    team: str = "GALA"
+    unum: int = 1
+    #: Fall rule (community run benchmark): torso up-vector z below / torso height below.
+    fall_up_z: float = 0.6
+    fall_height: float = 0.25
+
+    def starting_at(self, start: Start) -> "EpisodeConfig":
+        """This config with another start point and heading."""
+        x, y, heading = start
+        return replace(self, start=(float(x), float(y)), heading=float(heading))
+
+    def __post_init__(self) -> None:
+        if not self.walk_time > 0:
+            raise ValueError(f"walk_time must be > 0 s, got {self.walk_time}")
+        if self.agent_mode not in ("inprocess", "process"):
+            raise ValueError(f"agent_mode must be 'inprocess' or 'process', got {self.agent_mode!r}")
+        if not self.episode_timeout > 0:
+            raise ValueError(f"episode_timeout must be > 0 s, got {self.episode_timeout}")
+
+
+@dataclass(frozen=True)
+class EpisodeResult:
+    distance: float
+    fell: bool
+    time: float
+    fitness: float
+    mean_speed: float
+    status: str = "ok"
+    reason: str = ""
+    wall: float = 0.0
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def failed(cls, reason: str, wall: float) -> "EpisodeResult":
+        """An episode the infrastructure could not run; fitness 0 so that the search goes on."""
+        return cls(0.0, False, 0.0, 0.0, 0.0, "failed", reason, wall)
