@@ -33,7 +33,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from gait import GENE_BOUNDS, load_gait, repair_genes  # noqa: E402
 from optimizer.episode import EpisodeConfig  # noqa: E402
-from optimizer.evaluation import EpisodeRunnerFactory, EpisodeTask, ProcessPoolEvaluator  # noqa: E402
+from optimizer.evaluation.pool import (  # noqa: E402
+    EpisodeRunnerFactory,
+    EpisodeTask,
+    ProcessPoolEvaluator,
+)
 from protocol.nao import CYCLE  # noqa: E402
 
 
@@ -45,7 +49,7 @@ def gaits(count: int, seed: int) -> list[tuple[float, ...]]:
 
 def _evaluator(workers: int, config: EpisodeConfig, dask: bool):
     if dask:
-        from optimizer.dask_evaluation import DaskEvaluator
+        from optimizer.evaluation.dask_cluster import DaskEvaluator
 
         return DaskEvaluator(config, seed=0, local_workers=workers)
     factory = EpisodeRunnerFactory(config, seed=0)

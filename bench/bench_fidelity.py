@@ -26,9 +26,20 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from optimizer.fidelity import (  # noqa: E402
-    GAIT_SET_DIR, SET_NAMES, FidelityConfig, compare, gait_set, plot, print_progress, read_run, real_server_or_none,
-    report, summarize, write_csv, write_tracks,
+from optimizer.episode.fidelity import (  # noqa: E402
+    GAIT_SET_DIR,
+    SET_NAMES,
+    FidelityConfig,
+    compare,
+    gait_set,
+    plot,
+    print_progress,
+    read_run,
+    real_server_or_none,
+    report,
+    summarize,
+    write_csv,
+    write_tracks,
 )
 from protocol.cli_values import positive_float, positive_int  # noqa: E402
 

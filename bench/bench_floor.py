@@ -32,7 +32,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import pybullet as pb  # noqa: E402
 
 from protocol.framing import encode_frame  # noqa: E402
-from server_stub import calibration_walk, world as world_module  # noqa: E402
+from server_stub import calibration_walk  # noqa: E402
+from server_stub import world as world_module
 from server_stub.world import World  # noqa: E402
 
 #: Mean frame sizes of a walking episode on the stub (measured: 781 perceptions, 393 monitor

@@ -35,9 +35,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from agent import AgentConfig, NaoAgent  # noqa: E402
 from gait import TFSParams, load_gait  # noqa: E402
 from optimizer.episode import DEFAULT_START, EpisodeConfig, EpisodeRunner  # noqa: E402
-from optimizer.fidelity import FAST_REAL, real_server_or_none  # noqa: E402
-from optimizer.real_server import RealServerProcess  # noqa: E402
-from optimizer.servers import ServerProcess, StubProcess  # noqa: E402
+from optimizer.episode.fidelity import FAST_REAL, real_server_or_none  # noqa: E402
+from optimizer.episode.real_server import RealServerProcess  # noqa: E402
+from optimizer.episode.servers import ServerProcess, StubProcess  # noqa: E402
 from protocol.cli_values import positive_float, positive_int  # noqa: E402
 
 

@@ -35,12 +35,19 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from gait import GENE_BOUNDS, GENE_NAMES, load_gait, repair_genes  # noqa: E402
-from optimizer.fidelity import (  # noqa: E402
-    FAST_REAL, GAIT_SET_DIR, FidelityConfig, FidelityGait, Walk, print_progress, real_server_or_none, save_gait_set,
+from optimizer.episode import EpisodeRunner  # noqa: E402
+from optimizer.episode.fidelity import (  # noqa: E402
+    FAST_REAL,
+    GAIT_SET_DIR,
+    FidelityConfig,
+    FidelityGait,
+    Walk,
+    print_progress,
+    real_server_or_none,
+    save_gait_set,
     walk_gaits,
 )
-from optimizer.episode import EpisodeRunner  # noqa: E402
-from optimizer.real_server import RealServerProcess  # noqa: E402
+from optimizer.episode.real_server import RealServerProcess  # noqa: E402
 
 #: Each gene's range: distances in gene space are in these units, so no gene dominates.
 _SPAN = GENE_BOUNDS[:, 1] - GENE_BOUNDS[:, 0]

@@ -26,7 +26,7 @@ REQUIRE_REAL_SERVER_ENV = "GALA_REQUIRE_REAL_SERVER"
 def rcssserver3d() -> str:
     """The real server's command (``RCSSSERVER3D``, else ``rcssserver3d`` on PATH); tests that need
     one are skipped, with the reason, where none is configured."""
-    from optimizer.real_server import RealServerError, find_rcssserver3d
+    from optimizer.episode.real_server import RealServerError, find_rcssserver3d
 
     try:
         return find_rcssserver3d()

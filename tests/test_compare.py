@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from test_driver import FakeEvaluator, Killed, synthetic_fitness
 
 from gait import GENE_BOUNDS, repair_genes
 from optimizer.compare import methods as methods_package
@@ -17,8 +18,7 @@ from optimizer.compare.__main__ import main
 from optimizer.compare.budget import budgeted
 from optimizer.compare.methods import Problem, discover
 from optimizer.compare.statistics import holm, pairwise, summarise
-from optimizer.ga import Batch
-from test_driver import FakeEvaluator, Killed, synthetic_fitness
+from optimizer.search.ga import Batch
 
 TINY = ["--methods", "random,ga-paper", "--seeds", "2", "--budget", "14", "--population", "4", "--seed", "3",
         "--check-repeats", "2", "--quiet"]

@@ -14,9 +14,9 @@ if not os.environ.get("CI"):
     pytest.importorskip("distributed")  # an optional extra locally; CI installs it and must run these
 
 from gait import load_gait  # noqa: E402
-from optimizer.dask_evaluation import DaskEvaluator  # noqa: E402
 from optimizer.episode import EpisodeConfig  # noqa: E402
-from optimizer.evaluation import EpisodeTask  # noqa: E402
+from optimizer.evaluation.dask_cluster import DaskEvaluator  # noqa: E402
+from optimizer.evaluation.pool import EpisodeTask  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 TINY = ["--crossover", "0.8", "--population", "4", "--iterations", "2", "--generations", "2",
@@ -32,7 +32,7 @@ def _fitness_by_key(folder: Path) -> dict[str, float]:
 @pytest.mark.slow
 def test_dask_local_run_equals_the_local_run(tmp_path: Path) -> None:
     def gala(*args: str) -> None:
-        done = subprocess.run([sys.executable, "-m", "optimizer.gala", *TINY, *args], cwd=REPO,
+        done = subprocess.run([sys.executable, "-m", "optimizer.search.gala", *TINY, *args], cwd=REPO,
                               capture_output=True, text=True, timeout=600)
         assert done.returncode == 0, done.stderr
 

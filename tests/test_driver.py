@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from gait import GENE_BOUNDS, repair_genes
-from optimizer.driver import BarProgress, Driver, ResumeMismatch
-from optimizer.evaluation import EpisodeOutcome, EpisodeTask, stable_seed
-from optimizer.ga import GARun
-from optimizer.gala import GALA
-from optimizer.run_folder import EpisodeLog, read_episode_log
-from optimizer.search_config import GAConfig, GALAConfig
+from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask, stable_seed
+from optimizer.run.driver import BarProgress, Driver, ResumeMismatch
+from optimizer.run.folder import EpisodeLog, read_episode_log
+from optimizer.search.config import GAConfig, GALAConfig
+from optimizer.search.ga import GARun
+from optimizer.search.gala import GALA
 
 TARGET = GENE_BOUNDS.mean(axis=1)
 SPAN = GENE_BOUNDS[:, 1] - GENE_BOUNDS[:, 0]

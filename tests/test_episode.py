@@ -14,7 +14,7 @@ import pytest
 
 from gait import load_gait
 from optimizer.episode import EpisodeConfig, EpisodeRunner, ServerAddress
-from optimizer.servers import StubProcess
+from optimizer.episode.servers import StubProcess
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -145,7 +145,7 @@ def test_server_address_errors_say_what_is_wrong(text: str, words: str) -> None:
 def test_a_killed_worker_does_not_leave_its_stub_behind(tmp_path: Path) -> None:
     """SIGKILL gives a worker no chance to stop its stub; the stub notices and exits by itself."""
     pid_file = tmp_path / "stub.pid"
-    script = ("import time; from optimizer.servers import StubProcess; s = StubProcess(); s.ensure_running(); "
+    script = ("import time; from optimizer.episode.servers import StubProcess; s = StubProcess(); s.ensure_running(); "
               f"open({str(pid_file)!r}, 'w').write(str(s._process.pid)); time.sleep(60)")
     worker = subprocess.Popen([sys.executable, "-c", script], cwd=REPO)
     deadline = time.monotonic() + 30

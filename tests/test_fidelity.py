@@ -16,11 +16,23 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from gait import GENE_BOUNDS, GENE_NAMES, load_gait, repair_genes
-from optimizer import fidelity
-from optimizer.episode import EpisodeConfig, EpisodeRunner, TracePoint
-from optimizer.fidelity import (
-    CSV_COLUMNS, FAST_REAL, FidelityConfig, FidelityGait, FidelityTargets, GaitComparison, Walk, agreement,
-    fell_in_majority, heading_change, ratio_error, sideways_drift, spearman, summarize, turn_factor,
+from optimizer.episode import EpisodeConfig, EpisodeRunner, TracePoint, fidelity
+from optimizer.episode.fidelity import (
+    CSV_COLUMNS,
+    FAST_REAL,
+    FidelityConfig,
+    FidelityGait,
+    FidelityTargets,
+    GaitComparison,
+    Walk,
+    agreement,
+    fell_in_majority,
+    heading_change,
+    ratio_error,
+    sideways_drift,
+    spearman,
+    summarize,
+    turn_factor,
 )
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -6,11 +6,19 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from optimizer.ga import (
-    BlendCrossover, GAOperators, GARun, GaussianMutation, GeneticAlgorithm, one_point_crossover,
-    roulette_selection, roulette_weights, run_sync, uniform_reset_mutation,
+from optimizer.search.config import DE_JONG, GREFENSTETTE, GAConfig
+from optimizer.search.ga import (
+    BlendCrossover,
+    GAOperators,
+    GARun,
+    GaussianMutation,
+    GeneticAlgorithm,
+    one_point_crossover,
+    roulette_selection,
+    roulette_weights,
+    run_sync,
+    uniform_reset_mutation,
 )
-from optimizer.search_config import DE_JONG, GREFENSTETTE, GAConfig
 
 # A box shaped like the TFS genes' (degrees, seconds, rad/s) so that per-gene scaling matters.
 BOUNDS = np.array([[-10, 40], [0, 60], [0, 40], [0, 40], [0, 60], [0, 1], [6.28, 25.1]], dtype=float)

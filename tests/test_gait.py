@@ -10,8 +10,17 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from gait import (
-    DEFAULT_GAIT_PATH, GENE_BOUNDS, GENE_NAMES, GaitFileError, LegAngles, TFSGait, TFSParams,
-    leg_joint_targets, load_gait, repair_genes, save_gait,
+    DEFAULT_GAIT_PATH,
+    GENE_BOUNDS,
+    GENE_NAMES,
+    GaitFileError,
+    LegAngles,
+    TFSGait,
+    TFSParams,
+    leg_joint_targets,
+    load_gait,
+    repair_genes,
+    save_gait,
 )
 from gait.nao_legs import LIMIT_MARGIN_DEG
 from protocol.nao import JOINT_BY_EFFECTOR

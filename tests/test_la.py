@@ -6,7 +6,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from optimizer.la import LearningAutomaton, LinearRewardInaction, LinearRewardPenalty
+from optimizer.search.la import (
+    LearningAutomaton,
+    LinearRewardInaction,
+    LinearRewardPenalty,
+)
 
 UNIFORM4 = np.full(4, 0.25)
 

@@ -10,17 +10,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_driver import FakeEvaluator, Killed
 
 from gait import GENE_BOUNDS, LEGACY_GENE_BOUNDS, load_gait
-from optimizer import episode_command, ga_command, gala_command
+from optimizer.cli import episode as episode_command
+from optimizer.cli import ga as ga_command
+from optimizer.cli import gala as gala_command
 from optimizer.episode import EpisodeResult
-from optimizer.evaluation import EpisodeOutcome
-from optimizer.ga import GARun
-from optimizer.gala import GALA
-from optimizer.report import read_table_csv
-from optimizer.search_config import GAConfig, GALAConfig
-from optimizer.stability import jittered_starts
-from test_driver import FakeEvaluator, Killed
+from optimizer.evaluation.pool import EpisodeOutcome
+from optimizer.run.report import read_table_csv
+from optimizer.run.stability import jittered_starts
+from optimizer.search.config import GAConfig, GALAConfig
+from optimizer.search.ga import GARun
+from optimizer.search.gala import GALA
 
 BOUNDS = [[0.0, 1.0]] * 3
 SMALL = ["--population", "6", "--iterations", "3", "--generations", "2", "--quiet"]

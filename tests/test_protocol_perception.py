@@ -12,7 +12,15 @@ from hypothesis import strategies as st
 from protocol.errors import ProtocolError
 from protocol.nao import JOINTS, PLAY_MODES
 from protocol.perception import (
-    ForceResistance, GameState, Hear, Perception, Polar, SeenPlayer, Vision, _parse_slow, parse_perception,
+    ForceResistance,
+    GameState,
+    Hear,
+    Perception,
+    Polar,
+    SeenPlayer,
+    Vision,
+    _parse_slow,
+    parse_perception,
 )
 
 PERCEPTION_FILES = ("agent_perceptions_*.txt", "walk_calibration/run*_perceptions.txt")

@@ -8,13 +8,18 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from optimizer.ga import GARun, run_sync
-from optimizer.gala import GALA
-from optimizer.report import (
-    COLUMNS, TableRow, plot_ga_convergence, plot_gala_convergence, read_table_csv, write_table_csv,
+from optimizer.run.report import (
+    COLUMNS,
+    TableRow,
+    plot_ga_convergence,
+    plot_gala_convergence,
+    read_table_csv,
+    write_table_csv,
     write_table_markdown,
 )
-from optimizer.search_config import GAConfig, GALAConfig
+from optimizer.search.config import GAConfig, GALAConfig
+from optimizer.search.ga import GARun, run_sync
+from optimizer.search.gala import GALA
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 BOUNDS = np.tile([-1.0, 1.0], (7, 1))

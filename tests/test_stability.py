@@ -10,11 +10,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from optimizer.driver import Driver, ResumeMismatch, is_search_walk
-from optimizer.evaluation import EpisodeOutcome, EpisodeTask, stable_seed
-from optimizer.run_folder import EpisodeLog, read_episode_log
-from optimizer.search_config import StabilityConfig
-from optimizer.stability import check, check_best, fastest_stable, jittered_starts
+from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask, stable_seed
+from optimizer.run.driver import Driver, ResumeMismatch, is_search_walk
+from optimizer.run.folder import EpisodeLog, read_episode_log
+from optimizer.run.stability import check, check_best, fastest_stable, jittered_starts
+from optimizer.search.config import StabilityConfig
 
 BASE = (-3.0, 1.0, 30.0)
 CONFIG = StabilityConfig(repeats=6, jitter=(0.05, 0.05, 10.0), candidates=3)

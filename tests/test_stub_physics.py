@@ -6,7 +6,8 @@ import math
 import numpy as np
 import pybullet as pb
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from protocol.nao import JOINTS, SPEED_CAP
 from server_stub import nao_model

@@ -8,7 +8,14 @@ import time
 
 import pytest
 
-from tests.stub_client import REPO, RawClient, StubProcess, joint, now, torso_from_monitor
+from tests.stub_client import (
+    REPO,
+    RawClient,
+    StubProcess,
+    joint,
+    now,
+    torso_from_monitor,
+)
 
 HJ_NAMES = ["hj1", "hj2", "raj1", "raj2", "raj3", "raj4", "laj1", "laj2", "laj3", "laj4",
             "rlj1", "rlj2", "rlj3", "rlj4", "rlj5", "rlj6", "llj1", "llj2", "llj3", "llj4", "llj5", "llj6"]

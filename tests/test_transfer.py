@@ -8,12 +8,13 @@ import os
 from pathlib import Path
 
 import pytest
-
-from optimizer import gala_command, transfer
-from optimizer.command_line import EvaluationSetup
-from optimizer.episode import DEFAULT_START
-from optimizer.real_server import RCSSSERVER3D_ENV
 from test_driver import FakeEvaluator
+
+from optimizer.cli import gala as gala_command
+from optimizer.cli import transfer
+from optimizer.cli.common import EvaluationSetup
+from optimizer.episode import DEFAULT_START
+from optimizer.episode.real_server import RCSSSERVER3D_ENV
 
 TINY = ["--crossover", "0.8", "--crossover", "0.3", "--population", "6", "--iterations", "3", "--generations", "2",
         "--seed", "4", "--check-repeats", "2", "--quiet"]

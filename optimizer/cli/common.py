@@ -23,13 +23,29 @@ from typing import Any
 import numpy as np
 
 from gait import BOUNDS_BY_NAME, TFSParams, repair_genes, save_gait
-from optimizer.driver import BarProgress, Driver, ResumeMismatch, is_search_walk
-from optimizer.episode import DEFAULT_START, EpisodeConfig, ServerAddress, start_problem_on_real_server
-from optimizer.evaluation import EpisodeRunnerFactory, EvaluationError, Evaluator, ProcessPoolEvaluator
-from optimizer.real_server import RealServerError, find_rcssserver3d
-from optimizer.run_folder import RunFolder, RunFolderError, new_run_path
-from optimizer.search_config import StabilityConfig
-from protocol.cli_values import count, non_negative, number, positive_float, positive_int
+from optimizer.episode import (
+    DEFAULT_START,
+    EpisodeConfig,
+    ServerAddress,
+    start_problem_on_real_server,
+)
+from optimizer.episode.real_server import RealServerError, find_rcssserver3d
+from optimizer.evaluation.pool import (
+    EpisodeRunnerFactory,
+    EvaluationError,
+    Evaluator,
+    ProcessPoolEvaluator,
+)
+from optimizer.run.driver import BarProgress, Driver, ResumeMismatch, is_search_walk
+from optimizer.run.folder import RunFolder, RunFolderError, new_run_path
+from optimizer.search.config import StabilityConfig
+from protocol.cli_values import (
+    count,
+    non_negative,
+    number,
+    positive_float,
+    positive_int,
+)
 
 #: Exit status of an interrupted run (the shell's convention for SIGINT).
 EXIT_INTERRUPTED = 130
@@ -71,7 +87,7 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
 
 def add_check_arguments(parser: argparse.ArgumentParser) -> None:
     """``--check-repeats`` and ``--check-jitter``: the stability check of the gaits a run finds
-    (``optimizer.stability``)."""
+    (``optimizer.run.stability``)."""
     parser.add_argument("--check-repeats", type=count, default=None, metavar="N",
                         help="walk each gait the run reports N more times from moved starts and count the "
                              "falls (default 10; 0: no check)")
@@ -216,11 +232,11 @@ class EvaluationSetup:
 
 def pool_evaluator(setup: EvaluationSetup) -> Evaluator:
     """The local evaluator: one worker process per core (or per server), each with one runner;
-    or, with ``--scheduler`` / ``--dask-local``, a Dask cluster (``optimizer.dask_evaluation``)."""
+    or, with ``--scheduler`` / ``--dask-local``, a Dask cluster (``optimizer.evaluation.dask_cluster``)."""
     config = episode_config(setup.walk_time, setup.start, setup.agent_mode)
     if setup.scheduler is not None or setup.dask_local is not None:
         try:
-            from optimizer.dask_evaluation import DaskEvaluator
+            from optimizer.evaluation.dask_cluster import DaskEvaluator
         except ImportError as exc:
             raise EvaluationError(f"Dask is not installed ({exc}); pip install '.[dask]'") from None
         return DaskEvaluator(config, setup.seed, scheduler=setup.scheduler, local_workers=setup.dask_local,

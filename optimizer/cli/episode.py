@@ -22,14 +22,18 @@ import sys
 from collections.abc import Sequence
 
 from gait import DEFAULT_GAIT_PATH, GaitFileError, TFSParams, load_gait
-from optimizer.command_line import (
-    EPISODE_DEFAULTS, add_episode_arguments, add_server_arguments, check_start_for_real_server, episode_config,
+from optimizer.cli.common import (
+    EPISODE_DEFAULTS,
+    add_episode_arguments,
+    add_server_arguments,
+    check_start_for_real_server,
+    episode_config,
     real_server_command,
 )
 from optimizer.episode import EpisodeConfig, EpisodeResult, EpisodeRunner, Start
-from optimizer.real_server import RealServerError, RealServerProcess
-from optimizer.servers import ManagedServer, ServerAddress
-from optimizer.stability import distance_spread, jittered_starts
+from optimizer.episode.real_server import RealServerError, RealServerProcess
+from optimizer.episode.servers import ManagedServer, ServerAddress
+from optimizer.run.stability import distance_spread, jittered_starts
 from protocol.cli_values import non_negative, positive_int
 
 

@@ -6,7 +6,7 @@
 
 Writes manifest.json, episodes.jsonl, results.json, ga.png (best and mean fitness per
 generation) and best_gait.json into the run folder (default runs/ga-YYYYmmdd-HHMMSS). The best
-gait is then checked as GALA's are (``--check-repeats``, ``--check-jitter``; ``optimizer.stability``).
+gait is then checked as GALA's are (``--check-repeats``, ``--check-jitter``; ``optimizer.run.stability``).
 """
 from __future__ import annotations
 
@@ -15,28 +15,36 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from optimizer.command_line import (
-    EvaluatorMaker, add_run_arguments, best_episode, pool_evaluator, prepare_run, run_session, search_box,
-    stability_config, write_gait,
+from optimizer.cli.common import (
+    EvaluatorMaker,
+    add_run_arguments,
+    best_episode,
+    pool_evaluator,
+    prepare_run,
+    run_session,
+    search_box,
+    stability_config,
+    write_gait,
 )
-from optimizer.driver import Driver
-from optimizer.evaluation import stable_seed
-from optimizer.ga import GAResult, GARun
-from optimizer.report import plot_ga_convergence
-from optimizer.run_folder import write_json
-from optimizer.search_config import DE_JONG, GREFENSTETTE, PAPER_GALA_BEST, GAConfig, RatePreset
-from optimizer.stability import check_best
+from optimizer.evaluation.pool import stable_seed
+from optimizer.run.driver import Driver
+from optimizer.run.folder import write_json
+from optimizer.run.report import plot_ga_convergence
+from optimizer.run.stability import check_best
+from optimizer.search.config import (
+    DE_JONG,
+    GREFENSTETTE,
+    PAPER_GALA_BEST,
+    GAConfig,
+    RatePreset,
+)
+from optimizer.search.ga import GAResult, GARun, planned_episodes
 from protocol.cli_values import positive_int, probability
 
 PRESETS: dict[str, RatePreset] = {"dejong": DE_JONG, "grefenstette": GREFENSTETTE, "gala": PAPER_GALA_BEST}
 
 #: Keys of the GA's episodes start with this.
 PREFIX = "ga"
-
-
-def planned_episodes(config: GAConfig) -> int:
-    """Episodes a GA run evaluates: the first generation whole, later ones without the carried elite."""
-    return config.population_size + (config.generations - 1) * (config.population_size - int(config.elitism))
 
 
 def build_parser() -> argparse.ArgumentParser:

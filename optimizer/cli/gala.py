@@ -5,7 +5,7 @@ rate (automata(10) over 0.00 ... 0.09, a = 0.1, b = 0.2, 100 iterations, populat
 final GA with (crossover, optimal mutation) runs ``--generations`` generations and gives the row's
 best fitness. ``--budget quick`` is a first look in a few minutes.
 
-Each row's best gait is then checked (``optimizer.stability``): walked ``--check-repeats`` times
+Each row's best gait is then checked (``optimizer.run.stability``): walked ``--check-repeats`` times
 (default 10) from starts moved within ``--check-jitter`` (default the real server's beam noise,
 +-5 cm and +-10 deg); Table I reports its falls and shortest walk. The fastest walk of the whole
 search, learning phase included, is checked the same way: the fastest that passes (of the five
@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from optimizer.command_line import (
+from optimizer.cli.common import (
     EvaluatorMaker,
     add_run_arguments,
     apply_preset,
@@ -38,16 +38,31 @@ from optimizer.command_line import (
     stability_config,
     write_gait,
 )
-from optimizer.driver import Driver
 from optimizer.episode import Start
-from optimizer.evaluation import stable_seed
-from optimizer.ga_command import planned_episodes as ga_episodes
-from optimizer.gala import GALA, GALAResult
-from optimizer.la import LearningScheme, LinearRewardInaction, LinearRewardPenalty
-from optimizer.report import TableRow, plot_ga_convergence, plot_gala_convergence, write_table_csv, write_table_markdown
-from optimizer.run_folder import RunFolder, write_json
-from optimizer.search_config import GAConfig, GALAConfig, StabilityConfig
-from optimizer.stability import StabilityReport, check_best, fastest_stable, standing_walks
+from optimizer.evaluation.pool import stable_seed
+from optimizer.run.driver import Driver
+from optimizer.run.folder import RunFolder, write_json
+from optimizer.run.report import (
+    TableRow,
+    plot_ga_convergence,
+    plot_gala_convergence,
+    write_table_csv,
+    write_table_markdown,
+)
+from optimizer.run.stability import (
+    StabilityReport,
+    check_best,
+    fastest_stable,
+    standing_walks,
+)
+from optimizer.search.config import GAConfig, GALAConfig, StabilityConfig
+from optimizer.search.ga import planned_episodes as ga_episodes
+from optimizer.search.gala import GALA, GALAResult
+from optimizer.search.la import (
+    LearningScheme,
+    LinearRewardInaction,
+    LinearRewardPenalty,
+)
 from protocol.cli_values import positive_int, probability
 
 #: The paper's protocol (section VI).

@@ -28,16 +28,21 @@ from typing import Any
 from matplotlib.figure import Figure
 
 from gait import GENE_NAMES
-
-from optimizer.command_line import (
-    EvaluationSetup, EvaluatorMaker, add_server_arguments, check_start_for_real_server, existing_run, pool_evaluator,
-    real_server_command, stability_config,
+from optimizer.cli.common import (
+    EvaluationSetup,
+    EvaluatorMaker,
+    add_server_arguments,
+    check_start_for_real_server,
+    existing_run,
+    pool_evaluator,
+    real_server_command,
+    stability_config,
 )
 from optimizer.episode import DEFAULT_START, Start, start_problem_on_real_server
-from optimizer.evaluation import EpisodeTask, EvaluationError, stable_seed
-from optimizer.run_folder import RunFolder, write_json
-from optimizer.search_config import StabilityConfig
-from optimizer.stability import distance_spread, jittered_starts
+from optimizer.evaluation.pool import EpisodeTask, EvaluationError, stable_seed
+from optimizer.run.folder import RunFolder, write_json
+from optimizer.run.stability import distance_spread, jittered_starts
+from optimizer.search.config import StabilityConfig
 from protocol.cli_values import non_negative, number, positive_int
 
 
@@ -172,7 +177,7 @@ def plot(gaits: Sequence[ReportedGait], path: Path, run_kind: str, target: str) 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m optimizer.transfer", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("run", type=existing_run, metavar="RUN_DIR", help="a run folder of optimizer.gala or optimizer.ga")
+    p.add_argument("run", type=existing_run, metavar="RUN_DIR", help="a run folder of optimizer.search.gala or optimizer.search.ga")
     add_server_arguments(p)
     p.add_argument("--repeats", type=positive_int, default=10, metavar="R", help="walks per gait (default 10)")
     p.add_argument("--jitter", type=non_negative, nargs=3, default=None, metavar=("DX", "DY", "DEG"),
@@ -253,7 +258,3 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         "gaits": [{**_row(g), "genes": list(g.genes), "walks": g.walks} for g in gaits]})
     print((folder.path / "transfer.md").read_text() + f"written to {folder.path}/transfer.{{csv,md,png,json}}")
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

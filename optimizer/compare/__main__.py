@@ -23,7 +23,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from optimizer.command_line import (
+from optimizer.cli.common import (
     EvaluatorMaker,
     add_run_arguments,
     apply_preset,
@@ -37,10 +37,10 @@ from optimizer.compare.budget import RobustScore, Scored, drive
 from optimizer.compare.methods import Method, Problem, discover
 from optimizer.compare.report import RunOutcome, plot_convergence, write_tables
 from optimizer.compare.statistics import pairwise, summarise
-from optimizer.driver import Driver
-from optimizer.evaluation import stable_seed
-from optimizer.run_folder import write_json
-from optimizer.stability import check_best
+from optimizer.evaluation.pool import stable_seed
+from optimizer.run.driver import Driver
+from optimizer.run.folder import write_json
+from optimizer.run.stability import check_best
 from protocol.cli_values import count, non_negative, positive_int, probability
 
 #: Settings a comparison stores. The default budget runs 6 methods x 10 seeds x 800 episodes,

@@ -1,6 +1,6 @@
 """A method's search held to an episode budget, and the drive that scores its candidates.
 
-Every method is a search program (a generator of batches; ``optimizer.ga.SearchProgram``), so the
+Every method is a search program (a generator of batches; ``optimizer.search.ga.SearchProgram``), so the
 comparison drives them all the same way and counts their episodes the same way: ``budgeted``
 stops a program once it has asked for its budget of candidates, cutting its last batch if need
 be. A candidate is scored by one walk from the run's start (eq. 9), or, with a ``RobustScore``, by
@@ -15,11 +15,11 @@ from typing import Any
 
 import numpy as np
 
-from optimizer.driver import Driver
 from optimizer.episode import Start
-from optimizer.evaluation import EpisodeTask, stable_seed
-from optimizer.ga import Batch, KeyedSearch, SearchProgram
-from optimizer.stability import jittered_starts
+from optimizer.evaluation.pool import EpisodeTask, stable_seed
+from optimizer.run.driver import Driver
+from optimizer.run.stability import jittered_starts
+from optimizer.search.ga import Batch, KeyedSearch, SearchProgram
 
 
 def program_of(search: KeyedSearch) -> SearchProgram:

@@ -2,7 +2,6 @@
 what it gives back."""
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass, replace
 
 #: A start point on the field: x, y (m) and heading (deg, 0 = +x).

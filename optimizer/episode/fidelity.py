@@ -33,11 +33,17 @@ from matplotlib.figure import Figure
 from scipy import stats  # type: ignore[import-untyped]
 
 from gait import GENE_NAMES, TFSParams
-from optimizer.episode import DEFAULT_START, EpisodeConfig, EpisodeRunner, Start, TracePoint
-from optimizer.run_folder import write_json
+from optimizer.episode import (
+    DEFAULT_START,
+    EpisodeConfig,
+    EpisodeRunner,
+    Start,
+    TracePoint,
+)
+from optimizer.run.folder import write_json
 
 #: Where the stored gait sets are (a source checkout: they are data of the benchmark, not of the package).
-GAIT_SET_DIR = Path(__file__).resolve().parent.parent / "bench" / "fidelity_gaits"
+GAIT_SET_DIR = Path(__file__).resolve().parents[2] / "bench" / "fidelity_gaits"
 #: The stored sets; ``all`` is their union.
 SET_NAMES: tuple[str, ...] = ("training", "held_aside")
 GAIT_SET_FORMAT = "fidelity-gaits/1"
@@ -351,7 +357,7 @@ def summarize(comparisons: Sequence[GaitComparison], targets: FidelityTargets = 
 def real_server_or_none() -> str | None:
     """The real server's command (``RCSSSERVER3D``, then PATH), or None after saying on stderr
     why there is none: the benchmark commands then exit 1 with that line, not a traceback."""
-    from optimizer.real_server import RealServerError, find_rcssserver3d
+    from optimizer.episode.real_server import RealServerError, find_rcssserver3d
 
     try:
         return find_rcssserver3d()
@@ -405,7 +411,7 @@ def compare(gaits: Sequence[FidelityGait], real_command: str, config: FidelityCo
     """Walk ``gaits`` once each on the embedded stand-in, then ``config.real_repeats`` times each on
     a real server started here from ``real_command`` (stopped with ``(killsim)``, then SIGKILL).
     One server is alive at a time, so neither slows the other's walks."""
-    from optimizer.real_server import RealServerProcess
+    from optimizer.episode.real_server import RealServerProcess
 
     episode = config.episode_config()
     with EpisodeRunner(episode, trace=True) as runner:

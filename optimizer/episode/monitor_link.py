@@ -8,6 +8,7 @@ from optimizer.episode.servers import ServerAddress
 from protocol.framing import FrameDecoder, encode_frame
 from protocol.monitor import MonitorReader, MonitorState
 
+
 class EpisodeFailure(RuntimeError):
     """The server or the agent died, hung or misbehaved: not the gait's fault."""
 

@@ -27,7 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from optimizer.servers import ServerAddress, ServerProcess
+from optimizer.episode.servers import ServerAddress, ServerProcess
 from protocol.framing import encode_frame
 
 #: Environment variable naming the real server's command.
@@ -164,7 +164,7 @@ KILLSIM_GRACE = 3.0
 
 class RealServerProcess(ServerProcess):
     """One real rcssserver3d in the sync profile on free loopback ports, owned by one worker, as
-    ``optimizer.servers.StubProcess`` is a stub."""
+    ``optimizer.episode.servers.StubProcess`` is a stub."""
 
     def __init__(self, command: str, start_timeout: float = START_TIMEOUT) -> None:
         super().__init__()

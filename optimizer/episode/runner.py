@@ -37,7 +37,7 @@ log = logging.getLogger("optimizer.episode")
 
 class EpisodeRunner:
     """Runs episodes one after another on one server: its own embedded stub (the default), a
-    server process it is given to own (a real rcssserver3d, ``optimizer.real_server``), or a
+    server process it is given to own (a real rcssserver3d, ``optimizer.episode.real_server``), or a
     server run elsewhere (an address).
 
     A server or agent that dies or hangs is detected, an owned server restarted, the episode retried once;

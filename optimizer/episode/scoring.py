@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from optimizer.episode.config import EpisodeConfig, EpisodeResult
 from protocol.monitor import MonitorState, RobotPose
 
+
 @dataclass(frozen=True)
 class TracePoint:
     """What the judge saw of the torso in one PlayOn monitor state (``EpisodeRunner(trace=True)``):

@@ -1,5 +1,5 @@
 """Servers an episode runs on: a stub subprocess this worker owns, a real rcssserver3d it owns
-(``optimizer.real_server``), or a server run elsewhere, known by its address.
+(``optimizer.episode.real_server``), or a server run elsewhere, known by its address.
 
 The optimizer talks to servers only through their public interfaces: it starts the stub as a
 process (``python -m server_stub``) on free ports and reads the ports it prints; a server run

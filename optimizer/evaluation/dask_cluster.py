@@ -20,8 +20,8 @@ from collections.abc import Iterator, Mapping, Sequence
 from distributed import Client, LocalCluster, WorkerPlugin, as_completed, get_worker
 
 from optimizer.episode import EpisodeConfig, EpisodeRunner, ServerAddress
-from optimizer.evaluation import EpisodeOutcome, EpisodeTask, failed_result
-from optimizer.real_server import RealServerProcess, find_rcssserver3d
+from optimizer.episode.real_server import RealServerProcess, find_rcssserver3d
+from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask, failed_result
 
 _PLUGIN = "gala-episode-runner"
 #: Environment variable naming a Dask worker's real server (``HOST:AGENT_PORT:MONITOR_PORT``).
@@ -68,7 +68,7 @@ def _run_episode(task: EpisodeTask) -> tuple[dict, str]:
 
 
 class DaskEvaluator:
-    """The ``Evaluator`` of ``optimizer.evaluation`` on a Dask cluster: an existing scheduler, or a
+    """The ``Evaluator`` of ``optimizer.evaluation.pool`` on a Dask cluster: an existing scheduler, or a
     ``LocalCluster`` of ``local_workers`` single-threaded worker processes started here."""
 
     def __init__(self, config: EpisodeConfig, seed: int, *, scheduler: str | None = None,

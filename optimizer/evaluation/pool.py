@@ -30,7 +30,7 @@ from multiprocessing.connection import Connection, wait
 from typing import Any, Protocol
 
 from optimizer.episode import EpisodeConfig, EpisodeRunner, ServerAddress, Start
-from optimizer.real_server import RealServerProcess
+from optimizer.episode.real_server import RealServerProcess
 
 
 def stable_seed(run_seed: int, name: str) -> int:
@@ -116,7 +116,7 @@ RunnerFactory = Callable[[int], Runner]
 class EpisodeRunnerFactory:
     """Makes the ``EpisodeRunner`` of worker ``i``: on ``servers[i]`` when servers run elsewhere
     are given (one worker per server), on a real rcssserver3d of its own when ``real_command``
-    names one (``optimizer.real_server``), else on its own embedded stub. Every runner gets the
+    names one (``optimizer.episode.real_server``), else on its own embedded stub. Every runner gets the
     run's seed, so the stub's noise does not depend on which worker runs an episode."""
 
     config: EpisodeConfig

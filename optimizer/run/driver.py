@@ -14,9 +14,9 @@ from typing import Any, Protocol
 from tqdm import tqdm
 
 from optimizer.episode import Start
-from optimizer.evaluation import EpisodeTask, Evaluator, stable_seed
-from optimizer.ga import AskTellSearch
-from optimizer.run_folder import EpisodeLog
+from optimizer.evaluation.pool import EpisodeTask, Evaluator, stable_seed
+from optimizer.run.folder import EpisodeLog
+from optimizer.search.ga import AskTellSearch
 
 
 def is_search_walk(record: Mapping[str, Any]) -> bool:

@@ -33,7 +33,7 @@ MANIFEST_FORMAT = "gala-run/1"
 REJECTED_SUFFIX = ".rejected"
 #: How a resumed run is told to go on past bad lines (named in the error that stops it).
 SKIP_FLAG = "--skip-bad-lines"
-_REPO = Path(__file__).resolve().parents[1]
+_REPO = Path(__file__).resolve().parents[2]
 
 
 class RunFolderError(ValueError):

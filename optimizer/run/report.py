@@ -15,8 +15,8 @@ from pathlib import Path
 
 from matplotlib.figure import Figure
 
-from optimizer.ga import GenerationStats
-from optimizer.gala import GALAResult
+from optimizer.search.ga import GenerationStats
+from optimizer.search.gala import GALAResult
 
 
 @dataclass(frozen=True)

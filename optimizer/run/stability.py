@@ -19,10 +19,10 @@ from typing import Any
 
 import numpy as np
 
-from optimizer.driver import Driver, is_search_walk
 from optimizer.episode import Start
-from optimizer.evaluation import stable_seed
-from optimizer.search_config import StabilityConfig
+from optimizer.evaluation.pool import stable_seed
+from optimizer.run.driver import Driver, is_search_walk
+from optimizer.search.config import StabilityConfig
 
 #: Key prefix of every check walk.
 CHECK_PREFIX = "check/"

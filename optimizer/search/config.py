@@ -116,7 +116,7 @@ PAPER_GALA_BEST = RatePreset("GALA (paper Table I)", 0.8, 0.07)
 
 @dataclass(frozen=True)
 class StabilityConfig:
-    """The stability check of a found gait (``optimizer.stability``): ``repeats`` walks from
+    """The stability check of a found gait (``optimizer.run.stability``): ``repeats`` walks from
     starts moved by up to +-``jitter`` (x m, y m, heading deg) from the run's start. For the
     fastest stable gait, up to ``candidates`` of the search's fastest walks are checked, fastest
     first. ``repeats`` 0 turns the check off.

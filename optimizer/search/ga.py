@@ -19,7 +19,7 @@ from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
-from optimizer.search_config import GAConfig
+from optimizer.search.config import GAConfig
 
 Repair = Callable[[np.ndarray], np.ndarray]
 
@@ -376,6 +376,11 @@ class GAResult:
         }
 
 
+def planned_episodes(config: GAConfig) -> int:
+    """Episodes a GA run evaluates: the first generation whole, later ones without the carried elite."""
+    return config.population_size + (config.generations - 1) * (config.population_size - int(config.elitism))
+
+
 class GARun(KeyedSearch):
     """A plain GA of ``config.generations`` generations with keys ``{prefix}/gNN/iNNN`` (paper
     Fig. 4, 5, 7: a GA with fixed rates such as De Jong's or Grefenstette's)."""
@@ -426,6 +431,6 @@ def run_sync(search: AskTellSearch, evaluate: Callable[[np.ndarray], float]) -> 
 
 
 if __name__ == "__main__":
-    from optimizer.ga_command import main
+    from optimizer.cli.ga import main
 
     raise SystemExit(main())

@@ -28,10 +28,11 @@ from typing import Any
 
 import numpy as np
 
-from optimizer.ga import (
+from optimizer.search.config import GALAConfig
+from optimizer.search.ga import (
     GAOperators,
-    GeneticAlgorithm,
     GenerationStats,
+    GeneticAlgorithm,
     KeyedSearch,
     Repair,
     SearchProgram,
@@ -39,8 +40,7 @@ from optimizer.ga import (
     evolve,
     spawn_rngs,
 )
-from optimizer.la import LearningAutomaton, LearningScheme, LinearRewardPenalty
-from optimizer.search_config import GALAConfig
+from optimizer.search.la import LearningAutomaton, LearningScheme, LinearRewardPenalty
 
 
 @dataclass(frozen=True)
@@ -176,6 +176,6 @@ class GALA(KeyedSearch):
 
 
 if __name__ == "__main__":
-    from optimizer.gala_command import main
+    from optimizer.cli.gala import main
 
     raise SystemExit(main())

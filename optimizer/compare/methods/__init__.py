@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optimizer.ga import Repair, SearchProgram
+from optimizer.search.ga import Repair, SearchProgram
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ import cma
 import numpy as np
 
 from optimizer.compare.methods import Method, Problem
-from optimizer.ga import Batch, SearchProgram
+from optimizer.search.ga import Batch, SearchProgram
 
 #: Initial step size, as a fraction of the box (the library's advice: about a quarter to a third
 #: of the range the optimum may lie in).

@@ -12,9 +12,16 @@ from dataclasses import replace
 
 from optimizer.compare.budget import program_of
 from optimizer.compare.methods import Method, Problem
-from optimizer.ga import GARun, SearchProgram
-from optimizer.gala import GALA
-from optimizer.search_config import DE_JONG, GREFENSTETTE, PAPER_GALA_BEST, GAConfig, GALAConfig, RatePreset
+from optimizer.search.config import (
+    DE_JONG,
+    GREFENSTETTE,
+    PAPER_GALA_BEST,
+    GAConfig,
+    GALAConfig,
+    RatePreset,
+)
+from optimizer.search.ga import GARun, SearchProgram
+from optimizer.search.gala import GALA
 
 
 def _generations(problem: Problem) -> int:

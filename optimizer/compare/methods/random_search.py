@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from optimizer.compare.methods import Method, Problem
-from optimizer.ga import Batch, SearchProgram
+from optimizer.search.ga import Batch, SearchProgram
 
 
 def _program(problem: Problem) -> SearchProgram:
