@@ -428,9 +428,3 @@ def run_sync(search: AskTellSearch, evaluate: Callable[[np.ndarray], float]) -> 
     while not search.done:
         search.tell({c.key: evaluate(c.genes) for c in search.ask()})
     return search.result()
-
-
-if __name__ == "__main__":
-    from optimizer.cli.ga import main
-
-    raise SystemExit(main())

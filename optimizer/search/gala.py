@@ -173,9 +173,3 @@ class GALA(KeyedSearch):
             final_ga_history=list(final.history),
             mutation_rates=automaton.actions,
         )
-
-
-if __name__ == "__main__":
-    from optimizer.cli.gala import main
-
-    raise SystemExit(main())
