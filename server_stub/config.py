@@ -1,7 +1,8 @@
 """Configuration of the stand-in server: every setting in one dataclass per concern."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+import os
+from dataclasses import dataclass, field
 
 from protocol.nao import CYCLE, TORQUE_LIMIT
 
@@ -27,6 +28,14 @@ class PhysicsConfig:
     #: bench_physics; this one runs at 77x (its slip solve compiled, ``server_stub.slip``).
     sub_steps: int = 1
     gravity: float = -9.81
+
+    # --- backend ---
+    #: "bullet": Bullet's multibody step with slip solved beside it (``server_stub.slip``).
+    #: "ode": one ODE-like step per cycle solved by the stub itself, contacts, slip friction and
+    #: motors in one LCP, Bullet only finding contacts (``server_stub.ode_step``). The environment
+    #: variable ``NAO_STUB_PHYSICS`` picks the default, so stand-ins started in subprocesses (the
+    #: fidelity benchmark's) follow it.
+    backend: str = field(default_factory=lambda: os.environ.get("NAO_STUB_PHYSICS", "bullet"))
 
     # --- solver ---
     #: "dantzig": pybullet's exact MLCP solver, like ODE's dWorldStep (section 4). Measured: a

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pybullet as pb
 
-from server_stub import motors, nao_model, rotations, slip
+from server_stub import motors, nao_model, ode_step, rotations, slip
 from server_stub.config import PhysicsConfig
 from server_stub.robot import Robot
 
@@ -90,6 +90,8 @@ class World:
         self._configure_engine()
         self._build_field()
         slip.warm_up()
+        if config.backend == "ode":
+            ode_step.warm_up()
         rotations.warm_up()
         motors.warm_up()
 
@@ -209,12 +211,26 @@ class World:
         sub-steps, each after the contact slip forces of its start (``Robot._before_substep``)."""
         for robot in self._robots:
             robot._before_step()
+        if self.config.backend == "ode":
+            self._step_ode()
+            return
         for _ in range(self.config.sub_steps):
             for robot in self._robots:
                 robot._before_substep()
             pb.stepSimulation(physicsClientId=self._client)
             for robot in self._robots:
                 robot._after_substep()
+        self.time += self.config.cycle
+        for robot in self._robots:
+            robot._after_step()
+
+    def _step_ode(self) -> None:
+        """The "ode" backend's cycle (``server_stub.ode_step``): each robot solved by the stub,
+        then Bullet steps the rest (the ball), and the robots get their solved state back."""
+        solved = [ode_step.solve(robot, self._ground, self.config) for robot in self._robots]
+        pb.stepSimulation(physicsClientId=self._client)
+        for robot, state in zip(self._robots, solved):
+            ode_step.apply(robot, state)
         self.time += self.config.cycle
         for robot in self._robots:
             robot._after_step()

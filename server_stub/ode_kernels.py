@@ -1,0 +1,460 @@
+"""Compiled kernels of the ODE-like step (``server_stub.ode_step``): the robot's dynamics in
+reduced coordinates, the constraint rows of one step and an exact solver for them.
+
+Generalised velocity u = (torso centre velocity (3), torso spin (3), hinge rates (n)), all in the
+world frame. Bodies: 0 is the torso, k = j + 1 the child of hinge j. Every kernel is written from
+the equations in ``ode_step``'s docstring, as plain loops (numba).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from server_stub.rotations import rotation_matrix
+
+#: row kinds
+NORMAL = 0
+FRICTION = 1
+MOTOR = 2
+
+
+@njit(cache=True)
+def _cross(a, b):
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+@njit(cache=True)
+def _point_jacobian(point, k, com0, chains, anchors, axes, out):
+    """Rows (3, dof) of the velocity of the material point ``point`` of body ``k``: out = dv/du."""
+    nu = out.shape[1]
+    for a in range(3):
+        for c in range(nu):
+            out[a, c] = 0.0
+        out[a, a] = 1.0
+    r = point - com0
+    # v = w x r = -[r]x w
+    out[0, 4] = r[2]
+    out[0, 5] = -r[1]
+    out[1, 3] = -r[2]
+    out[1, 5] = r[0]
+    out[2, 3] = r[1]
+    out[2, 4] = -r[0]
+    for j in range(anchors.shape[0]):
+        if chains[k, j]:
+            col = _cross(axes[j], point - anchors[j])
+            for a in range(3):
+                out[a, 6 + j] = col[a]
+
+
+@njit(cache=True)
+def dynamics(masses, principal, chains, parents, joint_of, local_axes, coms, quats, anchors,
+             v0, w0, qd, gravity):
+    """Mass matrix M (dof x dof), generalised force of gravity, spin and velocity products Q
+    (so that M du/dt = Q + applied), and the world axes of the hinges."""
+    nb = masses.shape[0]
+    nj = local_axes.shape[0]
+    nu = 6 + nj
+    rot = np.empty((nb, 3, 3))
+    for k in range(nb):
+        rot[k] = rotation_matrix(quats[k])
+    axes = np.empty((nj, 3))
+    for j in range(nj):
+        r = rot[j + 1]
+        la = local_axes[j]
+        for a in range(3):
+            axes[j, a] = r[a, 0] * la[0] + r[a, 1] * la[1] + r[a, 2] * la[2]
+    # world inertia of every body
+    inertia = np.zeros((nb, 3, 3))
+    for k in range(nb):
+        for a in range(3):
+            for b in range(3):
+                s = 0.0
+                for c in range(3):
+                    s += rot[k, a, c] * principal[k, c] * rot[k, b, c]
+                inertia[k, a, b] = s
+    # spins and velocity-product accelerations (zero du/dt), parents before children
+    spin = np.zeros((nb, 3))
+    dspin = np.zeros((nb, 3))
+    acc = np.zeros((nb, 3))
+    spin[0] = w0
+    for k in range(1, nb):
+        p = parents[k]
+        j = joint_of[k]
+        turn = qd[j] * axes[j]
+        spin[k] = spin[p] + turn
+        dspin[k] = dspin[p] + _cross(spin[p], turn)
+        ro = anchors[j] - coms[p]
+        ao = acc[p] + _cross(dspin[p], ro) + _cross(spin[p], _cross(spin[p], ro))
+        rc = coms[k] - anchors[j]
+        acc[k] = ao + _cross(dspin[k], rc) + _cross(spin[k], _cross(spin[k], rc))
+    m = np.zeros((nu, nu))
+    q = np.zeros(nu)
+    jv = np.zeros((3, nu))
+    for k in range(nb):
+        _point_jacobian(coms[k], k, coms[0], chains, anchors, axes, jv)
+        # the angular Jacobian: columns 3-5 identity, the chain's axes
+        cols = np.empty(nu, dtype=np.int64)
+        ncols = 0
+        for c in range(6):
+            cols[ncols] = c
+            ncols += 1
+        for j in range(nj):
+            if chains[k, j]:
+                cols[ncols] = 6 + j
+                ncols += 1
+        jw = np.zeros((3, nu))
+        jw[0, 3] = 1.0
+        jw[1, 4] = 1.0
+        jw[2, 5] = 1.0
+        for j in range(nj):
+            if chains[k, j]:
+                for a in range(3):
+                    jw[a, 6 + j] = axes[j, a]
+        iw = np.zeros((3, nu))  # I_k jw
+        for a in range(3):
+            for ci in range(ncols):
+                c = cols[ci]
+                iw[a, c] = inertia[k, a, 0] * jw[0, c] + inertia[k, a, 1] * jw[1, c] + inertia[k, a, 2] * jw[2, c]
+        mk = masses[k]
+        for xi in range(ncols):
+            x = cols[xi]
+            for yi in range(xi, ncols):
+                y = cols[yi]
+                s = mk * (jv[0, x] * jv[0, y] + jv[1, x] * jv[1, y] + jv[2, x] * jv[2, y])
+                s += jw[0, x] * iw[0, y] + jw[1, x] * iw[1, y] + jw[2, x] * iw[2, y]
+                m[x, y] += s
+                if x != y:
+                    m[y, x] += s
+        # generalised force: m (g - a) through jv, -(I dspin + w x I w) through jw
+        f = mk * (gravity - acc[k])
+        iwk = np.array([
+            inertia[k, 0, 0] * spin[k, 0] + inertia[k, 0, 1] * spin[k, 1] + inertia[k, 0, 2] * spin[k, 2],
+            inertia[k, 1, 0] * spin[k, 0] + inertia[k, 1, 1] * spin[k, 1] + inertia[k, 1, 2] * spin[k, 2],
+            inertia[k, 2, 0] * spin[k, 0] + inertia[k, 2, 1] * spin[k, 1] + inertia[k, 2, 2] * spin[k, 2]])
+        tq = -_cross(spin[k], iwk)
+        for a in range(3):
+            tq[a] -= inertia[k, a, 0] * dspin[k, 0] + inertia[k, a, 1] * dspin[k, 1] + inertia[k, a, 2] * dspin[k, 2]
+        for ci in range(ncols):
+            c = cols[ci]
+            q[c] += jv[0, c] * f[0] + jv[1, c] * f[1] + jv[2, c] * f[2]
+            q[c] += jw[0, c] * tq[0] + jw[1, c] * tq[1] + jw[2, c] * tq[2]
+    return m, q, axes
+
+
+@njit(cache=True)
+def _cholesky(a):
+    """Lower factor of a symmetric positive definite matrix (a copy; False when not positive)."""
+    n = a.shape[0]
+    l = np.zeros((n, n))
+    for j in range(n):
+        d = a[j, j]
+        for k in range(j):
+            d -= l[j, k] * l[j, k]
+        if d <= 0.0:
+            return l, False
+        d = np.sqrt(d)
+        l[j, j] = d
+        for i in range(j + 1, n):
+            s = a[i, j]
+            for k in range(j):
+                s -= l[i, k] * l[j, k]
+            l[i, j] = s / d
+    return l, True
+
+
+@njit(cache=True)
+def _cho_solve(l, b):
+    n = b.shape[0]
+    x = b.copy()
+    for i in range(n):
+        s = x[i]
+        for k in range(i):
+            s -= l[i, k] * x[k]
+        x[i] = s / l[i, i]
+    for i in range(n - 1, -1, -1):
+        s = x[i]
+        for k in range(i + 1, n):
+            s -= l[k, i] * x[k]
+        x[i] = s / l[i, i]
+    return x
+
+
+@njit(cache=True)
+def box_qp(a, b, lo, hi, state):
+    """x minimising 1/2 x'Ax - b'x within lo <= x <= hi, A symmetric positive definite: the
+    boxed LCP w = Ax - b, x at lo => w >= 0, x at hi => w <= 0, inside => w = 0, solved exactly
+    by a primal active-set method (finite; each iterate feasible). ``state`` (in/out): -1 at lo,
+    +1 at hi, 0 free, the guess to start from (the last step's). Returns (x, iterations)."""
+    n = b.shape[0]
+    x = np.zeros(n)
+    for i in range(n):
+        if state[i] < 0 and np.isfinite(lo[i]):
+            x[i] = lo[i]
+        elif state[i] > 0 and np.isfinite(hi[i]):
+            x[i] = hi[i]
+        else:
+            state[i] = 0
+            x[i] = min(max(0.0, lo[i]), hi[i])
+            if x[i] != 0.0:  # 0 outside the box: start at the nearer bound
+                state[i] = -1 if x[i] == lo[i] else 1
+    it = 0
+    for it in range(1, 4 * n + 20):
+        free = np.nonzero(state == 0)[0]
+        nf = free.size
+        target = x.copy()
+        if nf > 0:
+            sub = np.empty((nf, nf))
+            rhs = np.empty(nf)
+            for ii in range(nf):
+                i = free[ii]
+                s = b[i]
+                for k in range(n):
+                    if state[k] != 0:
+                        s -= a[i, k] * x[k]
+                rhs[ii] = s
+                for jj in range(nf):
+                    sub[ii, jj] = a[i, free[jj]]
+            l, ok = _cholesky(sub)
+            if not ok:
+                break
+            sol = _cho_solve(l, rhs)
+            for ii in range(nf):
+                target[free[ii]] = sol[ii]
+        # step towards target, stopping at the first bound crossed
+        t = 1.0
+        block = -1
+        for ii in range(nf):
+            i = free[ii]
+            d = target[i] - x[i]
+            if d < 0.0 and target[i] < lo[i]:
+                s = (lo[i] - x[i]) / d
+                if s < t:
+                    t = s
+                    block = i
+            elif d > 0.0 and target[i] > hi[i]:
+                s = (hi[i] - x[i]) / d
+                if s < t:
+                    t = s
+                    block = i
+        for ii in range(nf):
+            i = free[ii]
+            x[i] += t * (target[i] - x[i])
+        if block >= 0:
+            if target[block] < lo[block]:
+                x[block] = lo[block]
+                state[block] = -1
+            else:
+                x[block] = hi[block]
+                state[block] = 1
+            continue
+        # at the subspace optimum: release the clamped variable whose multiplier is most wrong
+        worst = 0.0
+        release = -1
+        for i in range(n):
+            if state[i] == 0:
+                continue
+            w = -b[i]
+            for k in range(n):
+                w += a[i, k] * x[k]
+            bad = -w if state[i] < 0 else w  # at lo we need w >= 0, at hi w <= 0
+            if bad > worst * 1.0 and bad > 1e-12 * (1.0 + abs(b[i])):
+                if bad > worst:
+                    worst = bad
+                    release = i
+        if release < 0:
+            break
+        state[release] = 0
+    return x, it
+
+
+@njit(cache=True)
+def _plane_space(n):
+    """Two unit tangents completing the unit normal n to a right-handed basis."""
+    if abs(n[2]) > 0.7071:
+        t1 = np.array([0.0, -n[2], n[1]])
+    else:
+        t1 = np.array([-n[1], n[0], 0.0])
+    t1 /= np.sqrt(t1[0] ** 2 + t1[1] ** 2 + t1[2] ** 2)
+    t2 = _cross(n, t1)
+    return t1, t2
+
+
+@njit(cache=True)
+def step(masses, principal, chains, parents, joint_of, local_axes, coms, quats, anchors,
+         v0, w0, qd, gravity, contact_body, contact_point, contact_normal, contact_depth,
+         motor_target, motor_force, motor_state, h, erp, normal_cfm, slip, surface_layer, motor_cfm):
+    """One ODE-like step of one robot: the new generalised velocity u (dof), the contact forces
+    (points x 3: normal, along t1, along t2), the tangents (points x 2 x 3), the motor torques
+    (hinges) and the solver's iterations. ``motor_state`` (hinges) is the motors' active-set
+    guess, updated in place."""
+    nj = local_axes.shape[0]
+    nu = 6 + nj
+    m, q, axes = dynamics(masses, principal, chains, parents, joint_of, local_axes, coms, quats,
+                          anchors, v0, w0, qd, gravity)
+    u = np.empty(nu)
+    u[0:3] = v0
+    u[3:6] = w0
+    u[6:] = qd
+    lm, ok = _cholesky(m)
+    free_u = u + h * _cho_solve(lm, q)
+    nc = contact_point.shape[0]
+    nr = 3 * nc + nj
+    jac = np.zeros((nr, nu))
+    c = np.zeros(nr)
+    cfm = np.zeros(nr)
+    lo = np.empty(nr)
+    hi = np.empty(nr)
+    state = np.zeros(nr, dtype=np.int64)
+    tangents = np.empty((nc, 2, 3))
+    jp = np.zeros((3, nu))
+    for i in range(nc):
+        n = contact_normal[i]
+        t1, t2 = _plane_space(n)
+        tangents[i, 0] = t1
+        tangents[i, 1] = t2
+        _point_jacobian(contact_point[i], contact_body[i], coms[0], chains, anchors, axes, jp)
+        for col in range(nu):
+            jac[3 * i, col] = n[0] * jp[0, col] + n[1] * jp[1, col] + n[2] * jp[2, col]
+            jac[3 * i + 1, col] = t1[0] * jp[0, col] + t1[1] * jp[1, col] + t1[2] * jp[2, col]
+            jac[3 * i + 2, col] = t2[0] * jp[0, col] + t2[1] * jp[1, col] + t2[2] * jp[2, col]
+        depth = contact_depth[i] - surface_layer
+        c[3 * i] = erp * depth / h if depth > 0.0 else 0.0
+        cfm[3 * i] = normal_cfm
+        lo[3 * i] = 0.0
+        hi[3 * i] = np.inf
+        state[3 * i] = 0
+        for r in (3 * i + 1, 3 * i + 2):
+            cfm[r] = slip
+            lo[r] = -np.inf
+            hi[r] = np.inf
+    for j in range(nj):
+        r = 3 * nc + j
+        jac[r, 6 + j] = 1.0
+        c[r] = motor_target[j]
+        cfm[r] = motor_cfm
+        lo[r] = -motor_force[j]
+        hi[r] = motor_force[j]
+        state[r] = motor_state[j]
+    # A = h J M^-1 J' + cfm, b = c - J u_free: then J u_new = c - cfm lambda (ODE's soft rows)
+    minv_jt = np.empty((nu, nr))
+    for r in range(nr):
+        minv_jt[:, r] = _cho_solve(lm, jac[r].copy())
+    a = np.empty((nr, nr))
+    for r in range(nr):
+        for s in range(r, nr):
+            v = 0.0
+            for col in range(nu):
+                v += jac[r, col] * minv_jt[col, s]
+            a[r, s] = h * v
+            a[s, r] = h * v
+        a[r, r] += cfm[r]
+    b = c.copy()
+    for r in range(nr):
+        v = 0.0
+        for col in range(nu):
+            v += jac[r, col] * free_u[col]
+        b[r] -= v
+    lam, iterations = box_qp(a, b, lo, hi, state)
+    for j in range(nj):
+        motor_state[j] = state[3 * nc + j]
+    new_u = free_u.copy()
+    for r in range(nr):
+        if lam[r] != 0.0:
+            for col in range(nu):
+                new_u[col] += h * minv_jt[col, r] * lam[r]
+    forces = np.empty((nc, 3))
+    for i in range(nc):
+        forces[i, 0] = lam[3 * i]
+        forces[i, 1] = lam[3 * i + 1]
+        forces[i, 2] = lam[3 * i + 2]
+    torques = lam[3 * nc:].copy()
+    return new_u, forces, tangents, torques, iterations
+
+
+@njit(cache=True)
+def integrate_orientation(quat, w, h):
+    """Unit quaternion (x, y, z, w) turned by the world spin ``w`` over ``h`` (exact rotation)."""
+    angle = np.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2) * h
+    if angle < 1e-12:
+        return quat.copy()
+    axis = w * h / angle
+    s = np.sin(angle / 2)
+    dx, dy, dz, dw = axis[0] * s, axis[1] * s, axis[2] * s, np.cos(angle / 2)
+    x, y, z, qw = quat[0], quat[1], quat[2], quat[3]
+    out = np.array([dw * x + dx * qw + dy * z - dz * y,
+                    dw * y - dx * z + dy * qw + dz * x,
+                    dw * z + dx * y - dy * x + dz * qw,
+                    dw * qw - dx * x - dy * y - dz * z])
+    return out / np.sqrt(np.sum(out * out))
+
+
+BOX = 3
+SPHERE = 2
+CAPSULE = 7
+
+
+@njit(cache=True)
+def ground_contacts(shape_body, shape_kind, shape_size, coms, quats, max_points):
+    """Contacts of a robot's shapes with the ground plane z = 0, as ODE's colliders make them:
+    only for touching or overlapping geometry (depth >= 0); a box gets its corners below the
+    plane, deepest first, at most ``max_points``; a sphere its lowest point; a capsule (size:
+    length, radius, along its z) the lowest point of each end. Shapes sit at their body's centre
+    with its axes. Returns (body, point (n x 3), depth) per contact; the normal is +z."""
+    n = shape_body.shape[0]
+    cap = n * max(max_points, 2)
+    bodies = np.empty(cap, dtype=np.int64)
+    points = np.empty((cap, 3))
+    depths = np.empty(cap)
+    count = 0
+    for s in range(n):
+        k = shape_body[s]
+        r = rotation_matrix(quats[k])
+        c = coms[k]
+        kind = shape_kind[s]
+        if kind == BOX:
+            hx, hy, hz = shape_size[s, 0] / 2, shape_size[s, 1] / 2, shape_size[s, 2] / 2
+            cz = np.empty(8)
+            corners = np.empty((8, 3))
+            m = 0
+            for sx in (-1.0, 1.0):
+                for sy in (-1.0, 1.0):
+                    for sz in (-1.0, 1.0):
+                        for a in range(3):
+                            corners[m, a] = c[a] + r[a, 0] * sx * hx + r[a, 1] * sy * hy + r[a, 2] * sz * hz
+                        cz[m] = corners[m, 2]
+                        m += 1
+            order = np.argsort(cz)
+            taken = 0
+            for oi in range(8):
+                i = order[oi]
+                if cz[i] > 0.0 or taken >= max_points:
+                    break
+                bodies[count] = k
+                points[count] = corners[i]
+                depths[count] = -cz[i]
+                count += 1
+                taken += 1
+        elif kind == SPHERE:
+            rad = shape_size[s, 0]
+            if c[2] - rad <= 0.0:
+                bodies[count] = k
+                points[count, 0] = c[0]
+                points[count, 1] = c[1]
+                points[count, 2] = c[2] - rad
+                depths[count] = rad - c[2]
+                count += 1
+        elif kind == CAPSULE:
+            half = shape_size[s, 0] / 2
+            rad = shape_size[s, 1]
+            for sz in (-1.0, 1.0):
+                e0 = c[0] + r[0, 2] * sz * half
+                e1 = c[1] + r[1, 2] * sz * half
+                e2 = c[2] + r[2, 2] * sz * half
+                if e2 - rad <= 0.0:
+                    bodies[count] = k
+                    points[count, 0] = e0
+                    points[count, 1] = e1
+                    points[count, 2] = e2 - rad
+                    depths[count] = rad - e2
+                    count += 1
+    return bodies[:count], points[:count], depths[:count]

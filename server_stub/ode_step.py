@@ -1,0 +1,181 @@
+"""The "ode" physics backend: one ODE-like constrained step per cycle, solved here, with pybullet
+kept for collision detection and as the store of the robots' state (``PhysicsConfig.backend``).
+
+Why: the real server (ODE 0.16, one exact ``dWorldStep`` of 0.02 s per cycle; facts in
+docs/robot_and_server.md sections 3-4) solves contacts, friction with force-dependent slip and no
+Coulomb limit, and the hinge motors in one linear complementarity problem, so within a step the
+landing foot, the motors and the tipping body all feel friction. The "bullet" backend has no
+friction row with a slip CFM and adds slip as an outside force from the step's start
+(``server_stub.slip``).
+
+The step, for each robot, in reduced coordinates u = (torso velocity, torso spin, hinge rates),
+every vector in the world frame (``server_stub.ode_kernels``):
+
+- dynamics: M(q) du/dt = Q(q, u) + J' lambda, with M = sum over bodies of Jv' m Jv + Jw' I Jw and
+  Q the bodies' gravity, spin (w x I w) and velocity-product terms, mapped through the same
+  Jacobians;
+- rows, each J u_new = c - cfm lambda (ODE's soft constraint: its LCP adds cfm / h to the
+  diagonal and solves for forces): per contact point a normal row (lambda >= 0, c = ERP x
+  (depth - surface layer) / h, cfm the contact's soft CFM) and two friction rows in the contact
+  plane (unbounded, mu infinite; cfm = slip, so a point slides at slip x its tangential force);
+  per hinge a motor row (c = the target speed of ``server_stub.motors``, |lambda| <= its force:
+  10 N m, or the stop's force when the stop drives the joint back), cfm 1e-8 as every joint row;
+- lambda from the boxed LCP on A = h J M^-1 J' + diag(cfm), b = c - J (u + h M^-1 Q), solved
+  exactly (``ode_kernels.box_qp``, a primal active-set method);
+- u_new = u + h M^-1 (Q + J' lambda); positions then move with u_new (semi-implicit Euler, as
+  dWorldStep): torso centre by h v, torso orientation by the rotation h w, hinges by h qd.
+
+Contacts with the ground are found at the step's start (as SimSpark collides before it steps) by
+``ode_kernels.ground_contacts``, which makes them as ODE's plane colliders do: only for touching
+or overlapping geometry, a box's corners below the plane (at most 4), a sphere's lowest point, a
+capsule's two ends. Bullet no longer collides the robots with the ground. The new state is written back into pybullet, so
+sensors, the monitor and vision read it as before, and each robot's contact points carry the
+solved forces in pybullet's tuple layout for the FRP perceptor.
+
+Not (yet) modelled here: robot-robot, robot-ball and robot-goal contacts (the ball still moves in
+Bullet's step, the robots are not pushed back by it); the bodies' 0.01 drag; ODE's joint-row
+softness (the hinges are exact here).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+import pybullet as pb
+
+from server_stub import ode_kernels
+
+from server_stub.ode_kernels import BOX, CAPSULE, SPHERE
+
+#: ODE joint rows' CFM (facts section 3), used for the motor rows.
+MOTOR_CFM = 1e-8
+#: Most contact points per shape and the ground (ODE's box-plane collider: 4).
+MAX_POINTS = 4
+
+
+class _Static:
+    """What does not change about one robot body: masses, inertias, tree, hinge axes, shapes."""
+
+    def __init__(self, client: int, body: int, ground: int) -> None:
+        n = pb.getNumJoints(body, physicsClientId=client)
+        self.indices = list(range(n))
+        dyn = [pb.getDynamicsInfo(body, k, physicsClientId=client) for k in range(-1, n)]
+        infos = [pb.getJointInfo(body, j, physicsClientId=client) for j in range(n)]
+        self.masses = np.array([d[0] for d in dyn], dtype=float)
+        self.principal = np.array([d[2] for d in dyn], dtype=float)
+        self.parents = np.zeros(n + 1, dtype=np.int64)
+        self.joint_of = np.zeros(n + 1, dtype=np.int64)
+        self.local_axes = np.array([i[13] for i in infos], dtype=float)
+        chains = np.zeros((n + 1, n), dtype=np.bool_)
+        for j, info in enumerate(infos):
+            k = j + 1
+            parent = info[16] + 1
+            if parent >= k:
+                raise ValueError("links must follow their parents")
+            self.parents[k] = parent
+            self.joint_of[k] = j
+            chains[k] = chains[parent]
+            chains[k, j] = True
+        self.chains = chains
+        self.motor_state = np.zeros(n, dtype=np.int64)
+        shapes = [d for k in range(-1, n) for d in pb.getCollisionShapeData(body, k, physicsClientId=client)]
+        self.shape_body = np.array([d[1] + 1 for d in shapes], dtype=np.int64)
+        self.shape_kind = np.array([d[2] for d in shapes], dtype=np.int64)
+        self.shape_size = np.array([d[3] for d in shapes], dtype=float)
+        if any(abs(x) > 1e-12 for d in shapes for x in d[5]) or set(self.shape_kind) - {BOX, SPHERE, CAPSULE}:
+            raise ValueError("shapes must be boxes, spheres or capsules at their body's centre")
+        # the stub finds the robot's ground contacts itself: Bullet need not
+        for k in range(-1, n):
+            pb.setCollisionFilterPair(ground, body, -1, k, 0, physicsClientId=client)
+
+
+class Solved(NamedTuple):
+    """A robot's state after its step, and the step's contacts (pybullet's tuple layout, with the
+    solved forces) and motor torques."""
+
+    position: list
+    orientation: list
+    velocity: list
+    spin: list
+    angles: list
+    rates: list
+    contacts: tuple
+    torques: np.ndarray
+    iterations: int
+
+
+def solve(robot, ground: int, config) -> Solved:
+    """One ODE-like step of ``robot`` (its motors already set by ``Robot._before_step``), from
+    the state pybullet holds now; nothing is written."""
+    client, body = robot._client, robot._body
+    static = getattr(robot, "_ode_static", None)
+    if static is None or static.masses.shape[0] != len(robot._indices) + 1:
+        static = _Static(client, body, ground)
+        robot._ode_static = static
+    h = config.cycle
+    position, orientation = pb.getBasePositionAndOrientation(body, physicsClientId=client)
+    v0, w0 = pb.getBaseVelocity(body, physicsClientId=client)
+    states = pb.getJointStates(body, static.indices, physicsClientId=client)
+    angles = np.array([s[0] for s in states])
+    rates = np.array([s[1] for s in states])
+    links = pb.getLinkStates(body, static.indices, computeForwardKinematics=1, physicsClientId=client)
+    coms = np.array([position] + [l[0] for l in links], dtype=float)
+    quats = np.array([orientation] + [l[1] for l in links], dtype=float)
+    anchors = np.array([l[4] for l in links], dtype=float)
+    parts, points, depths = ode_kernels.ground_contacts(static.shape_body, static.shape_kind, static.shape_size,
+                                                        coms, quats, MAX_POINTS)
+    nc = parts.shape[0]
+    normals = np.zeros((nc, 3))
+    normals[:, 2] = 1.0
+    target, force = robot._sent
+    if target.shape[0] != len(static.indices):
+        target = np.zeros(len(static.indices))
+        force = np.full(len(static.indices), config.motor_torque)
+    u, forces, tangents, torques, iterations = ode_kernels.step(
+        static.masses, static.principal, static.chains, static.parents, static.joint_of,
+        static.local_axes, coms, quats, anchors, np.array(v0, dtype=float), np.array(w0, dtype=float),
+        rates, np.array([0.0, 0.0, config.gravity]), parts, points, normals, depths,
+        np.asarray(target, dtype=float), np.asarray(force, dtype=float), static.motor_state, h,
+        config.contact_erp, config.contact_cfm, config.slip, config.contact_slop, MOTOR_CFM)
+    v, w, qd = u[0:3], u[3:6], u[6:]
+    new_position = np.array(position) + h * v
+    new_orientation = ode_kernels.integrate_orientation(np.array(orientation, dtype=float), w, h)
+    new_angles = angles + h * qd
+    contacts = tuple(
+        (0, body, ground, k - 1, -1, p, (p[0], p[1], 0.0), (0.0, 0.0, 1.0), -d, f[0], f[1], tuple(t[0]),
+         f[2], tuple(t[1]))
+        for k, p, d, f, t in zip(parts.tolist(), points.tolist(), depths.tolist(), forces.tolist(),
+                                 tangents.tolist()))
+    return Solved(new_position.tolist(), new_orientation.tolist(), v.tolist(), w.tolist(),
+                  [[a] for a in new_angles.tolist()], [[r] for r in qd.tolist()], contacts, torques,
+                  iterations)
+
+
+def apply(robot, solved: Solved) -> None:
+    """Write a solved step into pybullet (after Bullet's own step of the rest of the world)."""
+    client, body = robot._client, robot._body
+    pb.resetBasePositionAndOrientation(body, solved.position, solved.orientation, physicsClientId=client)
+    pb.resetBaseVelocity(body, solved.velocity, solved.spin, physicsClientId=client)
+    pb.resetJointStatesMultiDof(body, robot._ode_static.indices, solved.angles,
+                                targetVelocities=solved.rates, physicsClientId=client)
+    robot._after_substep()
+    robot._contact_points = solved.contacts
+    robot._ode_torques = solved.torques
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's disk cache) the kernels on a two-body problem."""
+    masses = np.ones(2)
+    principal = np.full((2, 3), 0.01)
+    chains = np.array([[False], [True]])
+    ode_kernels.step(masses, principal, chains, np.array([0, 0], dtype=np.int64), np.array([0, 0], dtype=np.int64),
+                     np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 0.3], [0.0, 0.0, 0.05]]),
+                     np.tile([0.0, 0.0, 0.0, 1.0], (2, 1)), np.array([[0.0, 0.0, 0.1]]), np.zeros(3), np.zeros(3),
+                     np.zeros(1), np.array([0.0, 0.0, -9.81]), np.array([1], dtype=np.int64),
+                     np.array([[0.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 1.0]]), np.array([0.002]),
+                     np.zeros(1), np.full(1, 10.0), np.zeros(1, dtype=np.int64), 0.02, 0.4, 1e-4, 0.005,
+                     0.001, MOTOR_CFM)
+    ode_kernels.integrate_orientation(np.array([0.0, 0.0, 0.0, 1.0]), np.array([0.0, 0.0, 1.0]), 0.02)
+    ode_kernels.ground_contacts(np.array([0, 0, 0], dtype=np.int64), np.array([BOX, SPHERE, CAPSULE], dtype=np.int64),
+                                np.array([[0.1, 0.1, 0.1], [0.1, 0.1, 0.1], [0.1, 0.02, 0.0]]),
+                                np.array([[0.0, 0.0, 0.05]]), np.array([[0.0, 0.0, 0.0, 1.0]]), MAX_POINTS)
