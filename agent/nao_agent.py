@@ -52,6 +52,14 @@ class NaoAgent:
     def finished(self) -> bool:
         return self.behaviour.phase is Phase.DONE
 
+    @property
+    def settled(self) -> bool:
+        """The robot has held its starting pose for ``config.settle_cycles`` cycles, so its walk can
+        begin: with ``start_now`` it begins with the reply to the last perception received. A
+        trainer that starts the game clock with the walk sends PlayOn between that ``receive`` and
+        its ``reply``."""
+        return self.behaviour.settle_cycle >= self.config.settle_cycles
+
     def report(self, completed: bool = True) -> AgentReport:
         b = self.behaviour
         return AgentReport(self.cycles, b.walk_time, b.fell_at is not None, b.fell_at, completed)

@@ -41,6 +41,7 @@ from optimizer.episode.fidelity import (  # noqa: E402
     write_csv,
     write_tracks,
 )
+from optimizer.episode.runner import quiet_agent_logs  # noqa: E402
 from protocol.cli_values import positive_float, positive_int  # noqa: E402
 
 
@@ -63,6 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     started = time.monotonic()
+    quiet_agent_logs()
     if args.from_json is not None:
         comparisons, stored = read_run(args.from_json)
         config = FidelityConfig(real_repeats=stored["real_repeats"], walk_time=stored["walk_time"],

@@ -37,6 +37,7 @@ from gait import TFSParams, load_gait  # noqa: E402
 from optimizer.episode import DEFAULT_START, EpisodeConfig, EpisodeRunner  # noqa: E402
 from optimizer.episode.fidelity import FAST_REAL, real_server_or_none  # noqa: E402
 from optimizer.episode.real_server import RealServerProcess  # noqa: E402
+from optimizer.episode.runner import quiet_agent_logs  # noqa: E402
 from optimizer.episode.servers import ServerProcess, StubProcess  # noqa: E402
 from protocol.cli_values import positive_float, positive_int  # noqa: E402
 
@@ -123,6 +124,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--episodes", type=positive_int, default=5, help="timed walks per gait and server (default 5)")
     p.add_argument("--walk-time", type=positive_float, default=15.0)
     args = p.parse_args(argv)
+    quiet_agent_logs()
     command = real_server_or_none()
     if command is None:
         return 1

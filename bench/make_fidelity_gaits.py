@@ -48,6 +48,7 @@ from optimizer.episode.fidelity import (  # noqa: E402
     walk_gaits,
 )
 from optimizer.episode.real_server import RealServerProcess  # noqa: E402
+from optimizer.episode.runner import quiet_agent_logs  # noqa: E402
 
 #: Each gene's range: distances in gene space are in these units, so no gene dominates.
 _SPAN = GENE_BOUNDS[:, 1] - GENE_BOUNDS[:, 0]
@@ -134,6 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     command = real_server_or_none()
+    quiet_agent_logs()
     if command is None:
         return 1
     rng = np.random.default_rng(args.seed)

@@ -286,3 +286,26 @@ def test_presets_are_the_papers_rates() -> None:
     config = GAConfig(crossover_rate=GREFENSTETTE.crossover_rate, mutation_rate=GREFENSTETTE.mutation_rate)
     result = run_sync(GARun(BOUNDS, config, 13), sphere)
     assert result.best_fitness == max(s.best for s in result.history)
+
+
+@settings(deadline=None, max_examples=25)
+@given(st.integers(0, 2**31 - 1), st.booleans())
+def test_a_search_names_the_key_of_its_best(seed: int, elitism: bool) -> None:
+    """The best a GA run reports is the logged candidate ``best_key`` names: same genes, same
+    fitness, found without comparing floats (ties included: coarse fitness levels force them)."""
+    bounds = np.array([[0.0, 1.0]] * 3)
+    answered: dict[str, tuple[np.ndarray, float]] = {}
+
+    def fitness(genes: np.ndarray) -> float:
+        return float(np.round(np.sum(genes), 1))  # coarse, so equal fitness happens
+
+    search = GARun(bounds, GAConfig(population_size=6, generations=4, elitism=elitism), seed, prefix="ga")
+    while not search.done:
+        batch = search.ask()
+        answered.update((c.key, (c.genes, fitness(c.genes))) for c in batch)
+        search.tell({c.key: answered[c.key][1] for c in batch})
+    result = search.result()
+    key = search.best_key("ga/")
+    assert key is not None and answered[key][1] == result.best_fitness
+    assert np.array_equal(answered[key][0], result.best_genes)
+    assert search.best_key("nothing/") is None

@@ -375,15 +375,10 @@ def run_session(run: Run, planned_episodes: int, body: Callable[[Driver], str], 
 # --- result files shared by the commands ----------------------------------------------------------
 
 
-def best_episode(records: Mapping[str, Mapping[str, Any]], prefix: str, genes: np.ndarray,
-                 fitness: float) -> dict[str, Any] | None:
-    """The logged episode of the best individual of the search under ``prefix`` (its distance and
-    speed go into the tables): the best's genes and fitness, among the keys of that search."""
-    wanted = [float(g) for g in genes]
-    for key, record in records.items():
-        if key.startswith(prefix) and record["genes"] == wanted and record["fitness"] == fitness:
-            return dict(record)
-    return None
+def best_episode(records: Mapping[str, Mapping[str, Any]], key: str | None) -> dict[str, Any] | None:
+    """The logged episode of a search's best (``KeyedSearch.best_key``): its distance and speed go
+    into the tables. None when the search has no best (every episode failed to be answered)."""
+    return None if key is None or key not in records else dict(records[key])
 
 
 def write_gait(path: Path, genes: np.ndarray, notes: str) -> None:

@@ -32,6 +32,7 @@ from optimizer.cli.common import (
 )
 from optimizer.episode import EpisodeConfig, EpisodeResult, EpisodeRunner, Start
 from optimizer.episode.real_server import RealServerError, RealServerProcess
+from optimizer.episode.runner import quiet_agent_logs
 from optimizer.episode.servers import ManagedServer, ServerAddress
 from optimizer.run.stability import distance_spread, jittered_starts
 from protocol.cli_values import non_negative, positive_int
@@ -111,6 +112,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _walk(params: TFSParams, base: EpisodeConfig, server: ServerAddress | ManagedServer | None,
           points: Sequence[Start], args: argparse.Namespace) -> list[EpisodeResult]:
     results = []
+    quiet_agent_logs()  # each walk's outcome is printed here
     with EpisodeRunner(base, server, seed=args.seed) as runner:
         for x, y, heading in points:
             result = runner.evaluate(params, start=(x, y, heading))

@@ -92,7 +92,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         search = GARun(bounds, config, stable_seed(run.seed, PREFIX), repair=repair, prefix=PREFIX)
         result: GAResult = driver.run(search)
         folder = run.folder.path
-        best = best_episode(driver.log.records, PREFIX + "/", result.best_genes, result.best_fitness)
+        best = best_episode(driver.log.records, search.best_key(PREFIX + "/"))
         checked = check_best(driver, best, run.setup.start, stability)
         verdict = "" if checked is None else f"; {checked.summary()}"
         write_json(folder / "results.json", {**result.to_dict(), "settings": run.settings, "best_episode": best,

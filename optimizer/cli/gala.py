@@ -251,7 +251,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             search = GALA(bounds, config, pc, stable_seed(run.seed, tag), scheme=scheme(run.settings, config),
                           repair=repair)
             result: GALAResult = driver.run(search)
-            best = best_episode(driver.log.records, f"{tag}/final/", result.best_genes, result.best_fitness)
+            best = best_episode(driver.log.records, search.best_key(f"{tag}/final/"))
             rows.append(Row(result, best, check_best(driver, best, run.setup.start, stability)))
             fastest = fastest_walk(driver, run.setup.start, stability)
             write_outputs(run.folder, run.settings, rows, fastest)

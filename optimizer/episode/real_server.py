@@ -27,7 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from optimizer.episode.servers import ServerAddress, ServerProcess
+from optimizer.episode.servers import ServerAddress, ServerProcess, ServerStartError
 from protocol.framing import encode_frame
 
 #: Environment variable naming the real server's command.
@@ -36,7 +36,7 @@ RCSSSERVER3D_ENV = "RCSSSERVER3D"
 RCSSSERVER3D_NAME = "rcssserver3d"
 
 
-class RealServerError(RuntimeError):
+class RealServerError(ServerStartError):
     """A real server cannot be found or started; the message says what to do."""
 
 

@@ -16,6 +16,7 @@ ever ending, so thousands of episodes run on one server.
 from __future__ import annotations
 
 import logging
+import math
 import os
 import subprocess
 import sys
@@ -29,10 +30,27 @@ from gait import TFSParams, save_gait
 from optimizer.episode.config import EpisodeConfig, EpisodeResult, Start
 from optimizer.episode.monitor_link import EpisodeFailure, MonitorLink
 from optimizer.episode.scoring import Judge, TracePoint, find_robot
-from optimizer.episode.servers import ManagedServer, ServerAddress, StubProcess
+from optimizer.episode.servers import (
+    ManagedServer,
+    ServerAddress,
+    ServerStartError,
+    StubProcess,
+)
 from protocol import trainer
+from protocol.nao import ACTION_LATENCY_CYCLES
+
+#: Cycles between two monitor messages of the server (0.04 s; docs/robot_and_server.md section 4).
+MONITOR_CYCLES = 2
 
 log = logging.getLogger("optimizer.episode")
+
+
+def quiet_agent_logs() -> None:
+    """For a process that runs agents in-process, episode after episode: a fall is an episode's
+    ordinary outcome, scored from the monitor, and the agent's warning about it would write
+    through any progress display. Called by the processes' entry points, not by a library
+    constructor."""
+    logging.getLogger("agent").setLevel(logging.ERROR)
 
 
 class EpisodeRunner:
@@ -62,9 +80,6 @@ class EpisodeRunner:
             self._owned = StubProcess(seed=seed) if server is None else server
         self._monitor: MonitorLink | None = None
         self._tmp = tempfile.TemporaryDirectory(prefix="gala_episode_")
-        # a fall is an episode's ordinary outcome, scored from the monitor: in-process agents need
-        # not log it (and would write through any progress display)
-        logging.getLogger("agent").setLevel(logging.ERROR)
 
     # ----- public -----
     def evaluate(self, genes: Sequence[float] | TFSParams, seed: int | None = None,
@@ -81,7 +96,7 @@ class EpisodeRunner:
             try:
                 result = self._episode(params, config)
                 return EpisodeResult(**{**result.to_dict(), "wall": time.monotonic() - started})
-            except (EpisodeFailure, AgentError, OSError, RuntimeError) as exc:
+            except (EpisodeFailure, AgentError, OSError, ServerStartError) as exc:  # infrastructure, not bugs
                 reason = f"{type(exc).__name__}: {exc}"
                 log.warning("episode attempt %d failed: %s", attempt, reason)
                 self._reset_server()
@@ -161,7 +176,7 @@ class EpisodeRunner:
         try:
             while judge.result is None:
                 agent.receive()
-                if not play_on_sent and agent.behaviour.settle_cycle >= config.settle_cycles:
+                if not play_on_sent and agent.settled:
                     # sent between a perception and its reply, so it reaches the server at the
                     # same cycle in every run: the walk and the game clock start together
                     link.send(trainer.play_mode("PlayOn"))
@@ -187,16 +202,18 @@ class EpisodeRunner:
         process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                                    env=dict(os.environ))
         try:
-            # the agent walks by its own count after settling; PlayOn starts the game clock once
-            # the robot has its team (init done) and has stood for the settling time
-            settle_messages = 0
+            # an agent process walks by its own count after settling; PlayOn starts the game clock
+            # once the robot has its team (init done) and has stood for the settling time, counted
+            # in monitor states: one every MONITOR_CYCLES cycles, plus the action latency
+            settle_states = 0
+            wanted = math.ceil((AgentConfig.settle_cycles + ACTION_LATENCY_CYCLES) / MONITOR_CYCLES)
             play_on_sent = False
             while judge.result is None:
                 for state in link.poll(wait=0.05):
                     robot = find_robot(state, "left", config.unum)
                     if robot is not None and not play_on_sent:
-                        settle_messages += 1
-                        if settle_messages * 2 >= AgentConfig.settle_cycles + 2:
+                        settle_states += 1
+                        if settle_states >= wanted:
                             link.send(trainer.play_mode("PlayOn"))
                             play_on_sent = True
                     judge.feed(state)

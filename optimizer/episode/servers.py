@@ -42,6 +42,10 @@ class ServerAddress:
         return f"{self.host}:{self.agent_port}:{self.monitor_port}"
 
 
+class ServerStartError(RuntimeError):
+    """A server process could not be started: an infrastructure failure, not the gait's."""
+
+
 class ManagedServer(Protocol):
     """A server process a worker owns: started on demand, restarted after a failure, stopped."""
 
@@ -110,7 +114,7 @@ class StubProcess(ServerProcess):
         if not line.startswith(_LISTENING):
             code = self._process.poll()
             self.stop()
-            raise RuntimeError(f"server_stub did not start (exit code {code}, said {line.strip()!r})")
+            raise ServerStartError(f"server_stub did not start (exit code {code}, said {line.strip()!r})")
         ports = line[len(_LISTENING):].split(", monitor port ")
         self.address = ServerAddress("127.0.0.1", int(ports[0]), int(ports[1]))
 

@@ -21,6 +21,7 @@ from distributed import Client, LocalCluster, WorkerPlugin, as_completed, get_wo
 
 from optimizer.episode import EpisodeConfig, EpisodeRunner, ServerAddress
 from optimizer.episode.real_server import RealServerProcess, find_rcssserver3d
+from optimizer.episode.runner import quiet_agent_logs
 from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask, failed_result
 
 _PLUGIN = "gala-episode-runner"
@@ -43,6 +44,7 @@ class EpisodeRunnerPlugin(WorkerPlugin):
         self.runner: EpisodeRunner | None = None
 
     def setup(self, worker) -> None:  # noqa: ANN001 - distributed.Worker
+        quiet_agent_logs()
         named = self.servers.get(worker.name) or self.servers.get(str(worker.name)) or os.environ.get(SERVER_ENV)
         if named:
             self.runner = EpisodeRunner(self.config, ServerAddress.parse(named), seed=self.seed)

@@ -31,6 +31,7 @@ from typing import Any, Protocol
 
 from optimizer.episode import EpisodeConfig, EpisodeRunner, ServerAddress, Start
 from optimizer.episode.real_server import RealServerProcess
+from optimizer.episode.runner import quiet_agent_logs
 
 
 def stable_seed(run_seed: int, name: str) -> int:
@@ -141,6 +142,7 @@ def _worker_main(factory: RunnerFactory, index: int, conn: Connection) -> None:
     """
     os.setpgid(0, 0)  # its own process group: killing the group also kills what the runner started
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when work stops
+    quiet_agent_logs()
     try:
         runner = factory(index)
     except BaseException:

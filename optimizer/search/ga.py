@@ -305,6 +305,8 @@ class KeyedSearch:
 
     def __init__(self, program: SearchProgram) -> None:
         self._program = program
+        #: every answer so far, in the order asked: what ``best_key`` reads
+        self._answered: dict[str, float] = {}
         self._answers: dict[str, float] = {}
         self._batch: Batch | None = None
         self._keys: list[str] = []
@@ -338,7 +340,14 @@ class KeyedSearch:
                 raise ValueError(f"fitness of candidate {key!r} must be finite, got {value!r}")
         self._answers.update({key: float(value) for key, value in results.items()})
         if len(self._answers) == len(self._keys):
+            self._answered.update((key, self._answers[key]) for key in self._keys)
             self._advance(np.array([self._answers[key] for key in self._keys]))
+
+    def best_key(self, prefix: str = "") -> str | None:
+        """The key of the fittest candidate answered under ``prefix`` (the first asked of equals):
+        which logged episode a search's best is, without comparing floats or genes."""
+        keys = [key for key in self._answered if key.startswith(prefix)]
+        return max(keys, key=self._answered.__getitem__) if keys else None
 
     def _advance(self, fitness: np.ndarray | None) -> None:
         try:
