@@ -35,7 +35,7 @@ class ServerConnection:
             self._sock.settimeout(self._timeout if timeout is None else timeout)
             try:
                 chunk = self._sock.recv(65536)
-            except socket.timeout:
+            except TimeoutError:
                 if timeout is not None:
                     return None
                 raise AgentError(f"no message from the server at {self.address} for {self._timeout:g} s") from None

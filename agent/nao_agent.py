@@ -121,7 +121,8 @@ class NaoAgent:
 
     def _first_message(self, conn: ServerConnection) -> bytes:
         """In sync mode the real server answers a silent new agent's ``scene`` only after two 1-s
-        waits; a ``(syn)`` every 10 ms gets the first perception in about 20 ms (docs/robot_and_server.md section 11)."""
+        waits; a ``(syn)`` every 10 ms gets the first perception in about 20 ms
+        (docs/robot_and_server.md section 11)."""
         interval = self.config.syn_nudge_interval
         if not self.config.sync or interval is None:
             return conn.receive()

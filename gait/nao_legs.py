@@ -1,10 +1,10 @@
 """Mapping TFS hip/knee angles onto the NAO's leg pitch joints, with the foot kept flat.
 
-Signs follow the real server (docs/robot_and_server.md section 1): ``*le3 > 0`` swings the thigh forward (= hip flexion), ``*le4 < 0``
-bends the knee (so knee flexion enters negated), ``*le5 > 0`` lifts the toes. The ankle is not a
-gene: ``le5 = -(le3 + le4)`` cancels the thigh and shank pitch so the sole stays parallel to the
-torso's ground plane; checked on the real server, where the opposite sign tips the robot over
-within 0.7 s.
+Signs follow the real server (docs/robot_and_server.md section 1): ``*le3 > 0`` swings the thigh
+forward (= hip flexion), ``*le4 < 0`` bends the knee (so knee flexion enters negated), ``*le5 > 0``
+lifts the toes. The ankle is not a gene: ``le5 = -(le3 + le4)`` cancels the thigh and shank pitch
+so the sole stays parallel to the torso's ground plane; checked on the real server, where the
+opposite sign tips the robot over within 0.7 s.
 """
 from __future__ import annotations
 

@@ -20,8 +20,9 @@ GENE_UNITS: dict[str, str] = {
 }
 
 # The robot facts the box is derived from (the NAO of rcssserver3d 0.7.3; ``tests/test_gait.py``
-# checks them against ``protocol.nao``, which this package does not import): hip pitch ``le3`` -25..100 deg of flexion, knee ``le4`` -130..1 deg
-# (0..130 deg of flexion), every hinge capped at 6.1395 rad/s, one command per 0.02 s cycle.
+# checks them against ``protocol.nao``, which this package does not import): hip pitch ``le3``
+# -25..100 deg of flexion, knee ``le4`` -130..1 deg (0..130 deg of flexion), every hinge capped at
+# 6.1395 rad/s, one command per 0.02 s cycle.
 _HIP_RANGE = (-25.0, 100.0)
 _KNEE_FLEXION_RANGE = (0.0, 130.0)
 _SPEED_CAP_DEG = math.degrees(6.1395)
@@ -104,7 +105,7 @@ class TFSParams:
         return np.array(astuple(self), dtype=float)
 
     @classmethod
-    def from_array(cls, genes: np.ndarray) -> "TFSParams":
+    def from_array(cls, genes: np.ndarray) -> TFSParams:
         values = [float(v) for v in genes]
         if len(values) != len(GENE_NAMES):
             raise ValueError(f"a TFS chromosome has {len(GENE_NAMES)} genes, got {len(values)}")

@@ -5,11 +5,25 @@ from protocol.errors import FrameTooLarge, ProtocolError
 from protocol.framing import MAX_FRAME_SIZE, FrameDecoder, encode_frame
 from protocol.monitor import MonitorReader, MonitorState, RobotPose
 from protocol.nao import (
-    CYCLE, JOINT_BY_EFFECTOR, JOINT_BY_PERCEPTOR, JOINTS, NAO_HETERO_RSG, NAO_RSG, PLAY_MODES,
-    SPEED_CAP, Joint,
+    CYCLE,
+    JOINT_BY_EFFECTOR,
+    JOINT_BY_PERCEPTOR,
+    JOINTS,
+    NAO_HETERO_RSG,
+    NAO_RSG,
+    PLAY_MODES,
+    SPEED_CAP,
+    Joint,
 )
 from protocol.perception import (
-    ForceResistance, GameState, Hear, Perception, Polar, SeenPlayer, Vision, parse_perception,
+    ForceResistance,
+    GameState,
+    Hear,
+    Perception,
+    Polar,
+    SeenPlayer,
+    Vision,
+    parse_perception,
 )
 from protocol.sexp import parse_sexp
 

@@ -196,7 +196,8 @@ class MonitorReader:
         if open_kinds:
             raise ProtocolError(len(text), "')' (the full scene ends inside a node)", "end of message")
         self._node_count = len(parents)
-        self._robots = [self._robot(node, robot_type, materials, parents, slts) for node, robot_type, materials in meshes]
+        self._robots = [self._robot(node, robot_type, materials, parents, slts)
+                        for node, robot_type, materials in meshes]
         self._torsos = sorted(((robot.torso, robot) for robot in self._robots), key=lambda item: item[0])
 
     @staticmethod

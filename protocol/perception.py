@@ -27,8 +27,8 @@ Grammar (one message; perceptors in scene-graph order, section 5)::
 from __future__ import annotations
 
 import re
-from operator import itemgetter
 from dataclasses import dataclass, field
+from operator import itemgetter
 from typing import NamedTuple
 
 from protocol.errors import ProtocolError

@@ -96,7 +96,7 @@ class StubProcess:
             self.proc.stderr.close()
         return self._stderr
 
-    def __enter__(self) -> "StubProcess":
+    def __enter__(self) -> StubProcess:
         return self
 
     def __exit__(self, *exc: object) -> None:

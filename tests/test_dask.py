@@ -32,7 +32,7 @@ def _fitness_by_key(folder: Path) -> dict[str, float]:
 @pytest.mark.slow
 def test_dask_local_run_equals_the_local_run(tmp_path: Path) -> None:
     def gala(*args: str) -> None:
-        done = subprocess.run([sys.executable, "-m", "optimizer.search.gala", *TINY, *args], cwd=REPO,
+        done = subprocess.run([sys.executable, "-m", "optimizer.gala", *TINY, *args], cwd=REPO,
                               capture_output=True, text=True, timeout=600)
         assert done.returncode == 0, done.stderr
 

@@ -20,7 +20,7 @@ TINY = ["--crossover", "0.8", "--population", "4", "--iterations", "3", "--gener
 
 
 def _gala(*args: str, timeout: float = 600) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "optimizer.search.gala", *args], cwd=REPO, capture_output=True,
+    return subprocess.run([sys.executable, "-m", "optimizer.gala", *args], cwd=REPO, capture_output=True,
                           text=True, timeout=timeout)
 
 
@@ -78,7 +78,7 @@ def test_tiny_gala_on_the_stub_writes_every_output(tmp_path: Path) -> None:
 def test_killed_run_resumes_with_nothing_lost_or_counted_twice(tmp_path: Path) -> None:
     whole, cut = tmp_path / "whole", tmp_path / "cut"
     assert _gala(*TINY, "--out", str(whole)).returncode == 0
-    proc = subprocess.Popen([sys.executable, "-m", "optimizer.search.gala", *TINY, "--out", str(cut)], cwd=REPO,
+    proc = subprocess.Popen([sys.executable, "-m", "optimizer.gala", *TINY, "--out", str(cut)], cwd=REPO,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline and (not (cut / "episodes.jsonl").exists() or len(_log(cut)) < 6):

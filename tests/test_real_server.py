@@ -235,7 +235,7 @@ def test_an_error_in_the_owner_stops_its_server(rcssserver3d: str) -> None:
 def _start_gala(rcssserver3d: str, out: Path) -> tuple[subprocess.Popen, str]:
     env, tag = _tagged_env(rcssserver3d)
     process = subprocess.Popen(
-        [sys.executable, "-m", "optimizer.search.gala", "--real", "2", "--crossover", "0.8", "--population", "30",
+        [sys.executable, "-m", "optimizer.gala", "--real", "2", "--crossover", "0.8", "--population", "30",
          "--iterations", "50", "--seed", "3", "--quiet", "--out", str(out)],
         cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
     assert _wait_for(lambda: len(_servers_tagged(tag)) == 2, 60.0), "the run did not start its 2 servers"
@@ -276,7 +276,7 @@ def test_tiny_gala_on_a_real_server_end_to_end(rcssserver3d: str, tmp_path: Path
     env, tag = _tagged_env(rcssserver3d)
     out = tmp_path / "run"
     done = subprocess.run(
-        [sys.executable, "-m", "optimizer.search.gala", "--real", "1", "--crossover", "0.8", "--population", "6",
+        [sys.executable, "-m", "optimizer.gala", "--real", "1", "--crossover", "0.8", "--population", "6",
          "--iterations", "3", "--generations", "2", "--walk-time", "5", "--check-repeats", "3", "--seed", "5",
          "--quiet", "--out", str(out)], cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
@@ -299,7 +299,7 @@ def test_each_dask_worker_starts_and_stops_its_own_real_server(rcssserver3d: str
     env, tag = _tagged_env(rcssserver3d)
     out = tmp_path / "run"
     done = subprocess.run(
-        [sys.executable, "-m", "optimizer.search.gala", "--real", "1", "--dask-local", "1", "--crossover", "0.8",
+        [sys.executable, "-m", "optimizer.gala", "--real", "1", "--dask-local", "1", "--crossover", "0.8",
          "--population", "4", "--iterations", "2", "--generations", "2", "--walk-time", "2", "--check-repeats", "0",
          "--seed", "2", "--quiet", "--out", str(out)], cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr

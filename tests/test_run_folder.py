@@ -159,7 +159,7 @@ def test_repair_moves_bad_lines_aside_and_keeps_every_intact_line(tmp_path: Path
 
 
 def _ga(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "optimizer.search.ga", "--population", "2", "--generations", "1",
+    return subprocess.run([sys.executable, "-m", "optimizer.ga", "--population", "2", "--generations", "1",
                            "--walk-time", "0.2", "--check-repeats", "0", "--workers", "1", "--quiet", *args],
                           cwd=REPO, capture_output=True, text=True, timeout=300)
 

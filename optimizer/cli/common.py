@@ -80,7 +80,7 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--start", type=number, nargs=3, default=None, metavar=("X", "Y", "DEG"),
                         help="where each walk starts: field position (m) and heading (deg, 0 = +x); the "
                              "distance is measured along the heading from where the torso stands when the "
-                             "walk begins (default %g %g %g)" % DEFAULT_START)
+                             "walk begins (default {:g} {:g} {:g})".format(*DEFAULT_START))
     parser.add_argument("--agent-mode", choices=("inprocess", "process"), default=None,
                         help="run the agent inside the worker or as its own process (default inprocess)")
 

@@ -177,14 +177,15 @@ def plot(gaits: Sequence[ReportedGait], path: Path, run_kind: str, target: str) 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m optimizer.transfer", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("run", type=existing_run, metavar="RUN_DIR", help="a run folder of optimizer.search.gala or optimizer.search.ga")
+    p.add_argument("run", type=existing_run, metavar="RUN_DIR",
+                   help="a run folder of optimizer.gala, optimizer.ga or optimizer.compare")
     add_server_arguments(p)
     p.add_argument("--repeats", type=positive_int, default=10, metavar="R", help="walks per gait (default 10)")
     p.add_argument("--jitter", type=non_negative, nargs=3, default=None, metavar=("DX", "DY", "DEG"),
                    help="how far each walk's start is moved (default: the run's check jitter)")
     p.add_argument("--start", type=number, nargs=3, default=None, metavar=("X", "Y", "DEG"),
-                   help="where the walks start (default: the run's start, or %g %g %g where a real "
-                        "server's referee would move a robot from it)" % DEFAULT_START)
+                   help="where the walks start (default: the run's start, or {:g} {:g} {:g} where a real "
+                        "server's referee would move a robot from it)".format(*DEFAULT_START))
     p.add_argument("--seed", type=int, default=None, help="seed of the moved starts (default: the run's)")
     return p
 

@@ -50,7 +50,7 @@ class EpisodeConfig:
     fall_up_z: float = 0.6
     fall_height: float = 0.25
 
-    def starting_at(self, start: Start) -> "EpisodeConfig":
+    def starting_at(self, start: Start) -> EpisodeConfig:
         """This config with another start point and heading."""
         x, y, heading = start
         return replace(self, start=(float(x), float(y)), heading=float(heading))
@@ -79,6 +79,6 @@ class EpisodeResult:
         return asdict(self)
 
     @classmethod
-    def failed(cls, reason: str, wall: float) -> "EpisodeResult":
+    def failed(cls, reason: str, wall: float) -> EpisodeResult:
         """An episode the infrastructure could not run; fitness 0 so that the search goes on."""
         return cls(0.0, False, 0.0, 0.0, 0.0, "failed", reason, wall)

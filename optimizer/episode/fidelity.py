@@ -75,7 +75,7 @@ class FidelityGait:
                 "params": dict(zip(GENE_NAMES, self.genes)), "screen": dict(self.screen)}
 
     @classmethod
-    def from_dict(cls, item: Mapping[str, Any]) -> "FidelityGait":
+    def from_dict(cls, item: Mapping[str, Any]) -> FidelityGait:
         params = item["params"]
         genes = tuple(float(params[name]) for name in GENE_NAMES)
         TFSParams(*genes)  # a set holding a gait that breaks eq. 5 is refused on load
@@ -152,7 +152,7 @@ class Walk:
 
     @classmethod
     def from_episode(cls, distance: float, fell: bool, time: float, status: str,
-                     track: Sequence[TracePoint], heading_deg: float) -> "Walk":
+                     track: Sequence[TracePoint], heading_deg: float) -> Walk:
         return cls(distance, fell, time, sideways_drift(track, heading_deg), heading_change(track), status,
                    tuple(track))
 
@@ -505,7 +505,8 @@ def report(comparisons: Sequence[GaitComparison], summary: FidelitySummary,
         lines.append(
             f"{c.gait.name:<22} {_fmt(r['stand_distance_m'], 2):>10} {_fmt(r['stand_fall_time_s'], 2):>7} "
             f"{_fmt(r['real_mean_m'], 2):>11} {rng:>13} {r['real_falls']}/{r['real_walks']:<4} "
-            f"{_fmt(r['ratio'], 2):>6} {_fmt(r['stand_heading_change_deg'], 0):>6}/{_fmt(r['real_heading_change_deg'], 0):<7} "
+            f"{_fmt(r['ratio'], 2):>6} "
+            f"{_fmt(r['stand_heading_change_deg'], 0):>6}/{_fmt(r['real_heading_change_deg'], 0):<7} "
             f"{_fmt(r['stand_drift_m'], 2):>6}/{_fmt(r['real_drift_m'], 2):<6}")
     s = summary
     lines += [
@@ -513,7 +514,8 @@ def report(comparisons: Sequence[GaitComparison], summary: FidelitySummary,
         f"gaits compared: {s.gaits}; real walks that fell: {_fmt(s.real_fall_fraction * 100, 0)}%",
         f"Spearman rank correlation of the distances: {_fmt(s.spearman)}",
         f"fall agreement (real: fell in the majority of its walks): {_fmt(s.fall_agreement)}",
-        f"over the {s.walking_gaits} gaits walking >= {targets.walking_distance:g} m on the real server without a fall:",
+        f"over the {s.walking_gaits} gaits walking >= {targets.walking_distance:g} m on the real server "
+        "without a fall:",
         f"  |1 - stand-in/real distance|: median {_fmt(s.median_ratio_error)}, worst {_fmt(s.worst_ratio_error)}",
         f"  heading change, times apart (slack {targets.turn_slack:g} deg): median {_fmt(s.median_turn_factor, 2)}, "
         f"worst {_fmt(s.worst_turn_factor, 2)}",

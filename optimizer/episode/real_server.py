@@ -205,8 +205,9 @@ class RealServerProcess(ServerProcess):
         deadline = time.monotonic() + self.start_timeout
         while not _listening(address):
             if self._process.poll() is not None:
-                raise RealServerError(f"{self.command} exited with code {self._process.returncode} before opening "
-                                      f"ports {address.agent_port}/{address.monitor_port}: {_tail(home / 'server.log')}")
+                raise RealServerError(f"{self.command} exited with code {self._process.returncode} before "
+                                      f"opening ports {address.agent_port}/{address.monitor_port}: "
+                                      f"{_tail(home / 'server.log')}")
             if time.monotonic() > deadline:
                 raise RealServerError(f"{self.command} did not open ports {address.agent_port}/"
                                       f"{address.monitor_port} within {self.start_timeout:g} s")

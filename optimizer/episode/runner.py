@@ -108,7 +108,7 @@ class EpisodeRunner:
             self._owned.stop()
         self._tmp.cleanup()
 
-    def __enter__(self) -> "EpisodeRunner":
+    def __enter__(self) -> EpisodeRunner:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -24,7 +24,7 @@ class ServerAddress:
     monitor_port: int
 
     @classmethod
-    def parse(cls, text: str) -> "ServerAddress":
+    def parse(cls, text: str) -> ServerAddress:
         """``HOST:AGENT_PORT:MONITOR_PORT``, e.g. ``127.0.0.1:3100:3200``."""
         parts = text.rsplit(":", 2)
         if len(parts) != 3 or not parts[0]:

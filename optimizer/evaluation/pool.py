@@ -52,7 +52,7 @@ class EpisodeTask:
     seed: int
     start: Start | None = None
 
-    def run_on(self, runner: "Runner") -> dict[str, Any]:
+    def run_on(self, runner: Runner) -> dict[str, Any]:
         """This episode on ``runner``, as the result dict a worker sends back."""
         return dict(runner.evaluate(self.genes, seed=self.seed, start=self.start).to_dict())
 
@@ -320,7 +320,7 @@ class ProcessPoolEvaluator:
             self._kill(worker)
         self._pool = []
 
-    def __enter__(self) -> "ProcessPoolEvaluator":
+    def __enter__(self) -> ProcessPoolEvaluator:
         return self
 
     def __exit__(self, *exc: object) -> None:

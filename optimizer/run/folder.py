@@ -108,7 +108,7 @@ class RunFolder:
 
     @classmethod
     def create(cls, path: Path, command: str, settings: Mapping[str, Any], seed: int,
-               argv: Sequence[str], runtime: Mapping[str, Any] | None = None) -> "RunFolder":
+               argv: Sequence[str], runtime: Mapping[str, Any] | None = None) -> RunFolder:
         """A new run in ``path`` (created; it may exist only if empty)."""
         path = Path(path)
         if (path / MANIFEST).exists():
@@ -133,7 +133,7 @@ class RunFolder:
         return folder
 
     @classmethod
-    def open(cls, path: Path) -> "RunFolder":
+    def open(cls, path: Path) -> RunFolder:
         """An existing run; ``RunFolderError`` if ``path`` has no readable manifest."""
         path = Path(path)
         try:
@@ -157,7 +157,7 @@ class RunFolder:
     def episodes_path(self) -> Path:
         return self.path / EPISODES
 
-    def open_log(self) -> "EpisodeLog":
+    def open_log(self) -> EpisodeLog:
         return EpisodeLog(self.episodes_path)
 
     def check_log(self, skip_bad_lines: bool = False) -> list[str]:
@@ -328,7 +328,7 @@ class EpisodeLog:
     def close(self) -> None:
         self._file.close()
 
-    def __enter__(self) -> "EpisodeLog":
+    def __enter__(self) -> EpisodeLog:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -40,7 +40,7 @@ class TableRow:
     @classmethod
     def from_gala(cls, result: GALAResult, distance_m: float | None = None, speed_mps: float | None = None,
                   repeats: int | None = None, repeat_falls: int | None = None,
-                  spread: tuple[float, float, float] | None = None) -> "TableRow":
+                  spread: tuple[float, float, float] | None = None) -> TableRow:
         """``spread``: the check's (shortest, longest, mean) distance."""
         shortest, longest, mean = spread or (None, None, None)
         return cls(result.crossover, result.optimal_mutation, result.best_fitness, distance_m, speed_mps,
