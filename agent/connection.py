@@ -6,6 +6,7 @@ two sends waited for the peer's delayed ACK and cost 88 ms per cycle on loopback
 from __future__ import annotations
 
 import socket
+from typing import overload
 
 from agent.errors import AgentError
 from protocol.framing import FrameDecoder, encode_frame
@@ -28,6 +29,12 @@ class ServerConnection:
             self._sock.sendall(encode_frame(message))
         except OSError as exc:
             raise AgentError(f"server at {self.address} closed the connection ({exc.strerror or exc})") from None
+
+    @overload
+    def receive(self) -> bytes: ...
+
+    @overload
+    def receive(self, timeout: float) -> bytes | None: ...
 
     def receive(self, timeout: float | None = None) -> bytes | None:
         """The next whole message; None if ``timeout`` passes first (only when a timeout is given)."""

@@ -7,6 +7,7 @@ is how the paper's Fig. 2 draws them and how the real-server calibration walk is
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import astuple, dataclass, fields
 
 import numpy as np
@@ -105,7 +106,7 @@ class TFSParams:
         return np.array(astuple(self), dtype=float)
 
     @classmethod
-    def from_array(cls, genes: np.ndarray) -> TFSParams:
+    def from_array(cls, genes: np.ndarray | Sequence[float]) -> TFSParams:
         values = [float(v) for v in genes]
         if len(values) != len(GENE_NAMES):
             raise ValueError(f"a TFS chromosome has {len(GENE_NAMES)} genes, got {len(values)}")

@@ -288,7 +288,7 @@ def _parse_typical(m: re.Match[str]) -> Perception:
 def _parse_known(text: str, m: re.Match[str]) -> Perception:
     g = m.groups()
     joints = {name: float(ax) for name, ax in _HJ.findall(text)}
-    frp = {found[0]: _foot(found, 1) for found in _FRP.findall(text)}
+    frp = {found[0]: foot for found in _FRP.findall(text) if (foot := _foot(found, 1)) is not None}
     return _perception_from_header(g, joints, frp, _span(m, _HEADER_GROUPS + 1))
 
 
@@ -369,7 +369,7 @@ def _fields(node: SExp) -> dict[str, SExp]:
     return {
         item[0]: item
         for item in node[1:]
-        if isinstance(item, list) and item and isinstance(item[0], str)
+        if isinstance(item, SExp) and item and isinstance(item[0], str)
     }
 
 
@@ -395,7 +395,7 @@ def _read_vision_slow(node: SExp, text: str, unknown: list[str]) -> Vision:
     """Grammar: ``(See <seen>*)``, see the module docstring."""
     vision = Vision()
     for item in node[1:]:
-        if not (isinstance(item, list) and item and isinstance(item[0], str)):
+        if not (isinstance(item, SExp) and item and isinstance(item[0], str)):
             unknown.append(text[item.start : item.end] if isinstance(item, SExp) else item)
             continue
         name = item[0]

@@ -76,8 +76,10 @@ class EpisodeRunner:
         self.last_trace: list[TracePoint] | None = None
         self._fixed_server = server if isinstance(server, ServerAddress) else None
         self._owned: ManagedServer | None = None
-        if self._fixed_server is None:
-            self._owned = StubProcess(seed=seed) if server is None else server
+        if server is None:
+            self._owned = StubProcess(seed=seed)
+        elif not isinstance(server, ServerAddress):
+            self._owned = server
         self._monitor: MonitorLink | None = None
         self._tmp = tempfile.TemporaryDirectory(prefix="gala_episode_")
 

@@ -65,7 +65,8 @@ class EpisodeRunnerPlugin(WorkerPlugin):
 def _run_episode(task: EpisodeTask) -> tuple[dict, str]:
     """The Dask task: one episode on this worker's runner."""
     worker = get_worker()
-    plugin: EpisodeRunnerPlugin = worker.plugins[_PLUGIN]
+    plugin = worker.plugins[_PLUGIN]
+    assert isinstance(plugin, EpisodeRunnerPlugin) and plugin.runner is not None  # set up with the worker
     return task.run_on(plugin.runner), str(worker.name)
 
 

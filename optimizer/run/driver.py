@@ -11,6 +11,7 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any, Protocol
 
+import numpy as np
 from tqdm import tqdm
 
 from optimizer.episode import Start
@@ -59,7 +60,7 @@ class Driver:
             search.tell({key: float(record["fitness"]) for key, record in records.items()})
         return search.result()
 
-    def task(self, key: str, genes: Sequence[float], start: Start | None = None) -> EpisodeTask:
+    def task(self, key: str, genes: Sequence[float] | np.ndarray, start: Start | None = None) -> EpisodeTask:
         """The episode ``key`` of this run, with its own seed."""
         return EpisodeTask(key, tuple(float(g) for g in genes), stable_seed(self.run_seed, key), start)
 

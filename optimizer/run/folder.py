@@ -247,7 +247,7 @@ def scan_episode_log(path: Path) -> tuple[dict[str, dict[str, Any]], list[str], 
                 warnings.append(f"{path}: ignored an unreadable last line ({problem})")
                 complete -= len(line) + 1
             else:
-                bad.append((number, problem))
+                bad.append((number, problem or "unreadable"))
             continue
         key = record["key"]
         if key in records:

@@ -12,6 +12,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import astuple, dataclass, fields
 from pathlib import Path
+from typing import Any
 
 from matplotlib.figure import Figure
 
@@ -69,7 +70,7 @@ def write_table_csv(rows: Sequence[TableRow], path: Path) -> None:
             writer.writerow([_cell(name, value) for name, value in zip(COLUMNS, astuple(row))])
 
 
-def _value(name: str, text: str) -> float | int | None:
+def _value(name: str, text: str) -> Any:  # the column decides: a count, a figure or none
     if text == "":
         return None
     return int(text) if name in _COUNTS else float(text)

@@ -217,7 +217,7 @@ class GeneticAlgorithm:
             raise RuntimeError("tell() called before ask()")
         f = check_fitness(fitness, len(self._pending))
         population, values = self._pending, f
-        if self._carries_elite():
+        if self.config.elitism and self.population is not None and self.fitness is not None:
             elite = int(np.argmax(self.fitness))
             population = np.vstack([self.population[elite], self._pending])
             values = np.concatenate([[self.fitness[elite]], f])
@@ -230,15 +230,13 @@ class GeneticAlgorithm:
         )
         self.generation += 1
 
-    def _carries_elite(self) -> bool:
-        return self.config.elitism and self.population is not None
-
     def _initial(self) -> np.ndarray:
         low, high = self.bounds[:, 0], self.bounds[:, 1]
         genes = self._rng.uniform(low, high, size=(self.config.population_size, len(self.bounds)))
         return self._finish(genes)
 
     def _breed(self) -> np.ndarray:
+        assert self.population is not None and self.fitness is not None  # ask() breeds only after a tell()
         count = self.config.population_size - (1 if self.config.elitism else 0)
         pairs = (count + 1) // 2
         parents = self.operators.selection(self.fitness, 2 * pairs, self._rng)
@@ -415,6 +413,7 @@ class GARun(KeyedSearch):
     def result(self) -> GAResult:
         if not self.done:
             raise RuntimeError("GARun.result() called before the run is done")
+        assert self.ga.best_genes is not None  # a finished run has evaluated at least one generation
         return GAResult(self.ga.best_fitness, self.ga.best_genes.copy(), list(self.ga.history))
 
 

@@ -163,6 +163,7 @@ class GALA(KeyedSearch):
         optimal = automaton.actions[automaton.best_action()]
         final = self._new_ga(optimal, self._final_rng)
         yield from evolve(final, config.ga.generations, f"{tag}/final")
+        assert final.best_genes is not None  # the final GA evaluated at least one generation
         self._result = GALAResult(
             crossover=self.crossover,
             optimal_mutation=optimal,
