@@ -48,9 +48,11 @@ def _point_jacobian(point, k, com0, chains, anchors, axes, out):
 
 @njit(cache=True)
 def dynamics(masses, principal, chains, parents, joint_of, local_axes, coms, quats, anchors,
-             v0, w0, qd, gravity):
-    """Mass matrix M (dof x dof), generalised force of gravity, spin and velocity products Q
-    (so that M du/dt = Q + applied), and the world axes of the hinges."""
+             v0, w0, qd, gravity, drag_linear, drag_angular):
+    """Mass matrix M (dof x dof), generalised force of gravity, spin, velocity products and every
+    body's drag (force -drag_linear v at its centre, torque -drag_angular w, as SimSpark's
+    DragController applies before each step) Q (so that M du/dt = Q + applied), and the world
+    axes of the hinges."""
     nb = masses.shape[0]
     nj = local_axes.shape[0]
     nu = 6 + nj
@@ -125,13 +127,18 @@ def dynamics(masses, principal, chains, parents, joint_of, local_axes, coms, qua
                 m[x, y] += s
                 if x != y:
                     m[y, x] += s
-        # generalised force: m (g - a) through jv, -(I dspin + w x I w) through jw
+        # generalised force: m (g - a) - drag v through jv, -(I dspin + w x I w) - drag w through jw
         f = mk * (gravity - acc[k])
+        for a in range(3):
+            vk = 0.0
+            for ci in range(ncols):
+                vk += jv[a, cols[ci]] * (v0[cols[ci]] if cols[ci] < 3 else (w0[cols[ci] - 3] if cols[ci] < 6 else qd[cols[ci] - 6]))
+            f[a] -= drag_linear * vk
         iwk = np.array([
             inertia[k, 0, 0] * spin[k, 0] + inertia[k, 0, 1] * spin[k, 1] + inertia[k, 0, 2] * spin[k, 2],
             inertia[k, 1, 0] * spin[k, 0] + inertia[k, 1, 1] * spin[k, 1] + inertia[k, 1, 2] * spin[k, 2],
             inertia[k, 2, 0] * spin[k, 0] + inertia[k, 2, 1] * spin[k, 1] + inertia[k, 2, 2] * spin[k, 2]])
-        tq = -_cross(spin[k], iwk)
+        tq = -_cross(spin[k], iwk) - drag_angular * spin[k]
         for a in range(3):
             tq[a] -= inertia[k, a, 0] * dspin[k, 0] + inertia[k, a, 1] * dspin[k, 1] + inertia[k, a, 2] * dspin[k, 2]
         for ci in range(ncols):
@@ -281,7 +288,7 @@ def _plane_space(n):
 
 @njit(cache=True)
 def step(masses, principal, chains, parents, joint_of, local_axes, coms, quats, anchors,
-         v0, w0, qd, gravity, contact_body, contact_point, contact_normal, contact_depth,
+         v0, w0, qd, gravity, drag_linear, drag_angular, contact_body, contact_point, contact_normal, contact_depth,
          motor_target, motor_force, motor_state, h, erp, normal_cfm, slip, surface_layer, motor_cfm):
     """One ODE-like step of one robot: the new generalised velocity u (dof), the contact forces
     (points x 3: normal, along t1, along t2), the tangents (points x 2 x 3), the motor torques
@@ -290,7 +297,7 @@ def step(masses, principal, chains, parents, joint_of, local_axes, coms, quats, 
     nj = local_axes.shape[0]
     nu = 6 + nj
     m, q, axes = dynamics(masses, principal, chains, parents, joint_of, local_axes, coms, quats,
-                          anchors, v0, w0, qd, gravity)
+                          anchors, v0, w0, qd, gravity, drag_linear, drag_angular)
     u = np.empty(nu)
     u[0:3] = v0
     u[3:6] = w0

@@ -32,9 +32,13 @@ capsule's two ends. Bullet no longer collides the robots with the ground. The ne
 sensors, the monitor and vision read it as before, and each robot's contact points carry the
 solved forces in pybullet's tuple layout for the FRP perceptor.
 
+Every body has SimSpark's drag (facts section 2): a force -0.01 v at its centre and a torque
+-0.01 w, added before the step as its DragController does (``linear_damping``, ``angular_damping``).
+
 Not (yet) modelled here: robot-robot, robot-ball and robot-goal contacts (the ball still moves in
-Bullet's step, the robots are not pushed back by it); the bodies' 0.01 drag; ODE's joint-row
-softness (the hinges are exact here).
+Bullet's step, the robots are not pushed back by it); ODE's joint-row softness and maximal
+coordinates (the hinges are exact here; ODE integrates each body on its own and pulls the joints
+back together with ERP 0.2).
 """
 from __future__ import annotations
 
@@ -134,7 +138,7 @@ def solve(robot, ground: int, config) -> Solved:
     u, forces, tangents, torques, iterations = ode_kernels.step(
         static.masses, static.principal, static.chains, static.parents, static.joint_of,
         static.local_axes, coms, quats, anchors, np.array(v0, dtype=float), np.array(w0, dtype=float),
-        rates, np.array([0.0, 0.0, config.gravity]), parts, points, normals, depths,
+        rates, np.array([0.0, 0.0, config.gravity]), config.linear_damping, config.angular_damping, parts, points, normals, depths,
         np.asarray(target, dtype=float), np.asarray(force, dtype=float), static.motor_state, h,
         config.contact_erp, config.contact_cfm, config.slip, config.contact_slop, MOTOR_CFM)
     v, w, qd = u[0:3], u[3:6], u[6:]
@@ -171,7 +175,7 @@ def warm_up() -> None:
     ode_kernels.step(masses, principal, chains, np.array([0, 0], dtype=np.int64), np.array([0, 0], dtype=np.int64),
                      np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 0.3], [0.0, 0.0, 0.05]]),
                      np.tile([0.0, 0.0, 0.0, 1.0], (2, 1)), np.array([[0.0, 0.0, 0.1]]), np.zeros(3), np.zeros(3),
-                     np.zeros(1), np.array([0.0, 0.0, -9.81]), np.array([1], dtype=np.int64),
+                     np.zeros(1), np.array([0.0, 0.0, -9.81]), 0.01, 0.01, np.array([1], dtype=np.int64),
                      np.array([[0.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 1.0]]), np.array([0.002]),
                      np.zeros(1), np.full(1, 10.0), np.zeros(1, dtype=np.int64), 0.02, 0.4, 1e-4, 0.005,
                      0.001, MOTOR_CFM)
