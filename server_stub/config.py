@@ -36,6 +36,9 @@ class PhysicsConfig:
     #: variable ``NAO_STUB_PHYSICS`` picks the default, so stand-ins started in subprocesses (the
     #: fidelity benchmark's) follow it.
     backend: str = field(default_factory=lambda: os.environ.get("NAO_STUB_PHYSICS", "bullet"))
+    #: "ode" backend only: joint stops as ODE's limit rows (one-sided; the motor pushing into the
+    #: stop with its full torque), not as the "bullet" backend's two-sided stop motor.
+    ode_limits: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_LIMITS", "1") == "1")
 
     # --- solver ---
     #: "dantzig": pybullet's exact MLCP solver, like ODE's dWorldStep (section 4). Measured: a

@@ -289,10 +289,13 @@ def _plane_space(n):
 @njit(cache=True)
 def step(masses, principal, chains, parents, joint_of, local_axes, coms, quats, anchors,
          v0, w0, qd, gravity, drag_linear, drag_angular, contact_body, contact_point, contact_normal, contact_depth,
-         motor_target, motor_force, motor_state, h, erp, normal_cfm, slip, surface_layer, motor_cfm):
+         motor_target, motor_lo, motor_hi, joint_torque, motor_state, h, erp, normal_cfm, slip, surface_layer,
+         motor_cfm):
     """One ODE-like step of one robot: the new generalised velocity u (dof), the contact forces
     (points x 3: normal, along t1, along t2), the tangents (points x 2 x 3), the motor torques
-    (hinges) and the solver's iterations. ``motor_state`` (hinges) is the motors' active-set
+    (hinges) and the solver's iterations. Hinge j's row drives its rate to ``motor_target[j]``
+    with a torque in [``motor_lo[j]``, ``motor_hi[j]``]; ``joint_torque`` is applied to the hinges
+    besides (a motor pushing against its stop). ``motor_state`` (hinges) is the rows' active-set
     guess, updated in place."""
     nj = local_axes.shape[0]
     nu = 6 + nj
@@ -302,6 +305,8 @@ def step(masses, principal, chains, parents, joint_of, local_axes, coms, quats, 
     u[0:3] = v0
     u[3:6] = w0
     u[6:] = qd
+    for j in range(nj):
+        q[6 + j] += joint_torque[j]
     lm, ok = _cholesky(m)
     free_u = u + h * _cho_solve(lm, q)
     nc = contact_point.shape[0]
@@ -339,8 +344,8 @@ def step(masses, principal, chains, parents, joint_of, local_axes, coms, quats, 
         jac[r, 6 + j] = 1.0
         c[r] = motor_target[j]
         cfm[r] = motor_cfm
-        lo[r] = -motor_force[j]
-        hi[r] = motor_force[j]
+        lo[r] = motor_lo[j]
+        hi[r] = motor_hi[j]
         state[r] = motor_state[j]
     # A = h J M^-1 J' + cfm, b = c - J u_free: then J u_new = c - cfm lambda (ODE's soft rows)
     minv_jt = np.empty((nu, nr))

@@ -48,6 +48,7 @@ import numpy as np
 import pybullet as pb
 
 from server_stub import ode_kernels
+from server_stub.robot import _MAX
 
 from server_stub.ode_kernels import BOX, CAPSULE, SPHERE
 
@@ -132,14 +133,17 @@ def solve(robot, ground: int, config) -> Solved:
     normals = np.zeros((nc, 3))
     normals[:, 2] = 1.0
     target, force = robot._sent
-    if target.shape[0] != len(static.indices):
-        target = np.zeros(len(static.indices))
-        force = np.full(len(static.indices), config.motor_torque)
+    nj = len(static.indices)
+    if target.shape[0] != nj:
+        target = np.zeros(nj)
+        force = np.full(nj, config.motor_torque)
+    lo, hi, push = _motor_rows(angles, np.asarray(force, dtype=float), robot._motor, config.motor_torque,
+                               config.ode_limits)
     u, forces, tangents, torques, iterations = ode_kernels.step(
         static.masses, static.principal, static.chains, static.parents, static.joint_of,
         static.local_axes, coms, quats, anchors, np.array(v0, dtype=float), np.array(w0, dtype=float),
         rates, np.array([0.0, 0.0, config.gravity]), config.linear_damping, config.angular_damping, parts, points, normals, depths,
-        np.asarray(target, dtype=float), np.asarray(force, dtype=float), static.motor_state, h,
+        np.asarray(target, dtype=float), lo, hi, push, static.motor_state, h,
         config.contact_erp, config.contact_cfm, config.slip, config.contact_slop, MOTOR_CFM)
     v, w, qd = u[0:3], u[3:6], u[6:]
     new_position = np.array(position) + h * v
@@ -153,6 +157,30 @@ def solve(robot, ground: int, config) -> Solved:
     return Solved(new_position.tolist(), new_orientation.tolist(), v.tolist(), w.tolist(),
                   [[a] for a in new_angles.tolist()], [[r] for r in qd.tolist()], contacts, torques,
                   iterations)
+
+
+def _motor_rows(angles, force, sticky, torque_limit, ode_limits):
+    """Bounds of each hinge's row and the torque pushing hinges besides it. Inside its range a
+    hinge's row is its motor's, |torque| <= 10 N m. Outside, ``server_stub.motors`` has made the
+    row its stop's (target: back by ERP 0.8 or the bounced speed, whichever is larger). With
+    ``ode_limits`` the stop row is ODE's: one-sided (it only pushes the hinge back in), and the
+    motor, which has no row of its own then, pushes with its full torque as an outside torque
+    when its (sticky) target speed points into the stop or is 0, and not at all when it points
+    out (SimSpark's fudge factor 1e-5; facts section 3). Without, a two-sided row with the stop's
+    force, as the "bullet" backend's stop is."""
+    lo = -force.copy()
+    hi = force.copy()
+    push = np.zeros(force.shape[0])
+    if ode_limits:
+        for j in np.nonzero(force > torque_limit)[0]:
+            high = angles[j] >= _MAX[j]
+            if high:
+                lo[j], hi[j] = -np.inf, 0.0
+                push[j] = torque_limit if sticky[j] >= 0.0 else 0.0
+            else:
+                lo[j], hi[j] = 0.0, np.inf
+                push[j] = -torque_limit if sticky[j] <= 0.0 else 0.0
+    return lo, hi, push
 
 
 def apply(robot, solved: Solved) -> None:
@@ -177,7 +205,8 @@ def warm_up() -> None:
                      np.tile([0.0, 0.0, 0.0, 1.0], (2, 1)), np.array([[0.0, 0.0, 0.1]]), np.zeros(3), np.zeros(3),
                      np.zeros(1), np.array([0.0, 0.0, -9.81]), 0.01, 0.01, np.array([1], dtype=np.int64),
                      np.array([[0.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 1.0]]), np.array([0.002]),
-                     np.zeros(1), np.full(1, 10.0), np.zeros(1, dtype=np.int64), 0.02, 0.4, 1e-4, 0.005,
+                     np.zeros(1), np.full(1, -10.0), np.full(1, 10.0), np.zeros(1), np.zeros(1, dtype=np.int64),
+                     0.02, 0.4, 1e-4, 0.005,
                      0.001, MOTOR_CFM)
     ode_kernels.integrate_orientation(np.array([0.0, 0.0, 0.0, 1.0]), np.array([0.0, 0.0, 1.0]), 0.02)
     ode_kernels.ground_contacts(np.array([0, 0, 0], dtype=np.int64), np.array([BOX, SPHERE, CAPSULE], dtype=np.int64),
