@@ -39,6 +39,10 @@ class PhysicsConfig:
     #: "ode" backend only: joint stops as ODE's limit rows (one-sided; the motor pushing into the
     #: stop with its full torque), not as the "bullet" backend's two-sided stop motor.
     ode_limits: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_LIMITS", "1") == "1")
+    #: "ode" backend only: contacts found where ODE's bodies would be, each hinge's anchor copies
+    #: drifted apart by ODE's per-body integration and pulled back by its world ERP 0.2
+    #: (``ode_kernels.joint_drift``); the dynamics stay in exact joints.
+    ode_joint_drift: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_DRIFT", "0") == "1")
 
     # --- solver ---
     #: "dantzig": pybullet's exact MLCP solver, like ODE's dWorldStep (section 4). Measured: a

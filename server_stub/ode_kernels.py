@@ -470,3 +470,31 @@ def ground_contacts(shape_body, shape_kind, shape_size, coms, quats, max_points)
                     depths[count] = rad - e2
                     count += 1
     return bodies[:count], points[:count], depths[:count]
+
+
+@njit(cache=True)
+def joint_drift(parents, joint_of, local_axes, coms, quats, anchors, w0, qd, h):
+    """How far each hinge's two copies of its anchor move apart in one step when every body is
+    integrated on its own, as ODE's maximal coordinates do (centre by h v, orientation turned by
+    h w): the chord-for-arc error h^2/2 (w_c x (w_c x r_c) - w_p x (w_p x r_p)) with r from
+    each body's centre to the anchor, w_c and w_p the child's and the parent's spins (hinges x 3,
+    child copy minus parent copy). The joint's velocity rows keep the copies moving together to
+    first order; this second-order gap is what ODE's joint ERP then pulls back."""
+    nb = coms.shape[0]
+    nj = local_axes.shape[0]
+    spin = np.zeros((nb, 3))
+    spin[0] = w0
+    out = np.zeros((nj, 3))
+    for k in range(1, nb):
+        p = parents[k]
+        j = joint_of[k]
+        r = rotation_matrix(quats[k])
+        la = local_axes[j]
+        axis = np.array([r[0, 0] * la[0] + r[0, 1] * la[1] + r[0, 2] * la[2],
+                         r[1, 0] * la[0] + r[1, 1] * la[1] + r[1, 2] * la[2],
+                         r[2, 0] * la[0] + r[2, 1] * la[1] + r[2, 2] * la[2]])
+        spin[k] = spin[p] + qd[j] * axis
+        rc = anchors[j] - coms[k]
+        rp = anchors[j] - coms[p]
+        out[j] = 0.5 * h * h * (_cross(spin[k], _cross(spin[k], rc)) - _cross(spin[p], _cross(spin[p], rp)))
+    return out
