@@ -42,6 +42,10 @@ class PhysicsConfig:
     #: "ode" backend only: contacts found where ODE's bodies would be, each hinge's anchor copies
     #: drifted apart by ODE's per-body integration and pulled back by its world ERP 0.2
     #: (``ode_kernels.joint_drift``); the dynamics stay in exact joints.
+    #: "ode" backend only: 3 = a box touches the ground at ODE's box-plane contacts (at most 3:
+    #: the deepest corner and two neighbours, ``ode_kernels.box_plane``); 4 = at its (up to 4)
+    #: corners below the ground. SimSpark asks ODE for 4 contacts a pair (odespace.cpp).
+    ode_box_points: int = field(default_factory=lambda: int(os.environ.get("NAO_STUB_ODE_BOX_POINTS", "4")))
     ode_joint_drift: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_DRIFT", "0") == "1")
 
     # --- solver ---

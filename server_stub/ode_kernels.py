@@ -406,12 +406,60 @@ CAPSULE = 7
 
 
 @njit(cache=True)
+def box_plane(c, r, size):
+    """ODE's box-plane contacts (plane z = 0, normal +z), at most 3: the deepest corner; then the
+    corner one side away along the side whose projection on the normal is shortest, as deep as
+    the first less that projection; then the corner one side away from the first along the side
+    with the next shortest projection, as deep as the second less that one (so counted from the
+    second, not its own depth); each only while its depth is >= 0. Returns (points, depths)."""
+    a = np.empty(3)
+    bb = np.empty(3)
+    p = c.copy()
+    for i in range(3):
+        a[i] = size[i] * r[2, i]
+        bb[i] = abs(a[i])
+        sign = -0.5 if a[i] > 0.0 else 0.5
+        for q in range(3):
+            p[q] += sign * size[i] * r[q, i]
+    depth = 0.5 * (bb[0] + bb[1] + bb[2]) - c[2]
+    points = np.empty((3, 3))
+    depths = np.empty(3)
+    if depth < 0.0:
+        return points[:0], depths[:0]
+    points[0] = p
+    depths[0] = depth
+    # sides by projected length, ties as ODE's comparisons break them
+    if bb[0] < bb[1]:
+        if bb[2] < bb[0]:
+            first, second = 2, (0 if bb[0] < bb[1] else 1)
+        else:
+            first, second = 0, (1 if bb[1] < bb[2] else 2)
+    else:
+        if bb[2] < bb[1]:
+            first, second = 2, (0 if bb[0] < bb[1] else 1)
+        else:
+            first, second = 1, (0 if bb[0] < bb[2] else 2)
+    n = 1
+    for side in (first, second):
+        depth -= bb[side]
+        if depth < 0.0:
+            break
+        sign = 1.0 if a[side] > 0.0 else -1.0
+        for q in range(3):
+            points[n, q] = p[q] + sign * size[side] * r[q, side]
+        depths[n] = depth
+        n += 1
+    return points[:n], depths[:n]
+
+
+@njit(cache=True)
 def ground_contacts(shape_body, shape_kind, shape_size, coms, quats, max_points):
     """Contacts of a robot's shapes with the ground plane z = 0, as ODE's colliders make them:
-    only for touching or overlapping geometry (depth >= 0); a box gets its corners below the
-    plane, deepest first, at most ``max_points``; a sphere its lowest point; a capsule (size:
-    length, radius, along its z) the lowest point of each end. Shapes sit at their body's centre
-    with its axes. Returns (body, point (n x 3), depth) per contact; the normal is +z."""
+    only for touching or overlapping geometry (depth >= 0); a box gets ODE's box-plane contacts
+    (``box_plane``, at most 3) when ``max_points`` is 3, else its corners below the plane, deepest
+    first, at most ``max_points``; a sphere its lowest point; a capsule (size: length, radius,
+    along its z) the lowest point of each end. Shapes sit at their body's centre with its axes.
+    Returns (body, point (n x 3), depth) per contact; the normal is +z."""
     n = shape_body.shape[0]
     cap = n * max(max_points, 2)
     bodies = np.empty(cap, dtype=np.int64)
@@ -423,7 +471,14 @@ def ground_contacts(shape_body, shape_kind, shape_size, coms, quats, max_points)
         r = rotation_matrix(quats[k])
         c = coms[k]
         kind = shape_kind[s]
-        if kind == BOX:
+        if kind == BOX and max_points == 3:
+            bp, bd = box_plane(c, r, shape_size[s])
+            for i in range(bd.shape[0]):
+                bodies[count] = k
+                points[count] = bp[i]
+                depths[count] = bd[i]
+                count += 1
+        elif kind == BOX:
             hx, hy, hz = shape_size[s, 0] / 2, shape_size[s, 1] / 2, shape_size[s, 2] / 2
             cz = np.empty(8)
             corners = np.empty((8, 3))

@@ -27,8 +27,10 @@ every vector in the world frame (``server_stub.ode_kernels``):
 
 Contacts with the ground are found at the step's start (as SimSpark collides before it steps) by
 ``ode_kernels.ground_contacts``, which makes them as ODE's plane colliders do: only for touching
-or overlapping geometry, a box's corners below the plane (at most 4), a sphere's lowest point, a
-capsule's two ends. Bullet no longer collides the robots with the ground. The new state is written back into pybullet, so
+or overlapping geometry; a box gets ODE's box-plane contacts (the deepest corner and at most two
+neighbours, ``ode_kernels.box_plane``; SimSpark asks for 4, ODE's box-plane collider gives at most
+3) or, with ``ode_box_points`` 4, its corners below the plane; a sphere its lowest point; a
+capsule its two ends. Bullet no longer collides the robots with the ground. The new state is written back into pybullet, so
 sensors, the monitor and vision read it as before, and each robot's contact points carry the
 solved forces in pybullet's tuple layout for the FRP perceptor.
 
@@ -54,7 +56,7 @@ from server_stub.ode_kernels import BOX, CAPSULE, SPHERE
 
 #: ODE joint rows' CFM (facts section 3), used for the motor rows.
 MOTOR_CFM = 1e-8
-#: Most contact points per shape and the ground (ODE's box-plane collider: 4).
+#: Most contact points per shape and the ground in ``warm_up``.
 MAX_POINTS = 4
 #: ODE's world ERP (its default 0.2; SimSpark sets none), which pulls a hinge's drifted anchor
 #: copies back together.
@@ -135,7 +137,7 @@ def solve(robot, ground: int, config) -> Solved:
     anchors = np.array([l[4] for l in links], dtype=float)
     placed = coms + static.chain_matrix @ static.gap if config.ode_joint_drift else coms
     parts, points, depths = ode_kernels.ground_contacts(static.shape_body, static.shape_kind, static.shape_size,
-                                                        placed, quats, MAX_POINTS)
+                                                        placed, quats, config.ode_box_points)
     nc = parts.shape[0]
     normals = np.zeros((nc, 3))
     normals[:, 2] = 1.0
@@ -226,3 +228,6 @@ def warm_up() -> None:
     ode_kernels.ground_contacts(np.array([0, 0, 0], dtype=np.int64), np.array([BOX, SPHERE, CAPSULE], dtype=np.int64),
                                 np.array([[0.1, 0.1, 0.1], [0.1, 0.1, 0.1], [0.1, 0.02, 0.0]]),
                                 np.array([[0.0, 0.0, 0.05]]), np.array([[0.0, 0.0, 0.0, 1.0]]), MAX_POINTS)
+    ode_kernels.ground_contacts(np.array([0], dtype=np.int64), np.array([BOX], dtype=np.int64),
+                                np.array([[0.1, 0.1, 0.1]]), np.array([[0.0, 0.0, 0.05]]),
+                                np.array([[0.0, 0.0, 0.0, 1.0]]), 3)

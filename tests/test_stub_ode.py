@@ -147,3 +147,27 @@ def test_calibration_walk_on_the_ode_backend():
         result = calibration_walk.run(world)
     assert not result.fell
     assert result.dx == pytest.approx(3.0, rel=0.15)
+
+
+def test_odes_box_plane_rule_gives_the_deepest_corner_and_at_most_two_neighbours():
+    """``ode_box_points`` 3: a flat foot 1 mm deep touches at 3 corners (the deepest and its two
+    neighbours along the sole's sides, never the diagonal one); the third is counted as deep as
+    the second less its own side's projection, as ODE counts it."""
+    tilt = pb.getQuaternionFromEuler((0.001, 0.002, 0.0))  # a hair off flat picks the deepest corner
+    bodies, points, depths = ode_kernels.ground_contacts(
+        np.array([0], dtype=np.int64), np.array([ode_kernels.BOX], dtype=np.int64),
+        np.array([[0.08, 0.16, 0.02]]), np.array([[0.0, 0.0, 0.009]]), np.array([tilt]), 3)
+    assert len(bodies) == 3
+    corners = {tuple(np.sign(p[:2]).astype(int)) for p in points}
+    assert len(corners) == 3 and all(abs(x) == 1 for c in corners for x in c)
+    assert depths[0] == max(depths) and depths[2] <= depths[1] <= depths[0]
+    r = np.array(pb.getMatrixFromQuaternion(tilt)).reshape(3, 3)
+    projections = sorted(abs(np.array([0.08, 0.16, 0.02]) * r[2]))
+    assert depths[1] == pytest.approx(depths[0] - projections[0], abs=1e-12)
+    assert depths[2] == pytest.approx(depths[0] - projections[0] - projections[1], abs=1e-12)
+    # standing on an edge (a heel strike): only the corners that reach the ground
+    heel = pb.getQuaternionFromEuler((0.2, 0.0, 0.0))
+    bodies, points, depths = ode_kernels.ground_contacts(
+        np.array([0], dtype=np.int64), np.array([ode_kernels.BOX], dtype=np.int64),
+        np.array([[0.08, 0.16, 0.02]]), np.array([[0.0, 0.0, 0.025]]), np.array([heel]), 3)
+    assert len(bodies) == 2 and np.all(points[:, 1] < 0.0) and np.all(depths >= 0.0)
