@@ -62,16 +62,25 @@ def syn() -> str:
     return "(syn)"
 
 
-def say(message: str) -> str:
-    """``(say MSG)``. The server drops messages that break its rules, so refuse them here:
-    at most 20 characters of printable ASCII (0x21-0x7e), no space, no parentheses."""
+def say_problem(message: str) -> str | None:
+    """What breaks the server's rule for a ``say`` message, or None: at most 20 characters of
+    printable ASCII (0x21-0x7e), no space, no parentheses. The one statement of the rule: agents
+    refuse to send such a message, and the stand-in refuses to relay it."""
     if not message:
-        raise ValueError("say: message is empty")
+        return "message is empty"
     if len(message) > SAY_MAX_LENGTH:
-        raise ValueError(f"say: message is {len(message)} characters, at most {SAY_MAX_LENGTH} allowed")
+        return f"message is {len(message)} characters, at most {SAY_MAX_LENGTH} allowed"
     for index, char in enumerate(message):
         if char in "()":
-            raise ValueError(f"say: parenthesis {char!r} at index {index} is not allowed")
+            return f"parenthesis {char!r} at index {index} is not allowed"
         if not "\x21" <= char <= "\x7e":
-            raise ValueError(f"say: character {char!r} at index {index} is not printable ASCII other than space")
+            return f"character {char!r} at index {index} is not printable ASCII other than space"
+    return None
+
+
+def say(message: str) -> str:
+    """``(say MSG)``. The server drops messages that break its rules, so refuse them here."""
+    problem = say_problem(message)
+    if problem is not None:
+        raise ValueError(f"say: {problem}")
     return f"(say {message})"

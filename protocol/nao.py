@@ -47,6 +47,21 @@ JOINTS: tuple[Joint, ...] = (
 )
 
 JOINT_BY_EFFECTOR: dict[str, Joint] = {j.effector: j for j in JOINTS}
+
+
+def _perceptors(first: str, last: str) -> tuple[str, ...]:
+    names = [j.perceptor for j in JOINTS]
+    return tuple(names[names.index(first) : names.index(last) + 1])
+
+
+#: The joint perceptors of one perception message in blocks, in the order the server prints them
+#: (docs/robot_and_server.md section 5); between the blocks come, in turn, ``See`` (every third
+#: cycle), ``FRP rf`` and ``FRP lf`` (each only while that foot touches something). The parser
+#: and the stand-in's printer both read the layout from here.
+HJ_BEFORE_SEE: tuple[str, ...] = _perceptors("hj1", "hj2")
+HJ_BEFORE_FRP_RF: tuple[str, ...] = _perceptors("raj1", "rlj5")
+HJ_BEFORE_FRP_LF: tuple[str, ...] = _perceptors("rlj6", "llj5")
+HJ_LAST: tuple[str, ...] = _perceptors("llj6", "llj6")
 JOINT_BY_PERCEPTOR: dict[str, Joint] = {j.perceptor: j for j in JOINTS}
 
 #: Hinge motor speed cap in rad/s (section 3; observed 7.03 deg per 0.02 s cycle).

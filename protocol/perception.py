@@ -32,7 +32,7 @@ from operator import itemgetter
 from typing import NamedTuple
 
 from protocol.errors import ProtocolError
-from protocol.nao import JOINTS
+from protocol.nao import HJ_BEFORE_FRP_LF, HJ_BEFORE_FRP_RF, HJ_BEFORE_SEE, HJ_LAST, JOINTS
 from protocol.sexp import SExp, decode_ascii, parse_sexp
 
 Vec3 = tuple[float, float, float]
@@ -195,12 +195,14 @@ def _frp(name: str) -> str:
 
 
 _PERCEPTORS = [j.perceptor for j in JOINTS]
-#: See after hj2, FRP rf after rlj5, FRP lf after llj5 (section 5).
+#: The message's layout (``protocol.nao``'s blocks of joint perceptors): See after the first
+#: block, FRP rf after the second, FRP lf after the third.
 _TYPICAL = re.compile(
     _HEADER
-    + "".join(map(_hj, _PERCEPTORS[:2])) + rf"(?P<see>{_SEE_LAYOUT})?"
-    + "".join(map(_hj, _PERCEPTORS[2:15])) + _frp("rf") + _hj(_PERCEPTORS[15])
-    + "".join(map(_hj, _PERCEPTORS[16:21])) + _frp("lf") + _hj(_PERCEPTORS[21])
+    + "".join(map(_hj, HJ_BEFORE_SEE)) + rf"(?P<see>{_SEE_LAYOUT})?"
+    + "".join(map(_hj, HJ_BEFORE_FRP_RF)) + _frp("rf")
+    + "".join(map(_hj, HJ_BEFORE_FRP_LF)) + _frp("lf")
+    + "".join(map(_hj, HJ_LAST))
 )
 #: Where each value sits in ``_TYPICAL``'s ``groups()`` tuple.
 _TYPICAL_INDEX = {name: index - 1 for name, index in _TYPICAL.groupindex.items()}

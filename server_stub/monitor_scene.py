@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from protocol.nao import PLAY_MODES
+from server_stub import field as soccer_field
 from server_stub.number_text import g_rows
 
 Vec3 = tuple[float, float, float]
@@ -41,18 +42,18 @@ class MonitorConfig:
     """Fixed header values of the real server's default configuration (naosoccersim.rb), and the
     delta threshold of the scene (facts sheet section 9)."""
 
-    field_length: float = 30
-    field_width: float = 20
-    field_height: float = 40
-    goal_width: float = 2.1
-    goal_depth: float = 0.6
-    goal_height: float = 0.8
+    field_length: float = soccer_field.LENGTH
+    field_width: float = soccer_field.WIDTH
+    field_height: float = soccer_field.HEIGHT
+    goal_width: float = soccer_field.GOAL_WIDTH
+    goal_depth: float = soccer_field.GOAL_DEPTH
+    goal_height: float = soccer_field.GOAL_HEIGHT
     border_size: float = 0
-    free_kick_distance: float = 2
+    free_kick_distance: float = soccer_field.CENTRE_CIRCLE_RADIUS
     wait_before_kick_off: float = 30
     agent_radius: float = 0.4
-    ball_radius: float = 0.042
-    ball_mass: float = 0.026
+    ball_radius: float = soccer_field.BALL_RADIUS
+    ball_mass: float = soccer_field.BALL_MASS
     rule_goal_pause_time: float = 3
     rule_kick_in_pause_time: float = 1
     rule_half_time: float = 300
@@ -152,7 +153,7 @@ def _static_scene() -> _Node:
 
 
 _STATIC = _static_scene()
-_BALL_CHILD = _mesh("models/soccerball.obj", 0.042, ["soccerball_rcs-soccerball.png"])
+_BALL_CHILD = _mesh("models/soccerball.obj", soccer_field.BALL_RADIUS, ["soccerball_rcs-soccerball.png"])
 
 
 def _part_children(part: str, team: str | None, unum: int | None, robot_type: int) -> _Node:

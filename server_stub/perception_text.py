@@ -20,7 +20,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from protocol.nao import JOINTS
+from protocol.nao import HJ_BEFORE_FRP_LF, HJ_BEFORE_FRP_RF, HJ_BEFORE_SEE, HJ_LAST
 
 Vec3 = tuple[float, float, float]
 #: One foot's contact: centre of pressure and total force, both in the foot frame.
@@ -44,21 +44,12 @@ def _hj_template(names: Sequence[str]) -> str:
     return "".join(f"(HJ (n {name}) (ax %.2f))" for name in names)
 
 
-_PERCEPTORS = [j.perceptor for j in JOINTS]
-_HEAD = _PERCEPTORS[:2]
-#: Blocks of joints between which optional perceptors (See, FRP) are printed.
-_ARMS_RIGHT_LEG = _PERCEPTORS[2:15]          # raj1-4, laj1-4, rlj1-5
-_RIGHT_ANKLE_ROLL = _PERCEPTORS[15:16]       # rlj6
-_LEFT_LEG = _PERCEPTORS[16:21]               # llj1-5
-_LEFT_ANKLE_ROLL = _PERCEPTORS[21:22]        # llj6
-assert _ARMS_RIGHT_LEG[-1] == "rlj5" and _RIGHT_ANKLE_ROLL == ["rlj6"] and _LEFT_ANKLE_ROLL == ["llj6"]
-
+# the message's layout: protocol.nao's blocks of joint perceptors, with See and FRP between them
 _HEAD_T = ("(time (now %.2f))%s(GYR (n torso) (rt %.2f %.2f %.2f))(ACC (n torso) (a %.2f %.2f %.2f))"
-           + _hj_template(_HEAD))
-_ARMS_RIGHT_LEG_T = _hj_template(_ARMS_RIGHT_LEG)
-_RIGHT_ANKLE_ROLL_T = _hj_template(_RIGHT_ANKLE_ROLL)
-_LEFT_LEG_T = _hj_template(_LEFT_LEG)
-_LEFT_ANKLE_ROLL_T = _hj_template(_LEFT_ANKLE_ROLL)
+           + _hj_template(HJ_BEFORE_SEE))
+_BEFORE_FRP_RF_T = _hj_template(HJ_BEFORE_FRP_RF)
+_BEFORE_FRP_LF_T = _hj_template(HJ_BEFORE_FRP_LF)
+_LAST_T = _hj_template(HJ_LAST)
 _FRP_T = "(FRP (n %s) (c %.2f %.2f %.2f) (f %.2f %.2f %.2f))"
 
 
@@ -94,19 +85,18 @@ def format_perception(now: float, game: GameStateText, gyro: Vec3, acc: Vec3,
     j = joints_deg
     parts = [
         _HEAD_T % (now, format_game_state(game), gyro[0], gyro[1], gyro[2], acc[0], acc[1], acc[2],
-                   j["hj1"], j["hj2"]),
+                   *[j[n] for n in HJ_BEFORE_SEE]),
     ]
     if see is not None:
         parts.append(see)
     parts.extend(hear)
-    parts.append(_ARMS_RIGHT_LEG_T % tuple([j[n] for n in _ARMS_RIGHT_LEG]))
+    parts.append(_BEFORE_FRP_RF_T % tuple([j[n] for n in HJ_BEFORE_FRP_RF]))
     right = frp.get("rf")
     if right is not None:
         parts.append(_frp("rf", right))
-    parts.append(_RIGHT_ANKLE_ROLL_T % j["rlj6"])
-    parts.append(_LEFT_LEG_T % tuple([j[n] for n in _LEFT_LEG]))
+    parts.append(_BEFORE_FRP_LF_T % tuple([j[n] for n in HJ_BEFORE_FRP_LF]))
     left = frp.get("lf")
     if left is not None:
         parts.append(_frp("lf", left))
-    parts.append(_LEFT_ANKLE_ROLL_T % j["llj6"])
+    parts.append(_LAST_T % tuple([j[n] for n in HJ_LAST]))
     return "".join(parts)

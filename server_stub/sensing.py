@@ -7,17 +7,15 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from protocol.commands import say_problem
+from server_stub import number_text, vision
 from server_stub.clients import AgentState
 from server_stub.config import ServerConfig
 from server_stub.game import Game
 from server_stub.monitor_scene import GameHeader, MonitorScene, RobotView
 from server_stub.perception_text import GameStateText, format_hear, format_perception
-from server_stub import number_text, vision
 from server_stub.vision import PLAYER_PARTS, SeenRobot, VisionSensor
 from server_stub.world import World
-
-#: Longest message ``say`` may carry on the real server.
-_SAY_MAX = 20
 
 
 class Sensing:
@@ -45,8 +43,9 @@ class Sensing:
         other agent's perception."""
         if state.robot is None:
             raise ValueError("say before scene: there is no robot to speak")
-        if not message or len(message) > _SAY_MAX or not all(33 <= ord(c) <= 126 and c not in "()" for c in message):
-            raise ValueError(f"say message must be 1-{_SAY_MAX} printable characters without spaces or parentheses")
+        problem = say_problem(message)
+        if problem is not None:
+            raise ValueError(f"say: {problem}")
         self._said.append((state, message))
 
     def end_of_cycle(self) -> None:

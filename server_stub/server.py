@@ -29,6 +29,7 @@ import numpy as np
 from protocol.errors import ProtocolError, excerpt
 from protocol.nao import CYCLE, JOINTS, NAO_HETERO_RSG, NAO_RSG, ROBOT_TYPES
 from protocol.sexp import parse_sexp
+from server_stub import field
 from server_stub.agent_commands import flat_commands, has_syn, read_commands
 from server_stub.clients import AgentState, Client
 from server_stub.config import PhysicsConfig, ServerConfig
@@ -478,7 +479,7 @@ class StubServer:
 
     def drop_ball(self) -> None:
         x, y, _ = self.world.ball_position()
-        self.world.set_ball((x, y, 0.042), (0.0, 0.0, 0.0))
+        self.world.set_ball((x, y, field.BALL_RADIUS), (0.0, 0.0, 0.0))
         self.game.set_play_mode("PlayOn")
 
     def request_full_state(self, monitor: object) -> None:

@@ -26,6 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from server_stub import field
+
 Vec3 = tuple[float, float, float]
 
 
@@ -44,40 +46,12 @@ class VisionConfig:
     calibration_error: float = 0.005
 
 
-# Facts sheet section 7. Order: as the fixtures list the objects they show.
-LANDMARKS: tuple[tuple[str, Vec3], ...] = (
-    ("G1L", (-15.0, 1.05, 0.8)), ("G2L", (-15.0, -1.05, 0.8)),
-    ("G2R", (15.0, -1.05, 0.8)), ("G1R", (15.0, 1.05, 0.8)),
-    ("F1L", (-15.0, 10.0, 0.0)), ("F2L", (-15.0, -10.0, 0.0)),
-    ("F1R", (15.0, 10.0, 0.0)), ("F2R", (15.0, -10.0, 0.0)),
-)
+LANDMARKS = field.LANDMARKS
 #: Body parts of a robot the camera reports, in the server's order inside ``P``.
 PLAYER_PARTS: tuple[str, ...] = ("head", "rlowerarm", "llowerarm", "rfoot", "lfoot")
 
 
-def _field_lines() -> tuple[tuple[Vec3, Vec3], ...]:
-    half_len, half_wid = 15.0, 10.0
-    box_front, box_half = 15.0 - 1.8, 3.0
-    lines: list[tuple[Vec3, Vec3]] = [
-        ((0.0, half_wid, 0.0), (0.0, -half_wid, 0.0)),
-        ((half_len, -half_wid, 0.0), (half_len, half_wid, 0.0)),
-        ((-half_len, -half_wid, 0.0), (-half_len, half_wid, 0.0)),
-        ((half_len, half_wid, 0.0), (-half_len, half_wid, 0.0)),
-        ((half_len, -half_wid, 0.0), (-half_len, -half_wid, 0.0)),
-    ]
-    for s in (-1.0, 1.0):
-        lines += [
-            ((s * box_front, box_half, 0.0), (s * box_front, -box_half, 0.0)),
-            ((s * box_front, box_half, 0.0), (s * half_len, box_half, 0.0)),
-            ((s * box_front, -box_half, 0.0), (s * half_len, -box_half, 0.0)),
-        ]
-    corners = [(2.0 * math.cos(math.radians(36 * k)), 2.0 * math.sin(math.radians(36 * k)), 0.0)
-               for k in range(11)]
-    lines += [(corners[k], corners[k + 1]) for k in range(10)]
-    return tuple(lines)
-
-
-FIELD_LINES: tuple[tuple[Vec3, Vec3], ...] = _field_lines()
+FIELD_LINES = field.LINES
 
 
 @dataclass(frozen=True)

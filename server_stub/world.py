@@ -12,20 +12,15 @@ from pathlib import Path
 import numpy as np
 import pybullet as pb
 
-from server_stub import motors, nao_model, ode_step, rotations, slip
+from server_stub import field, motors, nao_model, ode_step, rotations, slip
 from server_stub.config import PhysicsConfig
 from server_stub.robot import Robot
 
 #: Facts sheet section 6: a new robot appears with its torso here, in the air.
 SPAWN_POSITION = (0.0, -1.0, 1.5)
-#: Facts sheet section 7 (field defaults).
-FIELD_LENGTH = 30.0
-FIELD_WIDTH = 20.0
-GOAL_WIDTH = 2.1
-GOAL_DEPTH = 0.6
-GOAL_HEIGHT = 0.8
-BALL_RADIUS = 0.042
-BALL_MASS = 0.026
+FIELD_LENGTH, FIELD_WIDTH = field.LENGTH, field.WIDTH
+GOAL_WIDTH, GOAL_DEPTH, GOAL_HEIGHT = field.GOAL_WIDTH, field.GOAL_DEPTH, field.GOAL_HEIGHT
+BALL_RADIUS, BALL_MASS = field.BALL_RADIUS, field.BALL_MASS
 #: Thickness of the goal's posts, bar and net boxes (not given by the facts sheet; thin).
 _GOAL_THICKNESS = 0.02
 #: Border walls: 1 m boxes about 10 m beyond the goal lines and 15 m beyond the side lines.
