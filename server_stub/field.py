@@ -23,6 +23,9 @@ PENALTY_WIDTH = 6.0
 CENTRE_CIRCLE_RADIUS = 2.0
 BALL_RADIUS = 0.042
 BALL_MASS = 0.026
+#: How far behind the centre line the referee puts a robot that stands in the other half before
+#: kick-off (naosoccersim.rb's FreeKickMoveDist).
+FREE_KICK_MOVE_DIST = 2.5
 
 HALF_LENGTH = LENGTH / 2
 HALF_WIDTH = WIDTH / 2

@@ -21,6 +21,8 @@ from server_stub.config import PhysicsConfig
 from server_stub.rotations import body_poses
 
 _N = len(JOINTS)
+#: Half sizes of the torso box along its own axes (docs/robot_and_server.md section 2).
+_TORSO_HALF_SIZE = np.array([0.05, 0.05, 0.09])
 _EFFECTOR_INDEX: dict[str, int] = {j.effector: i for i, j in enumerate(JOINTS)}
 _PERCEPTORS = [j.perceptor for j in JOINTS]
 _MIN = np.radians([j.min_deg for j in JOINTS])
@@ -248,6 +250,16 @@ class Robot:
     def joint_angles(self) -> dict[str, float]:
         """Hinge angles in degrees by perceptor name (hj1 ... llj6), in JOINTS order."""
         return dict(zip(_PERCEPTORS, np.degrees(self._joint_state()[0]).tolist()))
+
+    def x_extent(self) -> tuple[float, float]:
+        """The lowest and highest field x the referee counts the robot as reaching: its torso box
+        (0.10 x 0.10 x 0.18 m). Measured on the real server with this project's agent: a robot
+        beamed with its torso centre at x = -0.02 is moved back before kick-off, one at -0.05 is
+        left alone, though its feet reach 0.1 m ahead of the torso; so the referee's rectangle
+        spans about the torso, not the limbs."""
+        (x, _, _), rotation, _ = self._base_pose()
+        half = float(np.abs(np.array(rotation).reshape(3, 3)[0]) @ _TORSO_HALF_SIZE)
+        return x - half, x + half
 
     def torso_position(self) -> tuple[float, float, float]:
         return tuple(self._base_pose()[0])

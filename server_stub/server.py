@@ -262,6 +262,7 @@ class StubServer:
         for client, state in list(self._agents.items()):
             inbox, state.inbox = state.inbox, []
             self._guarded(client, self._on_agent_frames, client, state, inbox)
+        self._clear_halves_before_kick_off()
         self.world.step()
         self.game.advance()
         self.cycle += 1
@@ -273,6 +274,23 @@ class StubServer:
                 self._guarded(client, self._perceive, state, with_vision, states)
         if self.cycle % self.config.monitor_interval == 0:
             self._broadcast_monitor()
+
+    def _clear_halves_before_kick_off(self) -> None:
+        """The real referee's rule before kick-off, every cycle: a robot of a team whose body
+        reaches into the other team's half is moved to FREE_KICK_MOVE_DIST behind the centre line,
+        its y, height and orientation kept (a left-team robot beamed to (0, 0) stands at x -2.5).
+        Trainer tools that start walks near the centre line meet it here as on the real server."""
+        if self.game.play_mode != "BeforeKickOff":
+            return
+        for state in self._agents.values():
+            robot = state.robot
+            if robot is None or state.side not in ("left", "right"):
+                continue
+            low, high = robot.x_extent()
+            if (high > 0.0) if state.side == "left" else (low < 0.0):
+                _, y, z = robot.torso_position()
+                side = -1.0 if state.side == "left" else 1.0
+                robot.place(side * field.FREE_KICK_MOVE_DIST, y, z)
 
     def _broadcast_monitor(self) -> None:
         """One update to every monitor: a delta, or a full scene to those that need one (just

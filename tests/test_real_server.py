@@ -306,3 +306,17 @@ def test_each_dask_worker_starts_and_stops_its_own_real_server(rcssserver3d: str
     logged = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
     assert logged and all(r["status"] == "ok" for r in logged), [r["reason"] for r in logged if r["status"] != "ok"]
     assert _wait_for(lambda: _servers_tagged(tag) == [], 10.0), _servers_tagged(tag)
+
+
+@pytest.mark.real_server
+@pytest.mark.parametrize("x, stands_at", [(-0.02, -2.5), (-0.08, -0.08)])
+def test_the_referee_moves_a_robot_at_the_centre_line_on_both_servers(rcssserver3d: str, x: float,
+                                                                     stands_at: float) -> None:
+    """Before kick-off the referee moves a left-team robot whose torso reaches into the right half
+    2.5 m back; the stand-in does the same, so a walk placed there starts where it would on the
+    real server."""
+    for server in (RealServerProcess(rcssserver3d), None):
+        with EpisodeRunner(EpisodeConfig(start=(x, 0.0), walk_time=0.2), server, trace=True) as runner:
+            assert runner.evaluate(load_gait(DEFAULT_GAIT_PATH)).status == "ok"
+            assert runner.last_trace is not None
+            assert runner.last_trace[0].x == pytest.approx(stands_at, abs=0.03), "real" if server else "stand-in"

@@ -282,3 +282,30 @@ def test_beams_carry_the_real_servers_seeded_noise_unless_turned_off() -> None:
     assert len(set(noisy)) == 4
     assert max(max(abs(x + 5), abs(y - 2)) for x, y, _ in noisy) > 0.01
     assert max(abs(heading - 30) for *_, heading in noisy) > 1.0
+
+
+def _stands_at(server: StubProcess, beam_x: float, unum: int = 1) -> float:
+    """Where ``mypos`` puts the head after a robot was beamed to (beam_x, 0) and stood 10 cycles
+    in BeforeKickOff."""
+    client = RawClient(server.agent_port)
+    _handshake(client, unum=unum)
+    client.send(f"(beam {beam_x} 0 0)(syn)")
+    seen = []
+    for _ in range(10):
+        seen.append(client.receive())
+        client.send("(syn)")
+    client.close()
+    time.sleep(0.2)
+    last = [m for m in seen if "(mypos " in m][-1]
+    return float(re.search(r"\(mypos (\S+) ", last).group(1))
+
+
+def test_before_kick_off_a_robot_reaching_into_the_other_half_is_moved_back_as_the_referee_does() -> None:
+    """The real server moves a left-team robot beamed to (0, 0) or (-0.02, 0) 2.5 m behind the
+    centre line and leaves one beamed to -0.05 or farther where it was put (measured with this
+    project's agent: it stood at -2.50, -2.50, -0.05, -0.08)."""
+    with StubProcess("--sync", "--no-realtime", "--sense-mypos", "--no-beam-noise") as server:
+        assert _stands_at(server, 0.0) == pytest.approx(-2.5, abs=0.1)
+        assert _stands_at(server, -0.02, unum=2) == pytest.approx(-2.5, abs=0.1)
+        assert _stands_at(server, -0.08, unum=3) == pytest.approx(-0.08, abs=0.05)
+        assert _stands_at(server, -1.0, unum=4) == pytest.approx(-1.0, abs=0.05)
