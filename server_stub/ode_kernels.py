@@ -529,17 +529,21 @@ def ground_contacts(shape_body, shape_kind, shape_size, coms, quats, max_points)
 
 @njit(cache=True)
 def joint_drift(parents, joint_of, local_axes, coms, quats, anchors, w0, qd, h):
-    """How far each hinge's two copies of its anchor move apart in one step when every body is
-    integrated on its own, as ODE's maximal coordinates do (centre by h v, orientation turned by
-    h w): the chord-for-arc error h^2/2 (w_c x (w_c x r_c) - w_p x (w_p x r_p)) with r from
-    each body's centre to the anchor, w_c and w_p the child's and the parent's spins (hinges x 3,
-    child copy minus parent copy). The joint's velocity rows keep the copies moving together to
-    first order; this second-order gap is what ODE's joint ERP then pulls back."""
+    """How far each hinge's two copies of its anchor move apart, and how far the child turns off
+    the hinge, in one step when every body is integrated on its own, as ODE's maximal coordinates
+    do (centre by h v, orientation turned by h w). Anchor: the chord-for-arc error
+    h^2/2 (w_c x (w_c x r_c) - w_p x (w_p x r_p)), r from each body's centre to the anchor, w_c and
+    w_p the child's and the parent's spins (child copy minus parent copy). Turn: the two turns do
+    not commute, exp(-h w_p) exp(h w_c) = exp(h qd a + h^2/2 qd (a x w_p)), so the child ends
+    turned by h^2/2 qd (a x w_p) off its hinge. Returns (anchor gaps, turns), hinges x 3 each; the
+    joint's velocity rows keep both at zero to first order, and ODE's joint ERP then pulls these
+    second-order errors back."""
     nb = coms.shape[0]
     nj = local_axes.shape[0]
     spin = np.zeros((nb, 3))
     spin[0] = w0
-    out = np.zeros((nj, 3))
+    gap = np.zeros((nj, 3))
+    turn = np.zeros((nj, 3))
     for k in range(1, nb):
         p = parents[k]
         j = joint_of[k]
@@ -551,5 +555,76 @@ def joint_drift(parents, joint_of, local_axes, coms, quats, anchors, w0, qd, h):
         spin[k] = spin[p] + qd[j] * axis
         rc = anchors[j] - coms[k]
         rp = anchors[j] - coms[p]
-        out[j] = 0.5 * h * h * (_cross(spin[k], _cross(spin[k], rc)) - _cross(spin[p], _cross(spin[p], rp)))
+        gap[j] = 0.5 * h * h * (_cross(spin[k], _cross(spin[k], rc)) - _cross(spin[p], _cross(spin[p], rp)))
+        turn[j] = 0.5 * h * h * qd[j] * _cross(axis, spin[p])
+    return gap, turn
+
+
+@njit(cache=True)
+def _rotvec_matrix(v):
+    angle = np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    out = np.eye(3)
+    if angle < 1e-15:
+        return out
+    k = v / angle
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    s = np.sin(angle)
+    c = 1.0 - np.cos(angle)
+    for a in range(3):
+        for b in range(3):
+            kk = 0.0
+            for m in range(3):
+                kk += kx[a, m] * kx[m, b]
+            out[a, b] += s * kx[a, b] + c * kk
     return out
+
+
+@njit(cache=True)
+def drifted_poses(parents, joint_of, coms, quats, anchors, gap, turn):
+    """Where ODE would have the bodies: each hinge's subtree turned by its ``turn`` about the
+    hinge's anchor and moved by its anchor ``gap``, from the torso down. Returns (centres,
+    quaternions)."""
+    nb = coms.shape[0]
+    acc_r = np.empty((nb, 3, 3))
+    acc_t = np.zeros((nb, 3))
+    acc_r[0] = np.eye(3)
+    out_c = coms.copy()
+    out_q = quats.copy()
+    for k in range(1, nb):
+        p = parents[k]
+        j = joint_of[k]
+        d = _rotvec_matrix(turn[j])
+        # the parent's correction, then this hinge's: x -> D (x - a) + a + gap, a the anchor
+        ra = acc_r[p]
+        ta = acc_t[p]
+        a = anchors[j]
+        for x in range(3):
+            for y in range(3):
+                s = 0.0
+                for m in range(3):
+                    s += ra[x, m] * d[m, y]
+                acc_r[k, x, y] = s
+        da = np.zeros(3)
+        for x in range(3):
+            da[x] = a[x] + gap[j, x] - (d[x, 0] * a[0] + d[x, 1] * a[1] + d[x, 2] * a[2])
+        for x in range(3):
+            acc_t[k, x] = ta[x] + ra[x, 0] * da[0] + ra[x, 1] * da[1] + ra[x, 2] * da[2]
+        c = coms[k]
+        for x in range(3):
+            out_c[k, x] = acc_r[k, x, 0] * c[0] + acc_r[k, x, 1] * c[1] + acc_r[k, x, 2] * c[2] + acc_t[k, x]
+        # turn the orientation: q' = quat(acc_r) * q
+        m = acc_r[k]
+        tr = m[0, 0] + m[1, 1] + m[2, 2]
+        w = np.sqrt(max(0.0, 1.0 + tr)) / 2.0
+        if w > 1e-6:
+            qx = (m[2, 1] - m[1, 2]) / (4.0 * w)
+            qy = (m[0, 2] - m[2, 0]) / (4.0 * w)
+            qz = (m[1, 0] - m[0, 1]) / (4.0 * w)
+        else:
+            qx, qy, qz, w = 0.0, 0.0, 0.0, 1.0
+        q0 = quats[k]
+        out_q[k, 0] = w * q0[0] + qx * q0[3] + qy * q0[2] - qz * q0[1]
+        out_q[k, 1] = w * q0[1] - qx * q0[2] + qy * q0[3] + qz * q0[0]
+        out_q[k, 2] = w * q0[2] + qx * q0[1] - qy * q0[0] + qz * q0[3]
+        out_q[k, 3] = w * q0[3] - qx * q0[0] - qy * q0[1] - qz * q0[2]
+    return out_c, out_q

@@ -90,7 +90,8 @@ class _Static:
         self.motor_state = np.zeros(n, dtype=np.int64)
         #: each hinge's gap between its two anchor copies (world, m): ODE's joint drift
         self.gap = np.zeros((n, 3))
-        self.chain_matrix = chains.astype(float)
+        #: each hinge's child turned off its hinge (world rotation vector, rad): ODE's joint drift
+        self.turn = np.zeros((n, 3))
         shapes = [d for k in range(-1, n) for d in pb.getCollisionShapeData(body, k, physicsClientId=client)]
         self.shape_body = np.array([d[1] + 1 for d in shapes], dtype=np.int64)
         self.shape_kind = np.array([d[2] for d in shapes], dtype=np.int64)
@@ -135,9 +136,12 @@ def solve(robot, ground: int, config) -> Solved:
     coms = np.array([position] + [l[0] for l in links], dtype=float)
     quats = np.array([orientation] + [l[1] for l in links], dtype=float)
     anchors = np.array([l[4] for l in links], dtype=float)
-    placed = coms + static.chain_matrix @ static.gap if config.ode_joint_drift else coms
+    placed, turned = coms, quats
+    if config.ode_joint_drift:
+        placed, turned = ode_kernels.drifted_poses(static.parents, static.joint_of, coms, quats, anchors,
+                                                   static.gap, static.turn)
     parts, points, depths = ode_kernels.ground_contacts(static.shape_body, static.shape_kind, static.shape_size,
-                                                        placed, quats, config.ode_box_points)
+                                                        placed, turned, config.ode_box_points)
     nc = parts.shape[0]
     normals = np.zeros((nc, 3))
     normals[:, 2] = 1.0
@@ -156,9 +160,12 @@ def solve(robot, ground: int, config) -> Solved:
         config.contact_erp, config.contact_cfm, config.slip, config.contact_slop, MOTOR_CFM)
     v, w, qd = u[0:3], u[3:6], u[6:]
     if config.ode_joint_drift:
+        gap, turn = ode_kernels.joint_drift(static.parents, static.joint_of, static.local_axes, coms, quats,
+                                            anchors, w, qd, h)
         static.gap *= 1.0 - JOINT_ERP
-        static.gap += ode_kernels.joint_drift(static.parents, static.joint_of, static.local_axes, coms, quats,
-                                              anchors, w, qd, h)
+        static.gap += gap
+        static.turn *= 1.0 - JOINT_ERP
+        static.turn += turn
     new_position = np.array(position) + h * v
     new_orientation = ode_kernels.integrate_orientation(np.array(orientation, dtype=float), w, h)
     new_angles = angles + h * qd
@@ -222,9 +229,12 @@ def warm_up() -> None:
                      0.02, 0.4, 1e-4, 0.005,
                      0.001, MOTOR_CFM)
     ode_kernels.integrate_orientation(np.array([0.0, 0.0, 0.0, 1.0]), np.array([0.0, 0.0, 1.0]), 0.02)
-    ode_kernels.joint_drift(np.array([0, 0], dtype=np.int64), np.array([0, 0], dtype=np.int64), np.array([[1.0, 0.0, 0.0]]),
-                            np.array([[0.0, 0.0, 0.3], [0.0, 0.0, 0.05]]), np.tile([0.0, 0.0, 0.0, 1.0], (2, 1)),
-                            np.array([[0.0, 0.0, 0.1]]), np.zeros(3), np.ones(1), 0.02)
+    two = (np.array([0, 0], dtype=np.int64), np.array([0, 0], dtype=np.int64))
+    centres, quats = np.array([[0.0, 0.0, 0.3], [0.0, 0.0, 0.05]]), np.tile([0.0, 0.0, 0.0, 1.0], (2, 1))
+    ode_kernels.joint_drift(*two, np.array([[1.0, 0.0, 0.0]]), centres, quats, np.array([[0.0, 0.0, 0.1]]),
+                            np.zeros(3), np.ones(1), 0.02)
+    ode_kernels.drifted_poses(*two, centres, quats, np.array([[0.0, 0.0, 0.1]]), np.full((1, 3), 1e-3),
+                              np.full((1, 3), 1e-3))
     ode_kernels.ground_contacts(np.array([0, 0, 0], dtype=np.int64), np.array([BOX, SPHERE, CAPSULE], dtype=np.int64),
                                 np.array([[0.1, 0.1, 0.1], [0.1, 0.1, 0.1], [0.1, 0.02, 0.0]]),
                                 np.array([[0.0, 0.0, 0.05]]), np.array([[0.0, 0.0, 0.0, 1.0]]), MAX_POINTS)
