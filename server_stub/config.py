@@ -37,16 +37,25 @@ class PhysicsConfig:
     #: fidelity benchmark's) follow it.
     backend: str = field(default_factory=lambda: os.environ.get("NAO_STUB_PHYSICS", "bullet"))
     #: "ode" backend only: joint stops as ODE's limit rows (one-sided; the motor pushing into the
-    #: stop with its full torque), not as the "bullet" backend's two-sided stop motor.
+    #: stop with its full torque), not as the "bullet" backend's two-sided stop motor. Training
+    #: set (bench/RESULTS.md): no change either way.
     ode_limits: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_LIMITS", "1") == "1")
-    #: "ode" backend only: contacts found where ODE's bodies would be, each hinge's anchor copies
-    #: drifted apart by ODE's per-body integration and pulled back by its world ERP 0.2
-    #: (``ode_kernels.joint_drift``); the dynamics stay in exact joints.
     #: "ode" backend only: 3 = a box touches the ground at ODE's box-plane contacts (at most 3:
     #: the deepest corner and two neighbours, ``ode_kernels.box_plane``); 4 = at its (up to 4)
-    #: corners below the ground. SimSpark asks ODE for 4 contacts a pair (odespace.cpp).
+    #: corners below the ground. SimSpark asks ODE for 4 contacts a pair (odespace.cpp). 4:
+    #: the real server stands dead still at 0.383 m, so does ours; with 3 ours tips slowly at
+    #: 0.380 m, and the 13.26 m gait's per-cycle gyro leaves the real one 5 cycles earlier.
     ode_box_points: int = field(default_factory=lambda: int(os.environ.get("NAO_STUB_ODE_BOX_POINTS", "4")))
-    ode_joint_drift: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_DRIFT", "0") == "1")
+    #: "ode" backend only: contacts found where ODE's bodies would be: each hinge's anchor copies
+    #: drift apart and its child turns off the hinge by ODE's per-body integration, pulled back by
+    #: its world ERP 0.2 (``ode_kernels.joint_drift``); the dynamics stay in exact joints.
+    #: Measured on the real server's monitor stream (the 13.26 m gait): knees 3-6 mm apart, as
+    #: this model predicts; 0.02 mm standing.
+    ode_joint_drift: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_DRIFT", "1") == "1")
+    #: "ode" backend only: the parts' true principal moments (docs section 2, uniform solids), not
+    #: raised to ``inertia_floor`` (which Bullet's own solver needs). With this and the drift the
+    #: 13.26 m gait's first 10 walking cycles match the real server's GYR and FRP to 1-2 deg/s.
+    ode_true_inertia: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_TRUE_INERTIA", "1") == "1")
 
     # --- solver ---
     #: "dantzig": pybullet's exact MLCP solver, like ODE's dWorldStep (section 4). Measured: a

@@ -49,7 +49,7 @@ from typing import NamedTuple
 import numpy as np
 import pybullet as pb
 
-from server_stub import ode_kernels
+from server_stub import nao_model, ode_kernels
 from server_stub.robot import _MAX
 
 from server_stub.ode_kernels import BOX, CAPSULE, SPHERE
@@ -66,13 +66,20 @@ JOINT_ERP = 0.2
 class _Static:
     """What does not change about one robot body: masses, inertias, tree, hinge axes, shapes."""
 
-    def __init__(self, client: int, body: int, ground: int) -> None:
+    def __init__(self, client: int, body: int, ground: int, robot_type: int | None = None) -> None:
+        """``robot_type``: take each part's principal moments from the model (``nao_model``), as
+        the real server's bodies have them, instead of pybullet's (raised to the inertia floor
+        that Bullet's own solver needs)."""
         n = pb.getNumJoints(body, physicsClientId=client)
         self.indices = list(range(n))
         dyn = [pb.getDynamicsInfo(body, k, physicsClientId=client) for k in range(-1, n)]
         infos = [pb.getJointInfo(body, j, physicsClientId=client) for j in range(n)]
         self.masses = np.array([d[0] for d in dyn], dtype=float)
         self.principal = np.array([d[2] for d in dyn], dtype=float)
+        if robot_type is not None:
+            parts = {part.name: part for part in nao_model.body_parts(robot_type)}
+            names = ["torso"] + [i[12].decode() for i in infos]
+            self.principal = np.array([nao_model.inertia_diagonal(parts[name]) for name in names], dtype=float)
         self.parents = np.zeros(n + 1, dtype=np.int64)
         self.joint_of = np.zeros(n + 1, dtype=np.int64)
         self.local_axes = np.array([i[13] for i in infos], dtype=float)
@@ -124,7 +131,7 @@ def solve(robot, ground: int, config) -> Solved:
     client, body = robot._client, robot._body
     static = getattr(robot, "_ode_static", None)
     if static is None or static.masses.shape[0] != len(robot._indices) + 1:
-        static = _Static(client, body, ground)
+        static = _Static(client, body, ground, robot.robot_type if config.ode_true_inertia else None)
         robot._ode_static = static
     h = config.cycle
     position, orientation = pb.getBasePositionAndOrientation(body, physicsClientId=client)
