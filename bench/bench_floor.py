@@ -32,9 +32,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import pybullet as pb  # noqa: E402
 
 from protocol.framing import encode_frame  # noqa: E402
-from server_stub import calibration_walk  # noqa: E402
-from server_stub import world as world_module
-from server_stub.world import World  # noqa: E402
+from server_stub.physics import calibration_walk  # noqa: E402
+from server_stub.physics import world as world_module
+from server_stub.physics.world import World  # noqa: E402
 
 #: Mean frame sizes of a walking episode on the stub (measured: 781 perceptions, 393 monitor
 #: updates of the default gait's episode; the command frame of 22 hinges and (syn)).

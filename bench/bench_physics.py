@@ -13,9 +13,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from protocol.nao import CYCLE  # noqa: E402
-from server_stub import calibration_walk  # noqa: E402
-from server_stub.robot import Robot  # noqa: E402
-from server_stub.world import World  # noqa: E402
+from server_stub.physics import calibration_walk  # noqa: E402
+from server_stub.physics.robot import Robot  # noqa: E402
+from server_stub.physics.world import World  # noqa: E402
 
 
 def read_all(robot: Robot) -> None:

@@ -44,8 +44,8 @@ def one_agent(port: int, seconds: float) -> tuple[float, int]:
 
 
 def raw_physics(cycles: int) -> float:
-    from server_stub import calibration_walk
-    from server_stub.world import World
+    from server_stub.physics import calibration_walk
+    from server_stub.physics.world import World
 
     with World() as world:
         robot = world.add_robot()

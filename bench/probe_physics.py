@@ -4,7 +4,7 @@ whether it keeps a flailing robot on the ground.
     python bench/probe_physics.py walk [--seed 7] [name=value ...]
     python bench/probe_physics.py flail [--seed 0] [--sigma 3] [name=value ...]
 
-``walk``: the real calibration gait (``server_stub.calibration_walk``) from 24 perturbed starts
+``walk``: the real calibration gait (``server_stub.physics.calibration_walk``) from 24 perturbed starts
 (repeated beam at cycle 10-14 or none, beams 0 or 1 step late, heading +-1 deg, anywhere on the
 own half, first beam after 2-4 steps); "ok" = no fall and 3.0 m +-15% in 15 s, as the real server
 walked 2.91-3.14 m. ``flail``: 24 robots driven by random motor speeds (normal, ``--sigma`` rad/s,
@@ -27,9 +27,9 @@ import numpy as np  # noqa: E402
 
 from protocol.cli_values import positive_float, whole  # noqa: E402
 from protocol.nao import JOINTS  # noqa: E402
-from server_stub import calibration_walk  # noqa: E402
 from server_stub.config import PhysicsConfig  # noqa: E402
-from server_stub.world import World  # noqa: E402
+from server_stub.physics import calibration_walk  # noqa: E402
+from server_stub.physics.world import World  # noqa: E402
 
 RUNS = 24
 

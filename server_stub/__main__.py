@@ -20,7 +20,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m server_stub", description=__doc__)
     p.add_argument("--host", default="127.0.0.1", help="listen address (default 127.0.0.1)")
     p.add_argument("--agent-port", type=listening_port, default=3100, help="agent port (default 3100; 0 = free port)")
-    p.add_argument("--monitor-port", type=listening_port, default=3200, help="monitor/trainer port (default 3200; 0 = free port)")
+    p.add_argument("--monitor-port", type=listening_port, default=3200,
+                   help="monitor/trainer port (default 3200; 0 = free port)")
     p.add_argument("--sync", action="store_true", help="step once every agent has sent (syn)")
     p.add_argument("--realtime", action=argparse.BooleanOptionalAction, default=None,
                    help="pace cycles at 50 Hz (default: on, off with --sync)")
@@ -46,7 +47,7 @@ def main(argv: list[str] | None = None) -> int:
     # parent process reads (the ports) and send everything native to stderr
     ports_out = os.fdopen(os.dup(1), "w")
     os.dup2(2, 1)
-    from server_stub.server import StubServer
+    from server_stub.net.server import StubServer
 
     realtime = (not args.sync) if args.realtime is None else args.realtime
     config = ServerConfig(

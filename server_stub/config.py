@@ -25,14 +25,14 @@ class PhysicsConfig:
     #: <= 2.6 m/s). 2 and 3 steps per cycle walked worse with the same model (19/24 and 13/24 ok,
     #: 5 and 10 falls) and cost 1.7x / 2.4x the time. The model before this one (plane ground,
     #: a damper per point) needed 3 steps per cycle to walk 24/24 and ran at 45x in
-    #: bench_physics; this one runs at 77x (its slip solve compiled, ``server_stub.slip``).
+    #: bench_physics; this one runs at 77x (its slip solve compiled, ``server_stub.physics.slip``).
     sub_steps: int = 1
     gravity: float = -9.81
 
     # --- backend ---
-    #: "bullet": Bullet's multibody step with slip solved beside it (``server_stub.slip``).
+    #: "bullet": Bullet's multibody step with slip solved beside it (``server_stub.physics.slip``).
     #: "ode": one ODE-like step per cycle solved by the stub itself, contacts, slip friction and
-    #: motors in one LCP, Bullet only finding contacts (``server_stub.ode_step``). The environment
+    #: motors in one LCP, Bullet only finding contacts (``server_stub.physics.ode_step``). The environment
     #: variable ``NAO_STUB_PHYSICS`` picks the default, so stand-ins started in subprocesses (the
     #: fidelity benchmark's) follow it.
     backend: str = field(default_factory=lambda: os.environ.get("NAO_STUB_PHYSICS", "bullet"))
@@ -112,7 +112,7 @@ class PhysicsConfig:
     lateral_friction: float = 0.0
     #: force-dependent slip of every contact point in both tangential directions, (m/s) per N
     #: (facts section 4, ODE's dContactSlip1/2): a point slides at slip x its tangential force.
-    #: The real value, applied by ``server_stub.slip`` (see there why outside Bullet's solver).
+    #: The real value, applied by ``server_stub.physics.slip`` (see there why outside Bullet's solver).
     #: Walk probe: 0.005 72/72; 0.006 24/24; 0.004 21/24 (3 falls, 1 flail blow-up); in the
     #: earlier per-point damper only an effective 0.027 was stable, and walked 2.6-3.2 m.
     slip: float = 0.005

@@ -119,6 +119,7 @@ class _Stub:
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "server_stub", "--agent-port", "0", "--monitor-port", "0", *args],
             cwd=_REPO, stdout=subprocess.PIPE, stderr=self._log, text=True)
+        assert self.proc.stdout is not None  # stdout=PIPE
         match = re.search(r"agent port (\d+), monitor port (\d+)", self.proc.stdout.readline())
         if not match:
             self.stop()
@@ -141,7 +142,8 @@ class _Stub:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
-        self.proc.stdout.close()
+        if self.proc.stdout is not None:
+            self.proc.stdout.close()
         self._log.close()
 
 

@@ -11,9 +11,9 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from protocol.nao import JOINTS
-from server_stub.clients import AgentState, Client
 from server_stub.config import ServerConfig
-from server_stub.server import StubServer
+from server_stub.net.clients import AgentState, Client
+from server_stub.net.server import StubServer
 
 NAMES = [j.effector for j in JOINTS] + ["beam", "say", "scene", "init", "syn", "pass", "xyz9", ""]
 ATOMS = st.one_of(

@@ -15,10 +15,10 @@ from hypothesis import strategies as st
 from protocol.monitor import MonitorReader
 from protocol.nao import JOINTS, PLAY_MODES
 from protocol.perception import parse_perception
-from server_stub.monitor_scene import GameHeader, MonitorScene, RobotView
-from server_stub.number_text import g_rows
-from server_stub.perception_text import GameStateText, format_hear, format_perception
-from server_stub.vision import FIELD_LINES, SeenRobot, VisionSensor
+from server_stub.sensors.monitor_scene import GameHeader, MonitorScene, RobotView
+from server_stub.sensors.number_text import g_rows
+from server_stub.sensors.perception_text import GameStateText, format_hear, format_perception
+from server_stub.sensors.vision import FIELD_LINES, SeenRobot, VisionSensor
 
 
 def _lines(fixtures_dir, name: str) -> list[str]:

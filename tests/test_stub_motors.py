@@ -1,4 +1,4 @@
-"""The compiled motor rule (server_stub.motors) joint by joint, on any state."""
+"""The compiled motor rule (server_stub.physics.motors) joint by joint, on any state."""
 from __future__ import annotations
 
 import math
@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from server_stub.motors import motor_step
+from server_stub.physics.motors import motor_step
 
 LIMIT, ERP, BOUNCE, CYCLE, STOP = 10.0, 0.8, 1.0, 0.02, 1e4
 N = 6

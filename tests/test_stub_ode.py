@@ -1,4 +1,4 @@
-"""The "ode" physics backend (``server_stub.ode_step``): its dynamics against Bullet's, its LCP
+"""The "ode" physics backend (``server_stub.physics.ode_step``): its dynamics against Bullet's, its LCP
 solver, its ODE-style contacts, and the real server's standing numbers."""
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import numpy as np
 import pybullet as pb
 import pytest
 
-from server_stub import calibration_walk, ode_kernels, ode_step
 from server_stub.config import PhysicsConfig
-from server_stub.world import World
+from server_stub.physics import calibration_walk, ode_kernels, ode_step
+from server_stub.physics.world import World
 
 ODE = dataclasses.replace(PhysicsConfig(), backend="ode")
 

@@ -10,9 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from protocol.nao import JOINTS, SPEED_CAP
-from server_stub import nao_model
 from server_stub.config import PhysicsConfig
-from server_stub.world import BALL_RADIUS, World
+from server_stub.physics import nao_model
+from server_stub.physics.world import BALL_RADIUS, World
 
 DEG_PER_CYCLE_AT_CAP = math.degrees(SPEED_CAP * 0.02)  # 7.035
 
@@ -366,7 +366,7 @@ def test_part_poses_cover_every_part(standing):
 @settings(max_examples=50, deadline=None)
 @given(st.lists(st.floats(-1.0, 1.0), min_size=4, max_size=4).filter(lambda q: sum(c * c for c in q) > 0.01))
 def test_part_rotations_match_pybullet_for_any_orientation(q):
-    from server_stub.rotations import body_poses
+    from server_stub.physics.rotations import body_poses
 
     q = np.array(q) / np.linalg.norm(q)
     base = np.reshape(pb.getMatrixFromQuaternion([0.1, 0.2, 0.3, 0.927]), (3, 3))

@@ -6,8 +6,8 @@ import re
 
 import pytest
 
-from server_stub import calibration_walk
-from server_stub.world import World
+from server_stub.physics import calibration_walk
+from server_stub.physics.world import World
 
 _HJ = re.compile(r"\(HJ \(n (\w+)\) \(ax ([-\d.]+)\)\)")
 _COMMAND = re.compile(r"\(([a-z]+\d) ([-\d.]+)\)")

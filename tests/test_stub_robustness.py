@@ -16,8 +16,8 @@ import pytest
 from protocol.errors import ProtocolError
 from protocol.sexp import MAX_DEPTH, parse_sexp
 from server_stub.config import ServerConfig
-from server_stub.server import StubServer
-from server_stub.world import World
+from server_stub.net.server import StubServer
+from server_stub.physics.world import World
 from tests.stub_client import RawClient, StubProcess
 
 NEST = "(" * 5000 + ")" * 5000

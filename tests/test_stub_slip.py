@@ -1,4 +1,4 @@
-"""The contact slip model (server_stub/slip.py): its equations, checked against rigid-body
+"""The contact slip model (server_stub/physics/slip.py): its equations, checked against rigid-body
 mechanics written out independently here, and the robot it keeps from exploding."""
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from protocol.nao import JOINTS
-from server_stub import slip
 from server_stub.config import PhysicsConfig
-from server_stub.world import World
+from server_stub.physics import slip
+from server_stub.physics.world import World
 
 SLIP = PhysicsConfig().slip
 H = PhysicsConfig().cycle

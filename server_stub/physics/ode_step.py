@@ -6,10 +6,10 @@ docs/robot_and_server.md sections 3-4) solves contacts, friction with force-depe
 Coulomb limit, and the hinge motors in one linear complementarity problem, so within a step the
 landing foot, the motors and the tipping body all feel friction. The "bullet" backend has no
 friction row with a slip CFM and adds slip as an outside force from the step's start
-(``server_stub.slip``).
+(``server_stub.physics.slip``).
 
 The step, for each robot, in reduced coordinates u = (torso velocity, torso spin, hinge rates),
-every vector in the world frame (``server_stub.ode_kernels``):
+every vector in the world frame (``server_stub.physics.ode_kernels``):
 
 - dynamics: M(q) du/dt = Q(q, u) + J' lambda, with M = sum over bodies of Jv' m Jv + Jw' I Jw and
   Q the bodies' gravity, spin (w x I w) and velocity-product terms, mapped through the same
@@ -18,7 +18,7 @@ every vector in the world frame (``server_stub.ode_kernels``):
   diagonal and solves for forces): per contact point a normal row (lambda >= 0, c = ERP x
   (depth - surface layer) / h, cfm the contact's soft CFM) and two friction rows in the contact
   plane (unbounded, mu infinite; cfm = slip, so a point slides at slip x its tangential force);
-  per hinge a motor row (c = the target speed of ``server_stub.motors``, |lambda| <= its force:
+  per hinge a motor row (c = the target speed of ``server_stub.physics.motors``, |lambda| <= its force:
   10 N m, or the stop's force when the stop drives the joint back), cfm 1e-8 as every joint row;
 - lambda from the boxed LCP on A = h J M^-1 J' + diag(cfm), b = c - J (u + h M^-1 Q), solved
   exactly (``ode_kernels.box_qp``, a primal active-set method);
@@ -30,9 +30,9 @@ Contacts with the ground are found at the step's start (as SimSpark collides bef
 or overlapping geometry; a box gets ODE's box-plane contacts (the deepest corner and at most two
 neighbours, ``ode_kernels.box_plane``; SimSpark asks for 4, ODE's box-plane collider gives at most
 3) or, with ``ode_box_points`` 4, its corners below the plane; a sphere its lowest point; a
-capsule its two ends. Bullet no longer collides the robots with the ground. The new state is written back into pybullet, so
-sensors, the monitor and vision read it as before, and each robot's contact points carry the
-solved forces in pybullet's tuple layout for the FRP perceptor.
+capsule its two ends. Bullet no longer collides the robots with the ground. The new state is
+written back into pybullet, so sensors, the monitor and vision read it as before, and each robot's
+contact points carry the solved forces in pybullet's tuple layout for the FRP perceptor.
 
 Every body has SimSpark's drag (facts section 2): a force -0.01 v at its centre and a torque
 -0.01 w, added before the step as its DragController does (``linear_damping``, ``angular_damping``).
@@ -49,10 +49,9 @@ from typing import NamedTuple
 import numpy as np
 import pybullet as pb
 
-from server_stub import nao_model, ode_kernels
-from server_stub.robot import _MAX
-
-from server_stub.ode_kernels import BOX, CAPSULE, SPHERE
+from server_stub.physics import nao_model, ode_kernels
+from server_stub.physics.ode_kernels import BOX, CAPSULE, SPHERE
+from server_stub.physics.robot import _MAX
 
 #: ODE joint rows' CFM (facts section 3), used for the motor rows.
 MOTOR_CFM = 1e-8
@@ -140,9 +139,9 @@ def solve(robot, ground: int, config) -> Solved:
     angles = np.array([s[0] for s in states])
     rates = np.array([s[1] for s in states])
     links = pb.getLinkStates(body, static.indices, computeForwardKinematics=1, physicsClientId=client)
-    coms = np.array([position] + [l[0] for l in links], dtype=float)
-    quats = np.array([orientation] + [l[1] for l in links], dtype=float)
-    anchors = np.array([l[4] for l in links], dtype=float)
+    coms = np.array([position] + [link[0] for link in links], dtype=float)
+    quats = np.array([orientation] + [link[1] for link in links], dtype=float)
+    anchors = np.array([link[4] for link in links], dtype=float)
     placed, turned = coms, quats
     if config.ode_joint_drift:
         placed, turned = ode_kernels.drifted_poses(static.parents, static.joint_of, coms, quats, anchors,
@@ -162,7 +161,8 @@ def solve(robot, ground: int, config) -> Solved:
     u, forces, tangents, torques, iterations = ode_kernels.step(
         static.masses, static.principal, static.chains, static.parents, static.joint_of,
         static.local_axes, coms, quats, anchors, np.array(v0, dtype=float), np.array(w0, dtype=float),
-        rates, np.array([0.0, 0.0, config.gravity]), config.linear_damping, config.angular_damping, parts, points, normals, depths,
+        rates, np.array([0.0, 0.0, config.gravity]), config.linear_damping, config.angular_damping,
+        parts, points, normals, depths,
         np.asarray(target, dtype=float), lo, hi, push, static.motor_state, h,
         config.contact_erp, config.contact_cfm, config.slip, config.contact_slop, MOTOR_CFM)
     v, w, qd = u[0:3], u[3:6], u[6:]
@@ -188,7 +188,7 @@ def solve(robot, ground: int, config) -> Solved:
 
 def _motor_rows(angles, force, sticky, torque_limit, ode_limits):
     """Bounds of each hinge's row and the torque pushing hinges besides it. Inside its range a
-    hinge's row is its motor's, |torque| <= 10 N m. Outside, ``server_stub.motors`` has made the
+    hinge's row is its motor's, |torque| <= 10 N m. Outside, ``server_stub.physics.motors`` has made the
     row its stop's (target: back by ERP 0.8 or the bounced speed, whichever is larger). With
     ``ode_limits`` the stop row is ODE's: one-sided (it only pushes the hinge back in), and the
     motor, which has no row of its own then, pushes with its full torque as an outside torque

@@ -4,7 +4,7 @@ Every cycle each robot's 22 hinges go through the same few comparisons: which co
 (only while the joint is strictly inside its range), which joints a stop drives back, which motors
 hit their torque limit in the last step. Written with numpy these were a dozen calls on 22-element
 arrays, about 30 us a cycle in numpy's per-call cost alone; here they are one compiled loop.
-``server_stub.robot`` owns the state and calls this once per step.
+``server_stub.physics.robot`` owns the state and calls this once per step.
 """
 from __future__ import annotations
 

@@ -101,7 +101,8 @@ def apply_trainer_command(expr: list, target: TrainerTarget, monitor: object) ->
     elif name == "ball":
         fields = _fields(args)
         pos = _position(fields.numbers("pos", 3)) if "pos" in fields.values else None
-        vel = fields.numbers("vel", 3) if "vel" in fields.values else (0.0, 0.0, 0.0)
+        vx, vy, vz = fields.numbers("vel", 3) if "vel" in fields.values else (0.0, 0.0, 0.0)
+        vel = (vx, vy, vz)
         if pos is None:
             raise TrainerError("(ball (pos x y z) ...) needs a position")
         target.set_ball(pos, vel)

@@ -8,14 +8,14 @@ from collections.abc import Sequence
 import numpy as np
 
 from protocol.commands import say_problem
-from server_stub import number_text, vision
-from server_stub.clients import AgentState
 from server_stub.config import ServerConfig
 from server_stub.game import Game
-from server_stub.monitor_scene import GameHeader, MonitorScene, RobotView
-from server_stub.perception_text import GameStateText, format_hear, format_perception
-from server_stub.vision import PLAYER_PARTS, SeenRobot, VisionSensor
-from server_stub.world import World
+from server_stub.net.clients import AgentState
+from server_stub.physics.world import World
+from server_stub.sensors import number_text, vision
+from server_stub.sensors.monitor_scene import GameHeader, MonitorScene, RobotView
+from server_stub.sensors.perception_text import GameStateText, format_hear, format_perception
+from server_stub.sensors.vision import PLAYER_PARTS, SeenRobot, VisionSensor
 
 
 class Sensing:
@@ -68,7 +68,7 @@ class Sensing:
         for speaker, message in self._audible:
             if speaker.robot is None:
                 continue  # left the field after speaking: nothing to hear it from
-            if speaker is listener:
+            if speaker is listener or listener.robot is None:
                 direction = None
             else:
                 (lx, ly, _), rot = listener.robot.head_pose()
@@ -80,7 +80,8 @@ class Sensing:
         return heard
 
     def perception(self, state: AgentState, game: Game, with_vision: bool, states: Sequence[AgentState]) -> str:
-        robot = state.robot
+        robot, camera = state.robot, state.vision
+        assert robot is not None and camera is not None  # perceptions are made for robots only
         identity = state.announce_identity and state.side is not None
         gs = GameStateText(game.score_left, game.score_right, game.time, game.play_mode,
                            state.unum if identity else None, state.side if identity else None)
@@ -88,7 +89,7 @@ class Sensing:
         see = None
         if with_vision:
             position, rotation = robot.head_pose()
-            see = state.vision.see(position, rotation, state.side or "left", self.world.ball_position(),
+            see = camera.see(position, rotation, state.side or "left", self.world.ball_position(),
                                    self._seen_robots(states))
         return format_perception(self.world.time, gs, robot.gyro(), robot.accelerometer(), robot.joint_angles(),
                                  robot.foot_pressure(), see, self._hear(state, self.world.time))

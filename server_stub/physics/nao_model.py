@@ -183,7 +183,7 @@ def _robot_type(robot_type: int) -> RobotType:
     try:
         return ROBOT_TYPES[robot_type]
     except KeyError:
-        raise ValueError(f"robot type {robot_type} is not modelled (have {sorted(ROBOT_TYPES)})")
+        raise ValueError(f"robot type {robot_type} is not modelled (have {sorted(ROBOT_TYPES)})") from None
 
 
 def inertia_diagonal(part: Part) -> Vec3:
@@ -251,7 +251,7 @@ def urdf(robot_type: int = 0, inertia_floor: float = 0.0) -> str:
     """URDF text of the robot, links in ``JOINTS`` order so pybullet link i is joint i.
 
     Joints are ``continuous``: the real server's stops are soft for one step and bounce, which the
-    stub reproduces itself (``server_stub.robot``); pybullet's hard limits would not overshoot.
+    stub reproduces itself (``server_stub.physics.robot``); pybullet's hard limits would not overshoot.
     ``inertia_floor`` (kg m^2) raises every principal moment to at least that value.
     """
     parts = {p.name: p for p in body_parts(robot_type)}

@@ -30,13 +30,14 @@ from protocol.errors import ProtocolError, excerpt
 from protocol.nao import CYCLE, JOINTS, NAO_HETERO_RSG, NAO_RSG, ROBOT_TYPES
 from protocol.sexp import parse_sexp
 from server_stub import field
-from server_stub.agent_commands import flat_commands, has_syn, read_commands
-from server_stub.clients import AgentState, Client
 from server_stub.config import PhysicsConfig, ServerConfig
 from server_stub.game import Game, GameError, beam_pose
-from server_stub.sensing import Sensing
-from server_stub.trainer import TrainerError, apply_trainer_command
-from server_stub.world import SPAWN_POSITION, World
+from server_stub.net.agent_commands import flat_commands, has_syn, read_commands
+from server_stub.net.clients import AgentState, Client
+from server_stub.net.trainer import TrainerError, apply_trainer_command
+from server_stub.physics.robot import Robot
+from server_stub.physics.world import SPAWN_POSITION, World
+from server_stub.sensors.sensing import Sensing
 
 log = logging.getLogger("server_stub")
 
@@ -195,6 +196,7 @@ class StubServer:
                 timeout = self._select_timeout(next_tick)
                 for key, events in self._selector.select(timeout):
                     if key.data in ("agent", "monitor"):
+                        assert isinstance(key.fileobj, socket.socket)  # the listeners registered so
                         self._accept(key.fileobj, key.data)
                         continue
                     client: Client = key.data
@@ -311,6 +313,7 @@ class StubServer:
                 full = full or scene.full(header, views, ball)
                 message = full
             else:
+                assert delta is not None  # made above whenever some monitor takes a delta
                 message = delta
             # a monitor over its buffer cap misses this update and gets a full scene later
             self._monitors[monitor] = not monitor.send(message)
@@ -343,6 +346,7 @@ class StubServer:
                     applied |= self._apply_safely(client, state, name.decode(), [value.decode()] if value else [])
                     continue
                 try:
+                    assert robot is not None  # pairs are read only for a robot
                     robot.command_joint(index, float(value))
                     applied = True
                 except ValueError:  # again by the general path, for its warning
@@ -354,8 +358,8 @@ class StubServer:
             client.warn(f"message ignored, it does not parse: {exc}", "parse")
             return False
         for expr in expressions:
-            name = expr[0] if expr and isinstance(expr[0], str) else None
-            applied |= self._apply_safely(client, state, name, expr[1:])
+            command = expr[0] if expr and isinstance(expr[0], str) else None
+            applied |= self._apply_safely(client, state, command, expr[1:])
         return applied
 
     def _apply_safely(self, client: Client, state: AgentState, name: str | None, args: list) -> bool:
@@ -480,13 +484,17 @@ class StubServer:
         self.game.score_left, self.game.score_right = left, right
 
     def place_agent(self, side: str, unum: int, pos: tuple[float, float, float], yaw_deg: float | None) -> None:
-        _, state = self._agent_by(side, unum)
-        state.robot.place(*pos, yaw_deg=yaw_deg)
+        self._robot_of(side, unum).place(*pos, yaw_deg=yaw_deg)
 
     def reposition_agent(self, side: str, unum: int) -> None:
-        _, state = self._agent_by(side, unum)
         x, y, heading = self._last_beam.get((side, unum), _DEFAULT_REPOS[side])
-        state.robot.beam(x, y, heading)
+        self._robot_of(side, unum).beam(x, y, heading)
+
+    def _robot_of(self, side: str, unum: int) -> Robot:
+        _, state = self._agent_by(side, unum)
+        if state.robot is None:
+            raise TrainerError(f"player {unum} of the {side} team has no robot")
+        return state.robot
 
     def kill_agent(self, side: str, unum: int) -> None:
         client, _ = self._agent_by(side, unum)

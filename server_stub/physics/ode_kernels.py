@@ -1,4 +1,4 @@
-"""Compiled kernels of the ODE-like step (``server_stub.ode_step``): the robot's dynamics in
+"""Compiled kernels of the ODE-like step (``server_stub.physics.ode_step``): the robot's dynamics in
 reduced coordinates, the constraint rows of one step and an exact solver for them.
 
 Generalised velocity u = (torso centre velocity (3), torso spin (3), hinge rates (n)), all in the
@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from server_stub.rotations import rotation_matrix
+from server_stub.physics.rotations import rotation_matrix
 
 #: row kinds
 NORMAL = 0
@@ -132,7 +132,8 @@ def dynamics(masses, principal, chains, parents, joint_of, local_axes, coms, qua
         for a in range(3):
             vk = 0.0
             for ci in range(ncols):
-                vk += jv[a, cols[ci]] * (v0[cols[ci]] if cols[ci] < 3 else (w0[cols[ci] - 3] if cols[ci] < 6 else qd[cols[ci] - 6]))
+                col = cols[ci]
+                vk += jv[a, col] * (v0[col] if col < 3 else (w0[col - 3] if col < 6 else qd[col - 6]))
             f[a] -= drag_linear * vk
         iwk = np.array([
             inertia[k, 0, 0] * spin[k, 0] + inertia[k, 0, 1] * spin[k, 1] + inertia[k, 0, 2] * spin[k, 2],
@@ -152,37 +153,37 @@ def dynamics(masses, principal, chains, parents, joint_of, local_axes, coms, qua
 def _cholesky(a):
     """Lower factor of a symmetric positive definite matrix (a copy; False when not positive)."""
     n = a.shape[0]
-    l = np.zeros((n, n))
+    lower = np.zeros((n, n))
     for j in range(n):
         d = a[j, j]
         for k in range(j):
-            d -= l[j, k] * l[j, k]
+            d -= lower[j, k] * lower[j, k]
         if d <= 0.0:
-            return l, False
+            return lower, False
         d = np.sqrt(d)
-        l[j, j] = d
+        lower[j, j] = d
         for i in range(j + 1, n):
             s = a[i, j]
             for k in range(j):
-                s -= l[i, k] * l[j, k]
-            l[i, j] = s / d
-    return l, True
+                s -= lower[i, k] * lower[j, k]
+            lower[i, j] = s / d
+    return lower, True
 
 
 @njit(cache=True)
-def _cho_solve(l, b):
+def _cho_solve(lower, b):
     n = b.shape[0]
     x = b.copy()
     for i in range(n):
         s = x[i]
         for k in range(i):
-            s -= l[i, k] * x[k]
-        x[i] = s / l[i, i]
+            s -= lower[i, k] * x[k]
+        x[i] = s / lower[i, i]
     for i in range(n - 1, -1, -1):
         s = x[i]
         for k in range(i + 1, n):
-            s -= l[k, i] * x[k]
-        x[i] = s / l[i, i]
+            s -= lower[k, i] * x[k]
+        x[i] = s / lower[i, i]
     return x
 
 
@@ -205,7 +206,8 @@ def box_qp(a, b, lo, hi, state):
             if x[i] != 0.0:  # 0 outside the box: start at the nearer bound
                 state[i] = -1 if x[i] == lo[i] else 1
     it = 0
-    for it in range(1, 4 * n + 20):
+    while it < 4 * n + 19:  # the count of passes is returned
+        it += 1
         free = np.nonzero(state == 0)[0]
         nf = free.size
         target = x.copy()
@@ -221,10 +223,10 @@ def box_qp(a, b, lo, hi, state):
                 rhs[ii] = s
                 for jj in range(nf):
                     sub[ii, jj] = a[i, free[jj]]
-            l, ok = _cholesky(sub)
+            lower, ok = _cholesky(sub)
             if not ok:
                 break
-            sol = _cho_solve(l, rhs)
+            sol = _cho_solve(lower, rhs)
             for ii in range(nf):
                 target[free[ii]] = sol[ii]
         # step towards target, stopping at the first bound crossed

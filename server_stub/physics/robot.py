@@ -4,7 +4,7 @@ The motor rules follow NAO_MODEL_FACTS.md section 3 ("How a velocity command is 
 clip to the speed cap, sticky, dropped while the joint is not strictly inside (min, max), applied
 with the two-cycle action latency; a joint that starts a step outside its range is pushed back by
 the stop (ERP 0.8, bounce 1) instead of being held at the limit, as ODE's limit rows do (the
-per-joint rule is compiled in ``server_stub.motors``). Sensors (section 5) are read lazily and
+per-joint rule is compiled in ``server_stub.physics.motors``). Sensors (section 5) are read lazily and
 cached until the next step, so a caller pays only for what it asks.
 """
 from __future__ import annotations
@@ -16,9 +16,9 @@ import numpy as np
 import pybullet as pb
 
 from protocol.nao import JOINTS
-from server_stub import motors, nao_model, slip
 from server_stub.config import PhysicsConfig
-from server_stub.rotations import body_poses
+from server_stub.physics import motors, nao_model, slip
+from server_stub.physics.rotations import body_poses
 
 _N = len(JOINTS)
 #: Half sizes of the torso box along its own axes (docs/robot_and_server.md section 2).
@@ -49,7 +49,7 @@ class Robot:
         self.robot_type = robot_type
         #: 1: a command acts in the step after the next (the real server's latency, for callers
         #: that step right after commanding); 0: in the next step, for a server that produces the
-        #: latency itself by sending each perception one step late (``server_stub.server``).
+        #: latency itself by sending each perception one step late (``server_stub.net.server``).
         self._delay = command_delay_steps
         self._client = client
         self._body = body
@@ -72,8 +72,8 @@ class Robot:
         self._yielding = np.zeros(_N, dtype=bool)  # motors at their torque limit in the last step
         self._motor_load = np.zeros(_N)  # torque each motor applied in the last step (stops: 0)
         self._slip_torque = np.zeros(_N)  # torque of the last step's slip forces about each hinge
-        self._prev_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
-        self._velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self._prev_velocity: tuple[float, ...] = (0.0, 0.0, 0.0)
+        self._velocity: tuple[float, ...] = (0.0, 0.0, 0.0)
         #: no step has run since this robot was made: it has touched nothing yet (a reused body
         #: may still hold its last life's contacts until the next collision pass)
         self._new = True
@@ -99,7 +99,7 @@ class Robot:
 
     def _before_step(self) -> None:
         """Apply last interval's commands (the latency rule) and set this step's motors
-        (``server_stub.motors``)."""
+        (``server_stub.physics.motors``)."""
         angles, rates, torques = self._joint_state()
         if self._delay:
             due, self._pending = self._pending, self._requested
@@ -118,7 +118,7 @@ class Robot:
             self._sent = (target, force)
 
     def _before_substep(self) -> None:
-        """Force-dependent slip (facts section 4; ``server_stub.slip``) at every contact point
+        """Force-dependent slip (facts section 4; ``server_stub.physics.slip``) at every contact point
         that carried load in the last step (ODE only makes contacts for touching geometry, while
         Bullet also keeps points up to ``contact_breaking_threshold`` apart)."""
         self._slip_force = {}
@@ -262,7 +262,8 @@ class Robot:
         return x - half, x + half
 
     def torso_position(self) -> tuple[float, float, float]:
-        return tuple(self._base_pose()[0])
+        x, y, z = self._base_pose()[0]
+        return (x, y, z)
 
     def torso_rotation(self) -> np.ndarray:
         """3x3 rotation whose columns are the torso's x (right), y (forward), z (up) in world."""
@@ -331,7 +332,8 @@ class Robot:
         """Head centre (the camera, and ``mypos``) and its 3x3 rotation (columns = head axes)."""
         state = self._link_states()[self._head_link]
         rotation = np.array(pb.getMatrixFromQuaternion(state[1])).reshape(3, 3)
-        return tuple(float(c) for c in state[0]), rotation
+        x, y, z = (float(c) for c in state[0])
+        return (x, y, z), rotation
 
     @property
     def part_names(self) -> tuple[str, ...]:

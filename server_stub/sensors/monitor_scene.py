@@ -14,7 +14,7 @@ Shapes copied from the real server's traffic (facts sheet section 9; ``monitor_m
 A delta lists the same nodes in the same depth-first order, stripped; a transform carries its
 ``SLT`` only when one of its 16 numbers moved by more than 0.005 since it was last sent. ``SLT``
 is column-major, numbers printed with 6 significant digits (``%g``, as the server's float output;
-the moving transforms' by the compiled ``server_stub.number_text``, the same characters).
+the moving transforms' by the compiled ``server_stub.sensors.number_text``, the same characters).
 
 The static part is a small stand-in for the real one (lights, field, goals, corner flags), the same
 shape but fewer meshes. Each robot is one identity transform holding one transform per body part
@@ -32,7 +32,7 @@ import numpy as np
 
 from protocol.nao import PLAY_MODES
 from server_stub import field as soccer_field
-from server_stub.number_text import g_rows
+from server_stub.sensors.number_text import g_rows
 
 Vec3 = tuple[float, float, float]
 
@@ -78,7 +78,7 @@ class GameHeader:
 @dataclass(frozen=True)
 class RobotView:
     """One robot for the monitor. ``team`` is the side ('left'/'right', None before ``init``);
-    ``part_names`` as in ``server_stub.nao_model``, torso included; ``poses`` (n x 4 x 4) their
+    ``part_names`` as in ``server_stub.physics.nao_model``, torso included; ``poses`` (n x 4 x 4) their
     world poses in that order, columns = the part's right, forward, up axes and centre."""
 
     team: str | None
@@ -97,7 +97,7 @@ class _Node:
     delta: str
 
 
-def _slt(values: Sequence[float]) -> str:
+def _slt(values: Sequence[float] | np.ndarray) -> str:
     return _SLT_FMT % tuple(values)
 
 

@@ -13,8 +13,8 @@ import math
 from dataclasses import dataclass, field
 
 from protocol.nao import CYCLE, JOINTS, SPEED_CAP
-from server_stub.robot import Robot
-from server_stub.world import World
+from server_stub.physics.robot import Robot
+from server_stub.physics.world import World
 
 # Gait parameters of the README (degrees, seconds; "human" convention: flexion positive).
 HIP_OFFSET = 15.0

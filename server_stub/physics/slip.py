@@ -30,7 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from server_stub.rotations import rotation_matrix
+from server_stub.physics.rotations import rotation_matrix
+
 
 @njit(cache=True)
 def _cross(a, b):

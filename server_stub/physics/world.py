@@ -12,9 +12,10 @@ from pathlib import Path
 import numpy as np
 import pybullet as pb
 
-from server_stub import field, motors, nao_model, ode_step, rotations, slip
+from server_stub import field
 from server_stub.config import PhysicsConfig
-from server_stub.robot import Robot
+from server_stub.physics import motors, nao_model, ode_step, rotations, slip
+from server_stub.physics.robot import Robot
 
 #: Facts sheet section 6: a new robot appears with its torso here, in the air.
 SPAWN_POSITION = (0.0, -1.0, 1.5)
@@ -220,7 +221,7 @@ class World:
             robot._after_step()
 
     def _step_ode(self) -> None:
-        """The "ode" backend's cycle (``server_stub.ode_step``): each robot solved by the stub,
+        """The "ode" backend's cycle (``server_stub.physics.ode_step``): each robot solved by the stub,
         then Bullet steps the rest (the ball), and the robots get their solved state back."""
         solved = [ode_step.solve(robot, self._ground, self.config) for robot in self._robots]
         pb.stepSimulation(physicsClientId=self._client)
@@ -245,7 +246,7 @@ class World:
             self._client = -1
             self._tmp.cleanup()
 
-    def __enter__(self) -> "World":
+    def __enter__(self) -> World:
         return self
 
     def __exit__(self, *exc) -> None:

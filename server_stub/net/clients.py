@@ -11,10 +11,15 @@ import logging
 import socket
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from protocol.errors import excerpt
 from protocol.framing import FrameDecoder, encode_frame
 from server_stub.config import ServerConfig
+
+if TYPE_CHECKING:  # types only: the network side does not need the physics to load
+    from server_stub.physics.robot import Robot
+    from server_stub.sensors.vision import VisionSensor
 
 log = logging.getLogger("server_stub")
 
@@ -121,7 +126,7 @@ class Client:
 class AgentState:
     """What the server knows about one agent connection's robot."""
 
-    robot: object | None = None
+    robot: Robot | None = None
     robot_type: int = 0
     side: str | None = None
     team: str | None = None
@@ -135,4 +140,4 @@ class AgentState:
     next_perception: str | None = None
     #: frames received since the last step, applied after the next perception goes out
     inbox: list[bytes] = field(default_factory=list)
-    vision: object | None = None
+    vision: VisionSensor | None = None
