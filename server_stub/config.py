@@ -10,10 +10,10 @@ from protocol.nao import CYCLE, TORQUE_LIMIT
 @dataclass(frozen=True)
 class PhysicsConfig:
     """pybullet settings of the simulated world. Targets, in order: the real server's numbers
-    (NAO_MODEL_FACTS.md sections 3-4 and the calibration walk), then speed. Each comment gives
+    (docs/robot_and_server.md sections 3-4 and the calibration walk), then speed. Each comment gives
     the measured reason (probe scripts ran the calibration gait; "walk" = dx in 15 s)."""
 
-    # --- timing (facts section 4: one 0.02 s ODE step per cycle, no sub-steps) ---
+    # --- timing (docs/robot_and_server.md section 4: one 0.02 s ODE step per cycle, no sub-steps) ---
     cycle: float = CYCLE
     #: pybullet steps per cycle (World.step runs them one by one, the slip force renewed before
     #: each). 1, as ODE. Walk probe = the calibration gait from 72 perturbed starts (rebeam cycle
@@ -70,8 +70,8 @@ class PhysicsConfig:
     solver: str = "dantzig"
     #: iterations for "pgs" (and the Dantzig solver's fallback when it fails).
     solver_iterations: int = 20
-    #: rotational-inertia floor on every link, kg m^2 (the issue's measured value, standing in
-    #: for geared rotor inertia). Flail probe: 0 blow-ups; without it (the model's own tiny
+    #: rotational-inertia floor on every link, kg m^2 (a measured choice, standing in for geared
+    #: rotor inertia, which the model lacks). Flail probe: 0 blow-ups; without it (the model's own tiny
     #: inertias, e.g. the hip and ankle links) 2-3 of 96 robots kicked at 5 m/s or exploded at
     #: one step per cycle (with friction off as well, so not the slip model's doing), and 1e-4
     #: still let 1 of 96 explode. Walk probe: 72/72 either way.
@@ -79,7 +79,7 @@ class PhysicsConfig:
     #: world CFM of the real server (section 4).
     global_cfm: float = 1e-5
 
-    # --- contacts (facts section 4: robot soft ERP 0.6 / CFM 1e-4, ground ERP 0.2, averaged) ---
+    # --- contacts (docs/robot_and_server.md section 4: robot soft ERP 0.6 / CFM 1e-4, ground ERP 0.2, averaged) ---
     #: ODE contact ERP/CFM of a robot part on the ground (robot ERP 0.6 and ground ERP 0.2
     #: averaged; CFM 1e-4 from the robot side only), turned into a spring-damper set on every
     #: robot link: k = ERP / (CFM h) = 2e5 N/m, d = (1 - ERP) / CFM = 6000 N s/m, which Bullet
@@ -93,7 +93,7 @@ class PhysicsConfig:
     #: makes contacts for touching geometry (surface layer 0.001 m). Walk probe (24 starts):
     #: 0.001 and 0.004 24/24 as well; Bullet's default 0.02 19/24, turning up to 2.5 m aside.
     contact_breaking_threshold: float = 0.002
-    #: ODE's contact surface layer, 0.001 m (facts section 4): a contact may sink this deep before
+    #: ODE's contact surface layer, 0.001 m (docs/robot_and_server.md section 4): a contact may sink this deep before
     #: it is pushed back, so a resting foot stays just inside the ground and is found again by the
     #: next step's collision check (Bullet's contactSlop, which its multibody solver honours).
     #: Without it a stance foot ended about one step in eleven just above the ground, found no
@@ -111,7 +111,7 @@ class PhysicsConfig:
     #: always fell backwards.
     lateral_friction: float = 0.0
     #: force-dependent slip of every contact point in both tangential directions, (m/s) per N
-    #: (facts section 4, ODE's dContactSlip1/2): a point slides at slip x its tangential force.
+    #: (docs/robot_and_server.md section 4, ODE's dContactSlip1/2): a point slides at slip x its tangential force.
     #: The real value, applied by ``server_stub.physics.slip`` (see there why outside Bullet's solver).
     #: Walk probe: 0.005 72/72; 0.006 24/24; 0.004 21/24 (3 falls, 1 flail blow-up); in the
     #: earlier per-point damper only an effective 0.027 was stable, and walked 2.6-3.2 m.
@@ -120,10 +120,10 @@ class PhysicsConfig:
     #: in the walk with Coulomb friction; the MLCP solver ignores it).
     rolling_friction: float = 0.0
     spinning_friction: float = 0.0
-    #: bounce off (facts section 4).
+    #: bounce off (docs/robot_and_server.md section 4).
     restitution: float = 0.0
 
-    # --- bodies and motors (facts sections 2-3) ---
+    # --- bodies and motors (docs/robot_and_server.md sections 2-3) ---
     #: drag 0.01 on every body (section 2; Bullet's damping form differs slightly: m d (1+|v|) v).
     linear_damping: float = 0.01
     angular_damping: float = 0.01
@@ -160,7 +160,7 @@ class ServerConfig:
     vision_noise: bool = True
     #: Move every agent's beam by a uniform random amount within +-``beam_noise_xy`` (m) on x and
     #: y and +-``beam_noise_angle`` (deg) on the heading: the real server's defaults
-    #: (``BeamNoiseXY``, ``BeamNoiseAngle``; facts sections 6 and 12). The fixtures' server had
+    #: (``BeamNoiseXY``, ``BeamNoiseAngle``; docs/robot_and_server.md sections 6 and 10). The fixtures' server had
     #: them at 0; an optimizer that needs exact starts turns the noise off.
     beam_noise: bool = True
     beam_noise_xy: float = 0.05
@@ -176,7 +176,7 @@ class ServerConfig:
     #: Bytes a client may leave unread before it is disconnected (agent) or skipped (monitor).
     agent_out_cap: int = 8 << 20
     monitor_out_cap: int = 1 << 20
-    #: Cycles between monitor updates (0.04 s) and between vision messages (0.06 s), facts section 4.
+    #: Cycles between monitor updates (0.04 s) and between vision messages (0.06 s), docs/robot_and_server.md section 4.
     monitor_interval: int = 2
     vision_interval: int = 3
     #: Log lines about one client's bad input: the first ``warning_burst`` distinct problems are

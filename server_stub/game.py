@@ -10,9 +10,9 @@ from dataclasses import dataclass, field
 from protocol.nao import BEAM_PLAY_MODES, CYCLE, PLAY_MODES
 from server_stub import field as soccer_field
 
-#: Modes in which the game clock stands still (facts section 5: "stays 0 before kick-off").
+#: Modes in which the game clock stands still (docs/robot_and_server.md section 5: "stays 0 before kick-off").
 _CLOCK_STOPPED = frozenset({"BeforeKickOff", "GameOver"})
-#: Own-half clipping of ``beam`` (facts section 6): x in [-15, 0], y in [-10, 10].
+#: Own-half clipping of ``beam`` (docs/robot_and_server.md section 6): x in [-15, 0], y in [-10, 10].
 BEAM_X_RANGE = (-soccer_field.HALF_LENGTH, 0.0)
 BEAM_Y_RANGE = (-soccer_field.HALF_WIDTH, soccer_field.HALF_WIDTH)
 MAX_UNUM = 11

@@ -137,7 +137,7 @@ def test_vision_sees_own_lower_arms_like_the_fixture(fixtures_dir):
     """Fixture line 4 (standing, arms forward): the own P entry shows both lower arms only."""
     real = parse_perception(_lines(fixtures_dir, "agent_perceptions_first20.txt")[3]).vision
     head = np.array([-1.0, 0.0, 0.55])
-    # Facts sheet section 2: centres relative to the torso; robot faces +x (right = -y world).
+    # docs/robot_and_server.md section 2: centres relative to the torso; robot faces +x (right = -y world).
     def world(rel):  # robot frame (x right, y forward, z up) -> world, torso at head - 0.155
         x, y, z = rel
         return (head[0] + y, head[1] - x, head[2] - 0.155 + z)

@@ -123,7 +123,7 @@ def standing():
 
 
 def test_standing_numbers_match_the_real_server(standing):
-    """Facts section 2: torso at 0.383 m, each foot 22.59 N; all 4 sole corners of each foot
+    """docs/robot_and_server.md section 2: torso at 0.383 m, each foot 22.59 N; all 4 sole corners of each foot
     carry load; nothing drifts."""
     world, robot = standing
     assert robot.torso_position()[2] == pytest.approx(0.383, abs=0.002)

@@ -2,8 +2,8 @@
 
 A search scores each gait by one walk from one start (eq. 9). On the deterministic stub that walk
 is the same every time, so a gait that happened to get through one walk can sit on the edge of a
-fall: the fastest walks of a GALA run often do (pc 0.8, seed 1, stop 11: the learning phase's
-fastest, 9.23 m, fell in 2 of 10 walks from starts moved by up to 5 cm and 10 deg; the next,
+fall: the fastest walks of a GALA run often do (measured on one crossover-0.8 row: the learning
+phase's fastest, 9.23 m, fell in 2 of 10 walks from starts moved by up to 5 cm and 10 deg; the next,
 8.93 m, in none). A check walks the gait ``repeats`` times from starts drawn within +-jitter of
 the run's start and counts the falls.
 

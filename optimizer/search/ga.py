@@ -418,7 +418,7 @@ class GARun(KeyedSearch):
 
 
 class AskTellSearch(Protocol):
-    """What ``run_sync`` (and the lead's runners) need from a keyed search."""
+    """What ``run_sync`` and the run driver (``optimizer.run.driver``) need from a keyed search."""
 
     @property
     def done(self) -> bool: ...

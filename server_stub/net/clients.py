@@ -131,7 +131,7 @@ class AgentState:
     side: str | None = None
     team: str | None = None
     unum: int | None = None
-    #: the first GS after init carries unum and team (facts section 5)
+    #: the first GS after init carries unum and team (docs/robot_and_server.md section 5)
     announce_identity: bool = False
     #: a perception was sent and no ``(syn)`` has come back since
     awaiting_syn: bool = False

@@ -41,7 +41,7 @@ from server_stub.sensors.sensing import Sensing
 
 log = logging.getLogger("server_stub")
 
-#: Where a new robot appears (facts section 6): in the air, it falls until beamed.
+#: Where a new robot appears (docs/robot_and_server.md section 6): in the air, it falls until beamed.
 #: Placement after ``repos``: the robot's last beam pose, or its side's default spot.
 _DEFAULT_REPOS = {"left": (-5.0, 0.0, 0.0), "right": (5.0, 0.0, 180.0)}
 #: Hinge effector name as it arrives on the wire -> its index in ``JOINTS`` (``Robot.command_joint``).

@@ -1,4 +1,4 @@
-"""Trainer commands arriving on the monitor port (facts section 9), applied to the stub's state.
+"""Trainer commands arriving on the monitor port (docs/robot_and_server.md section 9), applied to the stub's state.
 
 Grammar read here (team names capitalised on this port, ``Left`` / ``Right``)::
 

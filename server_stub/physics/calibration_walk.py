@@ -36,7 +36,7 @@ WALK_CYCLES = 750
 #: Physics steps before the real agent's beam took effect: its first perception came after two
 #: steps (head at z 1.64 in it), the beam was its reply to the second perception.
 CYCLES_BEFORE_BEAM = 3
-#: Torso height below which the referee counts a robot as not standing (facts section 8).
+#: Torso height below which the referee counts a robot as not standing (docs/robot_and_server.md section 8).
 FALLEN_HEIGHT = 0.25
 
 

@@ -1,4 +1,4 @@
-"""The server's motor rule for one step (NAO_MODEL_FACTS.md section 3), compiled.
+"""The server's motor rule for one step (docs/robot_and_server.md sections 3), compiled.
 
 Every cycle each robot's 22 hinges go through the same few comparisons: which commands may act
 (only while the joint is strictly inside its range), which joints a stop drives back, which motors
@@ -20,7 +20,7 @@ def motor_step(angles, rates, torques, lower, upper, due, motor, last_target, la
     ``due`` holds the commands that act now (NaN: none for that joint); a command reaches the
     sticky ``motor`` (updated in place) only for a joint strictly inside (``lower``, ``upper``).
     A joint outside is driven back by its stop, as ODE's limit rows do: at the larger of the ERP
-    correction and the bounced incoming speed, with a force that always wins (facts section 3:
+    correction and the bounced incoming speed, with a force that always wins (docs/robot_and_server.md section 3:
     hj1 at 100 rad/s into +120 alternates 119.5 / 126.5 deg). ``torques`` are what the motors applied
     in the last step, whose targets and forces were ``last_target`` / ``last_force`` (empty before
     the first step): a motor (not a stop) at 99% of its limit yields, and its torque is its load.

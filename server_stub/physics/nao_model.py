@@ -2,7 +2,7 @@
 
 Geometry lives here (not in ``protocol``) because only the physics needs it; joint names and
 limits come from ``protocol.nao`` so those numbers exist once. Every table cites the section of
-``NAO_MODEL_FACTS.md`` it was read from. All positions are in the robot (model) frame of the facts
+``docs/robot_and_server.md`` it was read from. All positions are in the robot (model) frame of the facts
 sheet -- x = robot's right, y = forward, z = up -- relative to the torso centre, in the zero pose.
 """
 from __future__ import annotations
@@ -41,7 +41,7 @@ class Hinge:
     anchor_moves_with: str
 
 
-# Facts sheet section 2 (type 0). Centre and middle parts once, right-side parts with their
+# docs/robot_and_server.md section 2 (type 0). Centre and middle parts once, right-side parts with their
 # right-side centre; the left twin is built by mirroring x (see ``_mirror``).
 _CENTRE_PARTS: tuple[Part, ...] = (
     Part("torso", "box", (0.10, 0.10, 0.18), 1.2171, (0.0, 0.0, 0.0), True),
@@ -61,7 +61,7 @@ _RIGHT_PARTS: tuple[Part, ...] = (
     Part("rfoot", "box", (0.08, 0.16, 0.02), 0.200, (0.055, 0.025, -0.375), True),
 )
 
-# Facts sheet section 3 (type 0): parent -> child, axis, anchor (right side for paired joints).
+# docs/robot_and_server.md section 3 (type 0): parent -> child, axis, anchor (right side for paired joints).
 _CENTRE_HINGES: tuple[Hinge, ...] = (
     Hinge("he1", "torso", "neck", (0.0, 0.0, 1.0), (0.0, 0.0, 0.090), "neck"),
     Hinge("he2", "neck", "head", (1.0, 0.0, 0.0), (0.0, 0.0, 0.150), "head"),
@@ -85,7 +85,7 @@ _LEFT_AXIS: dict[str, Vec3] = {"lle1": (-0.7071, 0.0, -0.7071)}
 
 @dataclass(frozen=True)
 class RobotType:
-    """One heterogeneous type (facts sheet section 3, "Heterogeneous types")."""
+    """One heterogeneous type (docs/robot_and_server.md section 3, "Heterogeneous types")."""
 
     hip_x: float
     thigh_below_hip: float
@@ -95,7 +95,7 @@ class RobotType:
     ankle_roll_speed: float
 
 
-#: Facts sheet section 3, heterogeneous types table. Type 4 (toe joint) is not modelled.
+#: docs/robot_and_server.md section 3, heterogeneous types table. Type 4 (toe joint) is not modelled.
 ROBOT_TYPES: dict[int, RobotType] = {
     0: RobotType(0.055, 0.04, 0.055, 0.07, SPEED_CAP, SPEED_CAP),
     1: RobotType(0.055, 0.05832, 0.07332, 0.10664, SPEED_CAP, SPEED_CAP),

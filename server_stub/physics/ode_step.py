@@ -34,7 +34,7 @@ capsule its two ends. Bullet no longer collides the robots with the ground. The 
 written back into pybullet, so sensors, the monitor and vision read it as before, and each robot's
 contact points carry the solved forces in pybullet's tuple layout for the FRP perceptor.
 
-Every body has SimSpark's drag (facts section 2): a force -0.01 v at its centre and a torque
+Every body has SimSpark's drag (docs/robot_and_server.md section 2): a force -0.01 v at its centre and a torque
 -0.01 w, added before the step as its DragController does (``linear_damping``, ``angular_damping``).
 
 Not (yet) modelled here: robot-robot, robot-ball and robot-goal contacts (the ball still moves in
@@ -53,7 +53,7 @@ from server_stub.physics import nao_model, ode_kernels
 from server_stub.physics.ode_kernels import BOX, CAPSULE, SPHERE
 from server_stub.physics.robot import _MAX
 
-#: ODE joint rows' CFM (facts section 3), used for the motor rows.
+#: ODE joint rows' CFM (docs/robot_and_server.md section 3), used for the motor rows.
 MOTOR_CFM = 1e-8
 #: Most contact points per shape and the ground in ``warm_up``.
 MAX_POINTS = 4
@@ -193,7 +193,7 @@ def _motor_rows(angles, force, sticky, torque_limit, ode_limits):
     ``ode_limits`` the stop row is ODE's: one-sided (it only pushes the hinge back in), and the
     motor, which has no row of its own then, pushes with its full torque as an outside torque
     when its (sticky) target speed points into the stop or is 0, and not at all when it points
-    out (SimSpark's fudge factor 1e-5; facts section 3). Without, a two-sided row with the stop's
+    out (SimSpark's fudge factor 1e-5; docs/robot_and_server.md section 3). Without, a two-sided row with the stop's
     force, as the "bullet" backend's stop is."""
     lo = -force.copy()
     hi = force.copy()

@@ -1,6 +1,6 @@
 """One simulated NAO inside a ``World``: the server's motor rules and the robot's sensors.
 
-The motor rules follow NAO_MODEL_FACTS.md section 3 ("How a velocity command is applied"):
+The motor rules follow docs/robot_and_server.md sections 3 ("How a velocity command is applied"):
 clip to the speed cap, sticky, dropped while the joint is not strictly inside (min, max), applied
 with the two-cycle action latency; a joint that starts a step outside its range is pushed back by
 the stop (ERP 0.8, bounce 1) instead of being held at the limit, as ODE's limit rows do (the
@@ -27,7 +27,7 @@ _EFFECTOR_INDEX: dict[str, int] = {j.effector: i for i, j in enumerate(JOINTS)}
 _PERCEPTORS = [j.perceptor for j in JOINTS]
 _MIN = np.radians([j.min_deg for j in JOINTS])
 _MAX = np.radians([j.max_deg for j in JOINTS])
-#: Torso height of a beamed robot (facts section 6).
+#: Torso height of a beamed robot (docs/robot_and_server.md section 6).
 BEAM_HEIGHT = 0.4
 #: Force large enough to make the stop's velocity win against anything in one step.
 _STOP_FORCE = 1e4
@@ -118,8 +118,8 @@ class Robot:
             self._sent = (target, force)
 
     def _before_substep(self) -> None:
-        """Force-dependent slip (facts section 4; ``server_stub.physics.slip``) at every contact point
-        that carried load in the last step (ODE only makes contacts for touching geometry, while
+        """Force-dependent slip (docs/robot_and_server.md section 4; ``server_stub.physics.slip``) at
+        every contact point that carried load in the last step (ODE only makes contacts for touching geometry, while
         Bullet also keeps points up to ``contact_breaking_threshold`` apart)."""
         self._slip_force = {}
         cfg = self._config
@@ -191,7 +191,7 @@ class Robot:
 
     def _reset(self, x: float, y: float, z: float, orientation) -> None:
         """Re-pose the body at rest. The accelerometer's previous velocity is kept on purpose:
-        the real server shows a one-cycle spike after a beam (facts section 5)."""
+        the real server shows a one-cycle spike after a beam (docs/robot_and_server.md section 5)."""
         client = self._client
         angles = self._joint_state()[0]
         pb.resetBasePositionAndOrientation(self._body, (x, y, z), orientation, physicsClientId=client)

@@ -1,4 +1,4 @@
-"""Force-dependent slip of the contacts (NAO_MODEL_FACTS.md section 4), solved outside Bullet.
+"""Force-dependent slip of the contacts (docs/robot_and_server.md sections 4), solved outside Bullet.
 
 ODE, the real server's engine, gives each contact two friction rows with CFM = slip (0.005 m/s
 per N) and no Coulomb limit: a contact point slides at slip x its tangential force, and the

@@ -1,6 +1,6 @@
 """The simulated world: a pybullet DIRECT client holding the field, the ball and the robots.
 
-One ``step`` is one 0.02 s server cycle for everything in it (NAO_MODEL_FACTS.md section 4).
+One ``step`` is one 0.02 s server cycle for everything in it (docs/robot_and_server.md sections 4).
 The server built on top of this reads sensors from each ``Robot`` and forwards effector commands
 to ``Robot.command``; nothing here knows about sockets or message text.
 """
@@ -17,12 +17,12 @@ from server_stub.config import PhysicsConfig
 from server_stub.physics import motors, nao_model, ode_step, rotations, slip
 from server_stub.physics.robot import Robot
 
-#: Facts sheet section 6: a new robot appears with its torso here, in the air.
+#: docs/robot_and_server.md section 6: a new robot appears with its torso here, in the air.
 SPAWN_POSITION = (0.0, -1.0, 1.5)
 FIELD_LENGTH, FIELD_WIDTH = field.LENGTH, field.WIDTH
 GOAL_WIDTH, GOAL_DEPTH, GOAL_HEIGHT = field.GOAL_WIDTH, field.GOAL_DEPTH, field.GOAL_HEIGHT
 BALL_RADIUS, BALL_MASS = field.BALL_RADIUS, field.BALL_MASS
-#: Thickness of the goal's posts, bar and net boxes (not given by the facts sheet; thin).
+#: Thickness of the goal's posts, bar and net boxes (not given by the real server's files; thin).
 _GOAL_THICKNESS = 0.02
 #: Border walls: 1 m boxes about 10 m beyond the goal lines and 15 m beyond the side lines.
 _WALL_GAP_X = 10.0

@@ -1,6 +1,6 @@
 """The monitor stream (port 3200): game-state header plus the scene graph, full or as a delta.
 
-Shapes copied from the real server's traffic (facts sheet section 9; ``monitor_messages.txt``)::
+Shapes copied from the real server's traffic (docs/robot_and_server.md section 9; ``monitor_messages.txt``)::
 
     full:  (<header>)(RSG 0 1)(<node>...)
     delta: ((time <t>)<changed header items>)(RDS 0 1)(<node>...)
@@ -40,7 +40,7 @@ Vec3 = tuple[float, float, float]
 @dataclass(frozen=True)
 class MonitorConfig:
     """Fixed header values of the real server's default configuration (naosoccersim.rb), and the
-    delta threshold of the scene (facts sheet section 9)."""
+    delta threshold of the scene (docs/robot_and_server.md section 9)."""
 
     field_length: float = soccer_field.LENGTH
     field_width: float = soccer_field.WIDTH

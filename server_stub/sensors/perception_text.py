@@ -2,7 +2,7 @@
 
 Runs every cycle for every robot, so everything that does not change (the ``HJ`` name prefixes,
 the order of perceptors) is laid out once at import and a message is one ``%``-format per block
-and one join. Format (facts sheet section 5; fixtures ``agent_perceptions_*.txt``), numbers with
+and one join. Format (docs/robot_and_server.md section 5; fixtures ``agent_perceptions_*.txt``), numbers with
 2 decimals as the server's printf does (``-0.00`` included)::
 
     (time (now <t>))(GS [(unum <n>) (team <left|right>)] (sl <n>) (sr <n>) (t <t>) (pm <mode>))

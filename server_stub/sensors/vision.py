@@ -1,6 +1,6 @@
 """The ``See`` perceptor: what the NAO's head camera reports, as rcssserver3d 0.7.3 prints it.
 
-Grammar of the text produced (facts sheet section 5; fixture ``agent_perceptions_first20.txt``)::
+Grammar of the text produced (docs/robot_and_server.md section 5; fixture ``agent_perceptions_first20.txt``)::
 
     (See (<flag|post> (pol <d> <h> <v>))... [(B (pol <d> <h> <v>))]
          (P (team <name>) (id <n>) (<part> (pol <d> <h> <v>))...)...
@@ -33,7 +33,7 @@ Vec3 = tuple[float, float, float]
 
 @dataclass(frozen=True)
 class VisionConfig:
-    """Camera and noise of the real vision perceptor (facts sheet section 5, naoneckhead.rsg)."""
+    """Camera and noise of the real vision perceptor (docs/robot_and_server.md section 5, naoneckhead.rsg)."""
 
     half_cone_h_deg: float = 60.0
     half_cone_v_deg: float = 60.0
