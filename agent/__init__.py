@@ -5,6 +5,7 @@ Public API for programs that run agents in-process (the optimizer's fast path)::
     from agent import AgentConfig, NaoAgent
     report = NaoAgent(AgentConfig(port=3100, sync=True, duration=15.0)).run()
 """
+
 from agent.config import AgentConfig
 from agent.errors import AgentError
 from agent.nao_agent import AgentReport, NaoAgent

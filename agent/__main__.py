@@ -1,4 +1,5 @@
 """``python -m agent``: one NAO that walks with the TFS gait against rcssserver3d or the stub."""
+
 from __future__ import annotations
 
 import argparse
@@ -31,8 +32,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--team", type=_team, default="GALA", help="team name (default GALA)")
     p.add_argument("--unum", type=_unum, default=1, help="uniform number, 0 = next free (default 1)")
     p.add_argument("--gait", type=Path, help="gait parameter file (default: the shipped gait)")
-    p.add_argument("--beam", nargs=3, type=number, metavar=("X", "Y", "DEG"), default=(0.0, 0.0, 0.0),
-                   help="beam pose before kick-off (default 0 0 0)")
+    p.add_argument(
+        "--beam",
+        nargs=3,
+        type=number,
+        metavar=("X", "Y", "DEG"),
+        default=(0.0, 0.0, 0.0),
+        help="beam pose before kick-off (default 0 0 0)",
+    )
     p.add_argument("--sync", action="store_true", help="server runs in sync mode: end every reply with (syn)")
     p.add_argument("--duration", type=positive_float, help="seconds of walking after the gait starts, then exit")
     p.add_argument("--type", dest="robot_type", type=int, choices=ROBOT_TYPES, default=0, help="robot type 0-4")
@@ -44,8 +51,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
-                        format="agent %(levelname)s: %(message)s", stream=sys.stderr)
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING,
+        format="agent %(levelname)s: %(message)s",
+        stream=sys.stderr,
+    )
     try:
         if args.gait is not None:
             load_gait(args.gait)  # refuse a bad file before connecting
@@ -53,9 +63,17 @@ def main(argv: list[str] | None = None) -> int:
         print(f"agent: error: {exc}", file=sys.stderr)
         return 2
     config = AgentConfig(
-        host=args.host, port=args.port, team=args.team, unum=args.unum, gait=args.gait,
-        beam=tuple(args.beam), sync=args.sync, duration=args.duration, robot_type=args.robot_type,
-        start_now=args.start_now, timeout=args.timeout,
+        host=args.host,
+        port=args.port,
+        team=args.team,
+        unum=args.unum,
+        gait=args.gait,
+        beam=tuple(args.beam),
+        sync=args.sync,
+        duration=args.duration,
+        robot_type=args.robot_type,
+        start_now=args.start_now,
+        timeout=args.timeout,
     )
     try:
         report = NaoAgent(config).run()
@@ -66,7 +84,9 @@ def main(argv: list[str] | None = None) -> int:
         print("agent: interrupted", file=sys.stderr)
         return 130
     logging.getLogger("agent").info(
-        "done: %d cycles, %.2f s walked, %s", report.cycles, report.walk_time,
+        "done: %d cycles, %.2f s walked, %s",
+        report.cycles,
+        report.walk_time,
         f"fell after {report.fell_at:.2f} s" if report.fell else "no fall detected",
     )
     return 0

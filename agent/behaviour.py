@@ -12,6 +12,7 @@ Cycle by cycle (one reply per perception, as the server expects):
 4. walking, from the first cycle after settling in which the play mode is PlayOn (or at once with
    ``start_now``), for ``duration`` seconds of gait time.
 """
+
 from __future__ import annotations
 
 import enum
@@ -100,8 +101,9 @@ class WalkBehaviour:
             self.walk_cycles += 1
             if self.fall.update(perception.acc):
                 self.fell_at = self.walk_time
-                log.warning("fall detected after %.2f s of walking (torso tilted past the 0.6 up-z limit)",
-                            self.walk_time)
+                log.warning(
+                    "fall detected after %.2f s of walking (torso tilted past the 0.6 up-z limit)", self.walk_time
+                )
             if self.config.duration is not None and self.walk_time >= self.config.duration - 1e-9:
                 self.phase = Phase.DONE
             return message

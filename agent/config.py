@@ -1,4 +1,5 @@
 """Everything an agent run can be told, in one place (the CLI and the optimizer fill it)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field

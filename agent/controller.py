@@ -5,6 +5,7 @@ next one, so a proportional law towards the target *two cycles ahead*, clipped t
 tracks the trajectory without overshooting the cap (the same law drove the real-server
 calibration walk).
 """
+
 from __future__ import annotations
 
 import math

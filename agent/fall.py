@@ -5,6 +5,7 @@ axis, so ``acc_z / |acc|`` estimates the z component of the torso's up vector. T
 walk benchmark calls a robot fallen when that is below 0.6; a short moving average rides out the
 one-cycle spikes of a beam or a foot strike.
 """
+
 from __future__ import annotations
 
 import math

@@ -5,6 +5,7 @@ episode runner) use the same object cycle by cycle: ``connect()``, then ``receiv
 ``reply()`` pairs until ``finished``, then ``close()``; whatever they send to the server between a
 ``receive`` and its ``reply`` (a trainer command, say) reaches it at a well-defined cycle.
 """
+
 from __future__ import annotations
 
 import logging

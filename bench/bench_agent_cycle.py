@@ -4,6 +4,7 @@ Replays every perception of the real-server captures through the agent's cycle (
 ``WalkBehaviour`` the agent runs, walking from the first cycle) and sends each reply over a
 loopback socket pair with TCP-like framing. Run: ``python bench/bench_agent_cycle.py``.
 """
+
 from __future__ import annotations
 
 import logging
@@ -27,7 +28,9 @@ FIXTURES = Path(__file__).resolve().parents[1] / "tests" / "data" / "rcssserver3
 
 def main() -> None:
     logging.disable(logging.WARNING)  # the replayed robot falls; its log line is not the point
-    files = [FIXTURES / "agent_perceptions_full_run.txt"] + sorted((FIXTURES / "walk_calibration").glob("run*_perceptions.txt"))
+    files = [FIXTURES / "agent_perceptions_full_run.txt"] + sorted(
+        (FIXTURES / "walk_calibration").glob("run*_perceptions.txt")
+    )
     messages = [line for f in files for line in f.read_text().splitlines()]
     send, recv = socket.socketpair()
     recv.setblocking(False)
@@ -47,8 +50,10 @@ def main() -> None:
     p50 = statistics.median(samples) * 1e6
     p99 = samples[int(0.99 * len(samples))] * 1e6
     print(f"machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}")
-    print(f"agent cycle over {len(samples)} perceptions: median {p50:.1f} us, p99 {p99:.1f} us, "
-          f"max {samples[-1] * 1e6:.1f} us (target p99 <= 1000 us)")
+    print(
+        f"agent cycle over {len(samples)} perceptions: median {p50:.1f} us, p99 {p99:.1f} us, "
+        f"max {samples[-1] * 1e6:.1f} us (target p99 <= 1000 us)"
+    )
 
 
 if __name__ == "__main__":

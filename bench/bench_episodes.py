@@ -19,6 +19,7 @@ per core", and prints the 2-worker rate against twice that as well.
 Run: ``python bench/bench_episodes.py [--episodes 60] [--gait FILE] [--agent-mode inprocess|process] [--dask]``
 (``--dask`` also runs the 2-worker case on a Dask LocalCluster and prints its overhead).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -79,7 +80,9 @@ def cpu_seconds() -> dict[str, float]:
     return totals
 
 
-def measure(workers: int, genes: list[tuple[float, ...]], config: EpisodeConfig, dask: bool = False) -> dict[str, float]:
+def measure(
+    workers: int, genes: list[tuple[float, ...]], config: EpisodeConfig, dask: bool = False
+) -> dict[str, float]:
     pool = _evaluator(workers, config, dask)
     try:
         warm = [EpisodeTask(f"warm/i{k}", g, k) for k, g in enumerate(gaits(workers, seed=99))]
@@ -95,11 +98,17 @@ def measure(workers: int, genes: list[tuple[float, ...]], config: EpisodeConfig,
     walked = sum(float(o.result["time"]) for o in outcomes)
     failed = sum(o.result["status"] != "ok" for o in outcomes)
     cycles = walked / CYCLE
-    cpu = {f"{kind}_ms_per_cycle": (spent - cpu_before.get(kind, 0.0)) / cycles * 1e3
-           for kind, spent in cpu_after.items()}
-    return {"wall": wall, "episodes_per_hour": len(tasks) / wall * 3600,
-            "equivalents_per_hour": walked / config.walk_time / wall * 3600,
-            "mean_walked": walked / len(tasks), "failed": failed, **cpu}
+    cpu = {
+        f"{kind}_ms_per_cycle": (spent - cpu_before.get(kind, 0.0)) / cycles * 1e3 for kind, spent in cpu_after.items()
+    }
+    return {
+        "wall": wall,
+        "episodes_per_hour": len(tasks) / wall * 3600,
+        "equivalents_per_hour": walked / config.walk_time / wall * 3600,
+        "mean_walked": walked / len(tasks),
+        "failed": failed,
+        **cpu,
+    }
 
 
 def measure_on_one_core(genes: list[tuple[float, ...]], config: EpisodeConfig) -> dict[str, float] | None:
@@ -130,26 +139,34 @@ def main() -> None:
     results = {n: measure(n, genes, config) for n in (1, 2)}
     pinned = measure_on_one_core(genes, config)
     for n, r in results.items():
-        print(f"{n} worker(s), {args.episodes} {what} ({args.agent_mode}): {r['wall']:.1f} s wall, "
-              f"{r['episodes_per_hour']:.0f} episodes/h, {r['equivalents_per_hour']:.0f} 15-s-episode "
-              f"equivalents/h (mean {r['mean_walked']:.2f} s walked per episode, {r['failed']} failed)")
+        print(
+            f"{n} worker(s), {args.episodes} {what} ({args.agent_mode}): {r['wall']:.1f} s wall, "
+            f"{r['episodes_per_hour']:.0f} episodes/h, {r['equivalents_per_hour']:.0f} 15-s-episode "
+            f"equivalents/h (mean {r['mean_walked']:.2f} s walked per episode, {r['failed']} failed)"
+        )
     efficiency = results[2]["equivalents_per_hour"] / (2 * results[1]["equivalents_per_hour"])
     print(f"parallel efficiency with 2 workers: {efficiency:.0%}")
     if pinned is not None:
         per_core = results[2]["equivalents_per_hour"] / (2 * pinned["equivalents_per_hour"])
-        print(f"1 worker held to one core (its stub and agent share it, as with one worker per core): "
-              f"{pinned['equivalents_per_hour']:.0f} equivalents/h; 2 workers on 2 cores against twice that: "
-              f"{per_core:.0%}")
+        print(
+            f"1 worker held to one core (its stub and agent share it, as with one worker per core): "
+            f"{pinned['equivalents_per_hour']:.0f} equivalents/h; 2 workers on 2 cores against twice that: "
+            f"{per_core:.0%}"
+        )
     one = results[1]
     if "stub_ms_per_cycle" in one and "worker_ms_per_cycle" in one:
         s, w = one["stub_ms_per_cycle"], one["worker_ms_per_cycle"]
-        print(f"CPU per walked cycle, 1 worker: stub server s = {s:.3f} ms, worker (agent + judge) w = {w:.3f} ms; "
-              f"two workers share 2 cores, so efficiency is at most s/(s+w) = {s / (s + w):.0%}")
+        print(
+            f"CPU per walked cycle, 1 worker: stub server s = {s:.3f} ms, worker (agent + judge) w = {w:.3f} ms; "
+            f"two workers share 2 cores, so efficiency is at most s/(s+w) = {s / (s + w):.0%}"
+        )
     if args.dask:
         d = measure(2, genes, config, dask=True)
         overhead = d["wall"] / results[2]["wall"] - 1
-        print(f"Dask LocalCluster, 2 workers: {d['wall']:.1f} s wall, {d['equivalents_per_hour']:.0f} "
-              f"equivalents/h; overhead against the local pool of 2: {overhead:+.1%} (target <= 10%)")
+        print(
+            f"Dask LocalCluster, 2 workers: {d['wall']:.1f} s wall, {d['equivalents_per_hour']:.0f} "
+            f"equivalents/h; overhead against the local pool of 2: {overhead:+.1%} (target <= 10%)"
+        )
 
 
 if __name__ == "__main__":

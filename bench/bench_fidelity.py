@@ -16,6 +16,7 @@ and ``fidelity.json`` (every walk with its torso track) into ``--out``.
 Exit status 0 whatever the figures (they are a measurement), 1 when no real server is found or a
 gait named in ``--gaits`` is not in the set.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -46,18 +47,34 @@ from protocol.cli_values import positive_float, positive_int  # noqa: E402
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python bench/bench_fidelity.py", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--set", choices=SET_NAMES + ("all",), default="training", dest="gait_set",
-                   help="which stored gait set (default training; held_aside is for the final word only)")
+    p = argparse.ArgumentParser(
+        prog="python bench/bench_fidelity.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    p.add_argument(
+        "--set",
+        choices=SET_NAMES + ("all",),
+        default="training",
+        dest="gait_set",
+        help="which stored gait set (default training; held_aside is for the final word only)",
+    )
     p.add_argument("--gaits", default=None, metavar="NAME,...", help="only these gaits of the set")
-    p.add_argument("--real-repeats", type=positive_int, default=FidelityConfig.real_repeats, metavar="R",
-                   help=f"walks per gait on the real server (default {FidelityConfig.real_repeats})")
+    p.add_argument(
+        "--real-repeats",
+        type=positive_int,
+        default=FidelityConfig.real_repeats,
+        metavar="R",
+        help=f"walks per gait on the real server (default {FidelityConfig.real_repeats})",
+    )
     p.add_argument("--walk-time", type=positive_float, default=FidelityConfig.walk_time, metavar="S")
     p.add_argument("--gait-dir", type=Path, default=GAIT_SET_DIR, help=argparse.SUPPRESS)
     p.add_argument("--out", type=Path, required=True, metavar="DIR")
-    p.add_argument("--from-json", type=Path, default=None, metavar="FILE",
-                   help="walk nothing: take the figures again from a stored fidelity.json (its walks and tracks)")
+    p.add_argument(
+        "--from-json",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="walk nothing: take the figures again from a stored fidelity.json (its walks and tracks)",
+    )
     return p
 
 
@@ -67,8 +84,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     quiet_agent_logs()
     if args.from_json is not None:
         comparisons, stored = read_run(args.from_json)
-        config = FidelityConfig(real_repeats=stored["real_repeats"], walk_time=stored["walk_time"],
-                                start=tuple(stored["start"]))
+        config = FidelityConfig(
+            real_repeats=stored["real_repeats"], walk_time=stored["walk_time"], start=tuple(stored["start"])
+        )
         about = {k: stored[k] for k in ("set", "real_command", "command_line") if k in stored}
     else:
         command = real_server_or_none()
@@ -83,11 +101,17 @@ def main(argv: Sequence[str] | None = None) -> int:
                 return 1
             gaits = [g for g in gaits if g.name in wanted]
         config = FidelityConfig(real_repeats=args.real_repeats, walk_time=args.walk_time)
-        print(f"fidelity: {len(gaits)} gaits of set {args.gait_set}: 1 walk each on the stand-in, "
-              f"{config.real_repeats} on the real server ({command})", file=sys.stderr)
+        print(
+            f"fidelity: {len(gaits)} gaits of set {args.gait_set}: 1 walk each on the stand-in, "
+            f"{config.real_repeats} on the real server ({command})",
+            file=sys.stderr,
+        )
         comparisons = compare(gaits, command, config, print_progress)
-        about = {"set": args.gait_set, "real_command": command, "command_line": " ".join(
-            ["python", "bench/bench_fidelity.py", *(sys.argv[1:] if argv is None else argv)])}
+        about = {
+            "set": args.gait_set,
+            "real_command": command,
+            "command_line": " ".join(["python", "bench/bench_fidelity.py", *(sys.argv[1:] if argv is None else argv)]),
+        }
     summary = summarize(comparisons, config.targets)
     args.out.mkdir(parents=True, exist_ok=True)
     write_csv(comparisons, args.out / "fidelity.csv", config.targets)
@@ -96,6 +120,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(report(comparisons, summary, config.targets))
     print(f"({time.monotonic() - started:.0f} s; written to {args.out}/fidelity.{{csv,png,json}})")
     return 0
+
 
 if __name__ == "__main__":
     raise SystemExit(main())

@@ -18,6 +18,7 @@ hour; one worker at most 1 / max(s, w). One NAO driven over sockets (``bench_stu
 most at 0.02 / s times real time, and the sockets alone cost server sockets / s of the raw rate.
 Compare with ``bench_episodes.py``, which measures s and w of the real code. Run: ``python bench/bench_floor.py [--cycles 20000]``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -76,13 +77,15 @@ def physics_and_calls() -> tuple[float, float]:
                 pb.getBaseVelocity(body, physicsClientId=client)
                 # the two writes are repeated with no effect on the state: the motor targets
                 # Bullet already has, and zero forces (1.5 slip forces a cycle on average)
-                pb.setJointMotorControlArray(body, joints, pb.VELOCITY_CONTROL, targetVelocities=target,
-                                             forces=force, physicsClientId=client)
+                pb.setJointMotorControlArray(
+                    body, joints, pb.VELOCITY_CONTROL, targetVelocities=target, forces=force, physicsClientId=client
+                )
                 calls += time.perf_counter() - start
                 start = time.perf_counter()
                 for _ in range(2):
-                    pb.applyExternalForce(body, 0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), pb.WORLD_FRAME,
-                                          physicsClientId=client)
+                    pb.applyExternalForce(
+                        body, 0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), pb.WORLD_FRAME, physicsClientId=client
+                    )
                 calls += 0.75 * (time.perf_counter() - start)
 
             world.step = step_and_read  # type: ignore[method-assign]
@@ -125,8 +128,9 @@ def sockets(cycles: int) -> tuple[float, float]:
         listener.listen(1)
         listeners.append(listener)
     result = multiprocessing.Value("d", 0.0)
-    worker = multiprocessing.Process(target=_worker_side, args=(
-        listeners[0].getsockname()[1], listeners[1].getsockname()[1], cycles, result))
+    worker = multiprocessing.Process(
+        target=_worker_side, args=(listeners[0].getsockname()[1], listeners[1].getsockname()[1], cycles, result)
+    )
     worker.start()
     agent, _ = listeners[0].accept()
     monitor, _ = listeners[1].accept()
@@ -164,12 +168,16 @@ def main() -> None:
     print(f"sockets, worker side              {worker_io * 1e6:7.1f} us/cycle")
     print(f"floor s = {s * 1e3:.3f} ms, w = {w * 1e3:.3f} ms per cycle")
     raw = step + calls
-    print(f"1 NAO with its agent, sync mode: at most {0.02 / s:.0f}x real time; the sockets alone cost "
-          f"{server_io / s:.0%} of the raw rate ({0.02 / raw:.0f}x)")
+    print(
+        f"1 NAO with its agent, sync mode: at most {0.02 / s:.0f}x real time; the sockets alone cost "
+        f"{server_io / s:.0%} of the raw rate ({0.02 / raw:.0f}x)"
+    )
     per_hour = 3600.0 / EPISODE_CYCLES
     print(f"at most, 1 worker:  {per_hour / max(s, w):8.0f} 15-s episodes/h  ({0.02 / max(s, w):.0f}x real time)")
-    print(f"at most, 2 workers: {2 * per_hour / (s + w):8.0f} 15-s episodes/h  "
-          f"(parallel efficiency at most {max(s, w) / (s + w):.0%})")
+    print(
+        f"at most, 2 workers: {2 * per_hour / (s + w):8.0f} 15-s episodes/h  "
+        f"(parallel efficiency at most {max(s, w) / (s + w):.0%})"
+    )
 
 
 if __name__ == "__main__":

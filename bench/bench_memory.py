@@ -10,6 +10,7 @@ is read from ``/proc/PID/status`` every ``--every`` episodes.
 ``--repo`` runs the stub of another checkout (e.g. an older commit unpacked with ``git archive``),
 to compare before and after.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -34,8 +35,8 @@ def _receive(sock: socket.socket, buffer: bytearray) -> bytes:
         if len(buffer) >= 4:
             (size,) = struct.unpack_from("!I", buffer)
             if len(buffer) >= 4 + size:
-                body = bytes(buffer[4:4 + size])
-                del buffer[:4 + size]
+                body = bytes(buffer[4 : 4 + size])
+                del buffer[: 4 + size]
                 return body
         chunk = sock.recv(1 << 16)
         if not chunk:
@@ -71,9 +72,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--every", type=int, default=1000, help="print RSS every N episodes")
     parser.add_argument("--repo", type=Path, default=REPO, help="checkout whose server_stub to run")
     args = parser.parse_args(argv)
-    stub = subprocess.Popen([sys.executable, "-m", "server_stub", "--sync", "--no-realtime",
-                             "--agent-port", "0", "--monitor-port", "0"],
-                            cwd=args.repo, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    stub = subprocess.Popen(
+        [sys.executable, "-m", "server_stub", "--sync", "--no-realtime", "--agent-port", "0", "--monitor-port", "0"],
+        cwd=args.repo,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
     try:
         line = stub.stdout.readline()
         port = int(line.split("agent port ")[1].split(",")[0])

@@ -6,6 +6,7 @@ typical = median over all messages, and the mean for messages with and without v
 ``sexpdata.loads("(" + msg + ")")`` (a tree only, no typed result) on the same messages in the
 same run. Also times the monitor reader on ``monitor_full_run.txt``.
 """
+
 from __future__ import annotations
 
 import statistics
@@ -55,12 +56,13 @@ def main() -> None:
     ours = summary(per_message_seconds(parse_perception, messages, repeats=5), has_vision)
     # a See is read on first use of .vision; this row pays for it in every message
     with_see = summary(per_message_seconds(lambda m: parse_perception(m).vision, messages, repeats=5), has_vision)
-    theirs = summary(
-        per_message_seconds(lambda m: sexpdata.loads("(" + m + ")"), messages, repeats=2), has_vision
-    )
+    theirs = summary(per_message_seconds(lambda m: sexpdata.loads("(" + m + ")"), messages, repeats=2), has_vision)
     print(f"{'':24}{'typical (median)':>18}{'mean vision':>14}{'mean no vision':>16}")
-    for name, (median, vision, plain) in (("parse_perception", ours), ("  and .vision read", with_see),
-                                          ("sexpdata.loads", theirs)):
+    for name, (median, vision, plain) in (
+        ("parse_perception", ours),
+        ("  and .vision read", with_see),
+        ("sexpdata.loads", theirs),
+    ):
         print(f"{name:24}{median * 1e6:15.1f} us{vision * 1e6:11.1f} us{plain * 1e6:13.1f} us")
     print(f"typical rate: {1 / ours[0]:,.0f} perceptions/s on one core")
     print(

@@ -4,6 +4,7 @@ Prints steps per second and the multiple of real time (one step = 0.02 s simulat
 one standing NAO, one NAO walking the real calibration gait (the controller's own time is left
 out), and 11 and 22 NAOs standing spread over the field. Run: ``python bench/bench_physics.py``.
 """
+
 from __future__ import annotations
 
 import sys
@@ -66,8 +67,10 @@ def walking() -> float:
 
 
 def report(label: str, seconds_per_step: float) -> None:
-    print(f"{label:28s} {1.0 / seconds_per_step:9.0f} steps/s  {CYCLE / seconds_per_step:7.1f}x real time"
-          f"  ({seconds_per_step * 1e3:.3f} ms/step)")
+    print(
+        f"{label:28s} {1.0 / seconds_per_step:9.0f} steps/s  {CYCLE / seconds_per_step:7.1f}x real time"
+        f"  ({seconds_per_step * 1e3:.3f} ms/step)"
+    )
 
 
 def main() -> None:

@@ -9,6 +9,7 @@
 Targets (issue): >= 80x real time for 1, and sockets + protocol + agent costing <= 15% of the raw
 rate. Run: ``python bench/bench_stub.py [--seconds 60]``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -29,9 +30,13 @@ from protocol.nao import CYCLE  # noqa: E402
 
 
 def start_stub() -> tuple[subprocess.Popen, int]:
-    proc = subprocess.Popen([sys.executable, "-m", "server_stub", "--sync", "--no-realtime",
-                             "--agent-port", "0", "--monitor-port", "0"], cwd=REPO,
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "server_stub", "--sync", "--no-realtime", "--agent-port", "0", "--monitor-port", "0"],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
     port = int(re.search(r"agent port (\d+)", proc.stdout.readline()).group(1))
     return proc, port
 
@@ -63,11 +68,32 @@ def raw_physics(cycles: int) -> float:
 
 def many_agents(port: int, count: int, seconds: float) -> float:
     t0 = time.perf_counter()
-    procs = [subprocess.Popen([sys.executable, "-m", "agent", "--port", str(port), "--sync", "--start-now",
-                               "--team", "Bench", "--unum", str(k + 1), "--duration", str(seconds),
-                               "--beam", str(-1.0 - k % 11), str(-4.0 + 8.0 * (k // 11)), "0"], cwd=REPO,
-                              stderr=subprocess.DEVNULL)
-             for k in range(count)]
+    procs = [
+        subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "agent",
+                "--port",
+                str(port),
+                "--sync",
+                "--start-now",
+                "--team",
+                "Bench",
+                "--unum",
+                str(k + 1),
+                "--duration",
+                str(seconds),
+                "--beam",
+                str(-1.0 - k % 11),
+                str(-4.0 + 8.0 * (k // 11)),
+                "0",
+            ],
+            cwd=REPO,
+            stderr=subprocess.DEVNULL,
+        )
+        for k in range(count)
+    ]
     for p in procs:
         p.wait()
     return time.perf_counter() - t0
@@ -84,8 +110,10 @@ def main() -> None:
         wall, cycles = one_agent(port, args.seconds)
         end_to_end = cycles * CYCLE / wall
         raw = cycles * CYCLE / raw_physics(cycles)
-        print(f"1 NAO, agent over sockets (sync): {cycles} cycles in {wall:.2f} s = {end_to_end:.1f}x real time "
-              f"(target >= 80x)")
+        print(
+            f"1 NAO, agent over sockets (sync): {cycles} cycles in {wall:.2f} s = {end_to_end:.1f}x real time "
+            f"(target >= 80x)"
+        )
         print(f"same model, raw physics + sensors:  {raw:.1f}x real time")
         print(f"sockets + protocol + agent cost: {100 * (1 - end_to_end / raw):.1f}% of the raw rate (target <= 15%)")
         for count in (11, 22):

@@ -2,6 +2,7 @@
 
 Run: ``cd /work/main && python bench/bench_stub_formats.py``. Prints microseconds per call.
 """
+
 from __future__ import annotations
 
 import math
@@ -19,9 +20,31 @@ from server_stub.sensors.monitor_scene import GameHeader, MonitorScene, RobotVie
 from server_stub.sensors.perception_text import GameStateText, format_perception  # noqa: E402
 from server_stub.sensors.vision import SeenRobot, VisionSensor  # noqa: E402
 
-_PARTS = ["torso", "neck", "head", "rshoulder", "rupperarm", "relbow", "rlowerarm", "lshoulder",
-          "lupperarm", "lelbow", "llowerarm", "rhip1", "rhip2", "rthigh", "rshank", "rankle", "rfoot",
-          "lhip1", "lhip2", "lthigh", "lshank", "lankle", "lfoot"]
+_PARTS = [
+    "torso",
+    "neck",
+    "head",
+    "rshoulder",
+    "rupperarm",
+    "relbow",
+    "rlowerarm",
+    "lshoulder",
+    "lupperarm",
+    "lelbow",
+    "llowerarm",
+    "rhip1",
+    "rhip2",
+    "rthigh",
+    "rshank",
+    "rankle",
+    "rfoot",
+    "lhip1",
+    "lhip2",
+    "lthigh",
+    "lshank",
+    "lankle",
+    "lfoot",
+]
 
 
 def _us(fn, number: int) -> float:
@@ -31,8 +54,12 @@ def _us(fn, number: int) -> float:
 def _robot(rng: np.random.Generator, k: int) -> RobotView:
     # turned every which way, as a walking robot's parts are: all 16 numbers of each pose vary
     quaternions = rng.normal(size=(len(_PARTS), 4))
-    links = np.hstack([(k, 0.0, 0.4) + rng.normal(0, 0.1, (len(_PARTS), 3)),
-                       quaternions / np.linalg.norm(quaternions, axis=1, keepdims=True)])
+    links = np.hstack(
+        [
+            (k, 0.0, 0.4) + rng.normal(0, 0.1, (len(_PARTS), 3)),
+            quaternions / np.linalg.norm(quaternions, axis=1, keepdims=True),
+        ]
+    )
     poses = body_poses(links[0, :3], np.eye(3), links)[1:]
     return RobotView("left" if k % 2 == 0 else "right", k // 2 + 1, 0, tuple(_PARTS), poses)
 
@@ -43,31 +70,51 @@ def main() -> None:
     gs = GameStateText(0, 0, 12.34, "PlayOn")
     contact = ((0.001, -0.06, -0.01), (0.0, 14.17, 104.85))
     feet = {"lf": contact, "rf": contact}
-    print(f"format_perception, no See, both FRP : "
-          f"{_us(lambda: format_perception(552.9, gs, (1.0, 2.0, 3.0), (0.1, 0.2, 9.8), joints, feet), 20000):7.2f} us")
-    print(f"format_perception, no See, no FRP   : "
-          f"{_us(lambda: format_perception(552.9, gs, (1.0, 2.0, 3.0), (0.1, 0.2, 9.8), joints, {}), 20000):7.2f} us")
+    print(
+        f"format_perception, no See, both FRP : "
+        f"{_us(lambda: format_perception(552.9, gs, (1.0, 2.0, 3.0), (0.1, 0.2, 9.8), joints, feet), 20000):7.2f} us"
+    )
+    print(
+        f"format_perception, no See, no FRP   : "
+        f"{_us(lambda: format_perception(552.9, gs, (1.0, 2.0, 3.0), (0.1, 0.2, 9.8), joints, {}), 20000):7.2f} us"
+    )
 
     a = math.radians(20.0)
     rot = np.array([[math.sin(a), math.cos(a), 0.0], [-math.cos(a), math.sin(a), 0.0], [0.0, 0.0, 1.0]])
     sensor = VisionSensor(rng, noise=True, sense_mypos=True)
     for n in (1, 22):
-        robots = [SeenRobot("T", k + 1, {p: tuple(rng.uniform(-5, 5, 2)) + (0.3,) for p in
-                                         ("head", "rlowerarm", "llowerarm", "rfoot", "lfoot")})
-                  for k in range(n)]
-        print(f"VisionSensor.see, {n:2d} robot(s)        : "
-              f"{_us(lambda: sensor.see((-1.0, 0.0, 0.55), rot, 'left', (0, 0, 0.042), robots), 500):7.2f} us")
+        robots = [
+            SeenRobot(
+                "T",
+                k + 1,
+                {
+                    p: tuple(rng.uniform(-5, 5, 2)) + (0.3,)
+                    for p in ("head", "rlowerarm", "llowerarm", "rfoot", "lfoot")
+                },
+            )
+            for k in range(n)
+        ]
+        print(
+            f"VisionSensor.see, {n:2d} robot(s)        : "
+            f"{_us(lambda: sensor.see((-1.0, 0.0, 0.55), rot, 'left', (0, 0, 0.042), robots), 500):7.2f} us"
+        )
 
     for n in (1, 22):
         robots = [_robot(rng, k) for k in range(n)]
         header = GameHeader(1.0, "PlayOn", team_left="A", team_right="B")
         scene = MonitorScene()
-        print(f"MonitorScene.full, {n:2d} robot(s)       : {_us(lambda: scene.full(header, robots, (0, 0, 0.042)), 200):7.1f} us")
-        print(f"MonitorScene.delta, {n:2d} still         : {_us(lambda: scene.delta(header, robots, (0, 0, 0.042)), 2000):7.1f} us")
+        print(
+            f"MonitorScene.full, {n:2d} robot(s)       : {_us(lambda: scene.full(header, robots, (0, 0, 0.042)), 200):7.1f} us"
+        )
+        print(
+            f"MonitorScene.delta, {n:2d} still         : {_us(lambda: scene.delta(header, robots, (0, 0, 0.042)), 2000):7.1f} us"
+        )
         moving = [[_robot(rng, k) for k in range(n)] for _ in range(2)]
         flip = iter(range(10**9))
-        print(f"MonitorScene.delta, {n:2d} all moving    : "
-              f"{_us(lambda: scene.delta(header, moving[next(flip) % 2], (0, 0, 0.042)), 200):7.1f} us")
+        print(
+            f"MonitorScene.delta, {n:2d} all moving    : "
+            f"{_us(lambda: scene.delta(header, moving[next(flip) % 2], (0, 0, 0.042)), 200):7.1f} us"
+        )
 
 
 if __name__ == "__main__":

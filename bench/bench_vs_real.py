@@ -19,6 +19,7 @@ The load average is printed: the machine is shared, and rates move with it.
 
     python bench/bench_vs_real.py [--episodes 5] [--walk-time 15]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -58,11 +59,13 @@ class Timing:
     def line(self) -> str:
         wall = statistics.fmean(self.walls)
         speed = sum(self.walked) / sum(self.walls)
-        return (f"{self.server:<9} {self.case:<38} {len(self.walls):>3} walks ({self.falls} fell): "
-                f"{wall:6.3f} s each, {1 / wall:5.2f} episodes/s, {speed:5.1f}x real time "
-                f"(walked {statistics.fmean(self.walked):5.2f} s each); CPU {self.server_cpu / len(self.walls):.3f} s "
-                f"server + {self.own_cpu / len(self.walls):.3f} s agent each, "
-                f"{sum(self.walked) / (self.server_cpu + self.own_cpu):5.1f}x real time per CPU second")
+        return (
+            f"{self.server:<9} {self.case:<38} {len(self.walls):>3} walks ({self.falls} fell): "
+            f"{wall:6.3f} s each, {1 / wall:5.2f} episodes/s, {speed:5.1f}x real time "
+            f"(walked {statistics.fmean(self.walked):5.2f} s each); CPU {self.server_cpu / len(self.walls):.3f} s "
+            f"server + {self.own_cpu / len(self.walls):.3f} s agent each, "
+            f"{sum(self.walked) / (self.server_cpu + self.own_cpu):5.1f}x real time per CPU second"
+        )
 
 
 def _process_cpu(pid: int | None) -> float:
@@ -74,8 +77,9 @@ def _process_cpu(pid: int | None) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-def _episodes(server: str, process: ServerProcess, runner: EpisodeRunner, gaits: dict[str, TFSParams],
-              count: int) -> list[Timing]:
+def _episodes(
+    server: str, process: ServerProcess, runner: EpisodeRunner, gaits: dict[str, TFSParams], count: int
+) -> list[Timing]:
     runner.evaluate(gaits["shipped gait"])  # warm-up: server start, first connection
     out = []
     for name, params in gaits.items():
@@ -89,18 +93,35 @@ def _episodes(server: str, process: ServerProcess, runner: EpisodeRunner, gaits:
                 raise RuntimeError(f"{server}: an episode could not be run: {result.reason}")
             walked.append(result.time)
             falls += result.fell
-        out.append(Timing(server, f"EpisodeRunner, {name}", tuple(walls), tuple(walked), falls,
-                          _process_cpu(process.pid) - server_cpu, time.process_time() - own_cpu))
+        out.append(
+            Timing(
+                server,
+                f"EpisodeRunner, {name}",
+                tuple(walls),
+                tuple(walked),
+                falls,
+                _process_cpu(process.pid) - server_cpu,
+                time.process_time() - own_cpu,
+            )
+        )
     return out
 
 
-def _agent_alone(server: str, process: ServerProcess, params: TFSParams, count: int, walk_time: float,
-                 nudge: float | None) -> Timing:
+def _agent_alone(
+    server: str, process: ServerProcess, params: TFSParams, count: int, walk_time: float, nudge: float | None
+) -> Timing:
     """The agent walking on its own: no monitor connection, no trainer; start at once, walk
     ``walk_time`` s, disconnect."""
     address = process.ensure_running()
-    config = AgentConfig(host=address.host, port=address.agent_port, beam=DEFAULT_START, sync=True,
-                         duration=walk_time, start_now=True, syn_nudge_interval=nudge)
+    config = AgentConfig(
+        host=address.host,
+        port=address.agent_port,
+        beam=DEFAULT_START,
+        sync=True,
+        duration=walk_time,
+        start_now=True,
+        syn_nudge_interval=nudge,
+    )
     walls, walked, falls = [], [], 0
     server_cpu = own_cpu = 0.0
     for i in range(count + 1):

@@ -22,6 +22,7 @@ few per cent, so a gait near a threshold can go either way).
 
     python bench/make_fidelity_gaits.py --real-run /work/demo/real-pc0.8 --stub-run /work/demo/stub-pc0.8
 """
+
 from __future__ import annotations
 
 import argparse
@@ -90,13 +91,20 @@ def _screen(runner: EpisodeRunner, gaits: list[FidelityGait]) -> list[tuple[Fide
     walks = walk_gaits(runner, gaits, 1, print_progress, "screen")
     out = []
     for gait, (walk,) in zip(gaits, walks):
-        screen = {"real_distance": round(walk.distance, 3), "real_fell": walk.fell, "real_time": round(walk.time, 2),
-                  "real_heading_change": round(walk.heading_change, 1), "real_drift": round(walk.drift, 3)}
+        screen = {
+            "real_distance": round(walk.distance, 3),
+            "real_fell": walk.fell,
+            "real_time": round(walk.time, 2),
+            "real_heading_change": round(walk.heading_change, 1),
+            "real_drift": round(walk.drift, 3),
+        }
         out.append((FidelityGait(gait.name, gait.family, gait.genes, gait.how, screen), walk))
     return out
 
 
-def _split(gaits: list[FidelityGait], seed: int, training_share: float) -> tuple[list[FidelityGait], list[FidelityGait]]:
+def _split(
+    gaits: list[FidelityGait], seed: int, training_share: float
+) -> tuple[list[FidelityGait], list[FidelityGait]]:
     """Training and held-aside parts: a seeded shuffle within each family, ``training_share`` of
     each (rounded) to training."""
     rng = np.random.default_rng(seed)
@@ -145,8 +153,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     for i in range(args.line_steps + 1):
         s = i / args.line_steps
-        gaits.append(FidelityGait(f"line-{i:02d}", "line", _genes(shipped + s * (fast - shipped)),
-                                  f"shipped gait + {s:.2f} x (FAST_REAL - shipped gait)"))
+        gaits.append(
+            FidelityGait(
+                f"line-{i:02d}",
+                "line",
+                _genes(shipped + s * (fast - shipped)),
+                f"shipped gait + {s:.2f} x (FAST_REAL - shipped gait)",
+            )
+        )
 
     centres = [("fast", FAST_REAL, "FAST_REAL (issue 15: 13.26 m on the real server)")]
     for j, (genes, distance, key) in enumerate(_fastest_distinct(args.real_run, args.fast_centres, 0.15)):
@@ -156,12 +170,24 @@ def main(argv: Sequence[str] | None = None) -> int:
             gaits.append(FidelityGait(f"centre-{name}", "neighbour", genes, what + " (the centre itself)"))
         for radius in args.radii:
             for k in range(args.per_radius):
-                gaits.append(FidelityGait(f"near-{name}-r{radius:g}-{k}", "neighbour", _around(genes, radius, rng),
-                                          f"{radius:g} x each gene's range from {what}, random direction"))
+                gaits.append(
+                    FidelityGait(
+                        f"near-{name}-r{radius:g}-{k}",
+                        "neighbour",
+                        _around(genes, radius, rng),
+                        f"{radius:g} x each gene's range from {what}, random direction",
+                    )
+                )
 
     for j, (genes, distance, key) in enumerate(_fastest_distinct(args.stub_run, args.found, 0.05)):
-        gaits.append(FidelityGait(f"found-stub{j}", "found", genes,
-                                  f"{args.stub_run.name} {key}: {distance:.2f} m on the stand-in, no fall"))
+        gaits.append(
+            FidelityGait(
+                f"found-stub{j}",
+                "found",
+                genes,
+                f"{args.stub_run.name} {key}: {distance:.2f} m on the stand-in, no fall",
+            )
+        )
 
     config = FidelityConfig()
     with EpisodeRunner(config.episode_config(), RealServerProcess(command), trace=True) as runner:
@@ -172,9 +198,18 @@ def main(argv: Sequence[str] | None = None) -> int:
             if len(random_kept) == args.random:
                 break
             genes = _genes(rng.uniform(GENE_BOUNDS[:, 0], GENE_BOUNDS[:, 1]))
-            [(gait, walk)] = _screen(runner, [FidelityGait(f"random-{t:03d}", "random", genes,
-                                                           f"uniform in GENE_BOUNDS, draw {t} of seed {args.seed}; "
-                                                           f"kept: no fall within {args.random_min_time:g} s")])
+            [(gait, walk)] = _screen(
+                runner,
+                [
+                    FidelityGait(
+                        f"random-{t:03d}",
+                        "random",
+                        genes,
+                        f"uniform in GENE_BOUNDS, draw {t} of seed {args.seed}; "
+                        f"kept: no fall within {args.random_min_time:g} s",
+                    )
+                ],
+            )
             if walk.status == "ok" and (not walk.fell or walk.time >= args.random_min_time):
                 random_kept.append(gait)
         kept += random_kept
@@ -189,24 +224,38 @@ def main(argv: Sequence[str] | None = None) -> int:
             sign = 1 if rng.random() < 0.5 else -1
             genes[2] += sign * pull
             genes[3] -= sign * pull
-            candidates.append(FidelityGait(f"turn-{t:02d}", "turning", _genes(genes),
-                                           f"{base.name} moved 0.03 of the ranges, A {'+' if sign > 0 else '-'}"
-                                           f"{pull:.1f} deg and B the other way"))
+            candidates.append(
+                FidelityGait(
+                    f"turn-{t:02d}",
+                    "turning",
+                    _genes(genes),
+                    f"{base.name} moved 0.03 of the ranges, A {'+' if sign > 0 else '-'}"
+                    f"{pull:.1f} deg and B the other way",
+                )
+            )
         screened = _screen(runner, candidates)
-    turners = sorted(((g, w) for g, w in screened if w.status == "ok" and not w.fell and abs(w.heading_change) >= args.min_turn),
-                     key=lambda gw: -abs(gw[1].heading_change))
-    kept += [g for g, _ in turners[:args.turning]]
+    turners = sorted(
+        ((g, w) for g, w in screened if w.status == "ok" and not w.fell and abs(w.heading_change) >= args.min_turn),
+        key=lambda gw: -abs(gw[1].heading_change),
+    )
+    kept += [g for g, _ in turners[: args.turning]]
 
     training, held = _split(kept, args.seed, args.training_share)
-    about = {"made_by": "python bench/make_fidelity_gaits.py " + " ".join(sys.argv[1:] if argv is None else argv),
-             "seed": args.seed, "gene_names": list(GENE_NAMES), "real_server": command,
-             "screen": "one 15-s walk on the real server from (-5, 0, 0), sync profile"}
+    about = {
+        "made_by": "python bench/make_fidelity_gaits.py " + " ".join(sys.argv[1:] if argv is None else argv),
+        "seed": args.seed,
+        "gene_names": list(GENE_NAMES),
+        "real_server": command,
+        "screen": "one 15-s walk on the real server from (-5, 0, 0), sync profile",
+    }
     save_gait_set(args.out / "training.json", "training", training, about)
     save_gait_set(args.out / "held_aside.json", "held_aside", held, about)
     families = {f: sum(g.family == f for g in kept) for f in dict.fromkeys(g.family for g in kept)}
-    print(f"{len(kept)} gaits ({families}): {len(training)} training, {len(held)} held aside; "
-          f"random kept {len(random_kept)}, turning kept {len(turners[:args.turning])} of {len(turners)} that turned "
-          f">= {args.min_turn:g} deg; written to {args.out}")
+    print(
+        f"{len(kept)} gaits ({families}): {len(training)} training, {len(held)} held aside; "
+        f"random kept {len(random_kept)}, turning kept {len(turners[: args.turning])} of {len(turners)} that turned "
+        f">= {args.min_turn:g} deg; written to {args.out}"
+    )
     return 0
 
 

@@ -11,6 +11,7 @@ walked 2.91-3.14 m. ``flail``: 24 robots driven by random motor speeds (normal, 
 new every 0.2 s) for 20 s; a torso faster than 5 m/s counts as a blow-up. ``name=value`` overrides
 a ``PhysicsConfig`` field (JSON value), e.g. ``sub_steps=3 slip=0.006``. Uses both cores.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -36,9 +37,15 @@ RUNS = 24
 
 def _starts(seed: int) -> list[dict]:
     rng = random.Random(seed)
-    starts = [dict(rebeam_cycle=rng.choice([10, 11, 12, 13, 14, None]), beam_delay=rng.choice([0, 1]),
-                   beam=(round(rng.uniform(-13, -1), 2), round(rng.uniform(-8, 8), 2), round(rng.uniform(-1, 1), 2)),
-                   cycles_before_beam=rng.choice([2, 3, 4])) for _ in range(RUNS)]
+    starts = [
+        dict(
+            rebeam_cycle=rng.choice([10, 11, 12, 13, 14, None]),
+            beam_delay=rng.choice([0, 1]),
+            beam=(round(rng.uniform(-13, -1), 2), round(rng.uniform(-8, 8), 2), round(rng.uniform(-1, 1), 2)),
+            cycles_before_beam=rng.choice([2, 3, 4]),
+        )
+        for _ in range(RUNS)
+    ]
     starts[0] = {}  # the README's own start
     return starts
 
@@ -85,14 +92,18 @@ def main() -> None:
             results = list(pool.map(_walk, [(overrides, s) for s in _starts(7 if args.seed is None else args.seed)]))
             ok = sum(1 for dx, _, fell in results if not fell and 2.55 <= dx <= 3.45)
             walked = [dx for dx, _, fell in results if not fell]
-            print(f"{overrides or 'defaults'}: {ok}/{RUNS} ok, {sum(f for *_, f in results)} falls, "
-                  f"{min(walked, default=0):.2f}-{max(walked, default=0):.2f} m, "
-                  f"sideways up to {max(abs(dy) for _, dy, _ in results):.2f} m")
+            print(
+                f"{overrides or 'defaults'}: {ok}/{RUNS} ok, {sum(f for *_, f in results)} falls, "
+                f"{min(walked, default=0):.2f}-{max(walked, default=0):.2f} m, "
+                f"sideways up to {max(abs(dy) for _, dy, _ in results):.2f} m"
+            )
         else:
             first = 0 if args.seed is None else args.seed
             speeds = list(pool.map(_flail, [(overrides, first + k, args.sigma) for k in range(RUNS)]))
-            print(f"{overrides or 'defaults'}: {sum(s > 5.0 for s in speeds)}/{RUNS} blow-ups, "
-                  f"fastest torso {max(speeds):.2f} m/s, median {sorted(speeds)[RUNS // 2]:.2f} m/s")
+            print(
+                f"{overrides or 'defaults'}: {sum(s > 5.0 for s in speeds)}/{RUNS} blow-ups, "
+                f"fastest torso {max(speeds):.2f} m/s, median {sorted(speeds)[RUNS // 2]:.2f} m/s"
+            )
 
 
 if __name__ == "__main__":

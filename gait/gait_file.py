@@ -8,6 +8,7 @@ read them (``python -m agent --gait FILE``). Format::
      "params": {"c_h": 15.0, "c_k": 30.0, "A": 10.0, "B": 10.0, "C": 20.0, "t2": 0.35, "w": 15.708},
      "notes": "free text (optional)"}
 """
+
 from __future__ import annotations
 
 import json
@@ -37,10 +38,10 @@ def load_gait(path: str | Path = DEFAULT_GAIT_PATH) -> TFSParams:
     except json.JSONDecodeError as exc:
         raise GaitFileError(f"gait file {path} is not valid JSON: {exc}") from None
     if not isinstance(document, dict) or document.get("format") != FORMAT:
-        raise GaitFileError(f"gait file {path}: expected an object with \"format\": \"{FORMAT}\"")
+        raise GaitFileError(f'gait file {path}: expected an object with "format": "{FORMAT}"')
     params = document.get("params")
     if not isinstance(params, dict):
-        raise GaitFileError(f"gait file {path}: missing the \"params\" object")
+        raise GaitFileError(f'gait file {path}: missing the "params" object')
     missing = [name for name in GENE_NAMES if name not in params]
     unknown = sorted(set(params) - set(GENE_NAMES))
     if missing or unknown:

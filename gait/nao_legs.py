@@ -6,6 +6,7 @@ lifts the toes. The ankle is not a gene: ``le5 = -(le3 + le4)`` cancels the thig
 so the sole stays parallel to the torso's ground plane; checked on the real server, where the
 opposite sign tips the robot over within 0.7 s.
 """
+
 from __future__ import annotations
 
 from collections.abc import Mapping
@@ -30,6 +31,7 @@ def leg_joint_targets(
     ``limits`` maps effector name -> (min_deg, max_deg); the agent passes the robot's real limits
     (``protocol.nao``), which this package does not import so it stays free of wire concerns.
     """
+
     def clamp(name: str, value: float) -> float:
         low, high = limits[name]
         return min(max(value, low + margin), high - margin)

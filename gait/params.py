@@ -4,6 +4,7 @@ Angles are degrees in the *human* convention (hip flexion and knee flexion posit
 is how the paper's Fig. 2 draws them and how the real-server calibration walk is written down;
 ``gait.nao_legs`` turns them into NAO joint signs.
 """
+
 from __future__ import annotations
 
 import math
@@ -17,7 +18,13 @@ GENE_NAMES: tuple[str, ...] = ("c_h", "c_k", "A", "B", "C", "t2", "w")
 
 #: Units of each gene, written into gait files so a reader never has to guess.
 GENE_UNITS: dict[str, str] = {
-    "c_h": "deg", "c_k": "deg", "A": "deg", "B": "deg", "C": "deg", "t2": "s", "w": "rad/s",
+    "c_h": "deg",
+    "c_k": "deg",
+    "A": "deg",
+    "B": "deg",
+    "C": "deg",
+    "t2": "s",
+    "w": "rad/s",
 }
 
 # The robot facts the box is derived from (the NAO of rcssserver3d 0.7.3; ``tests/test_gait.py``
@@ -49,12 +56,12 @@ _LONGEST_PERIOD = 2 * math.pi * _WIDEST_SWING / _SPEED_CAP_DEG
 #: longest period and folded into (0, T) by ``repair_genes``.
 GENE_BOUNDS: np.ndarray = np.array(
     [
-        list(_HIP_RANGE),                        # c_h: hip offset, the hip pitch range
-        list(_KNEE_FLEXION_RANGE),               # c_k: knee offset, the knee range (eq. 5: c_k >= 0)
-        [0.0, _WIDEST_SWING],                    # A: hip amplitude, first half period
-        [0.0, _WIDEST_SWING],                    # B: hip amplitude, second half period
-        [0.0, _KNEE_FLEXION_RANGE[1]],           # C: knee bump, up to the whole knee range
-        [0.0, _LONGEST_PERIOD],                  # t2: start of the knee bump within the period (s)
+        list(_HIP_RANGE),  # c_h: hip offset, the hip pitch range
+        list(_KNEE_FLEXION_RANGE),  # c_k: knee offset, the knee range (eq. 5: c_k >= 0)
+        [0.0, _WIDEST_SWING],  # A: hip amplitude, first half period
+        [0.0, _WIDEST_SWING],  # B: hip amplitude, second half period
+        [0.0, _KNEE_FLEXION_RANGE[1]],  # C: knee bump, up to the whole knee range
+        [0.0, _LONGEST_PERIOD],  # t2: start of the knee bump within the period (s)
         [2 * math.pi / _LONGEST_PERIOD, 2 * math.pi / _SHORTEST_PERIOD],  # w: angular frequency (rad/s)
     ]
 )
@@ -63,8 +70,15 @@ GENE_BOUNDS: np.ndarray = np.array(
 #: A and B 0..40, C 0..60, periods 0.25-1 s). It stopped short of the fast real walks (their knee
 #: bump is 70-89 deg); a run folder that does not name its bounds was searched in it.
 LEGACY_GENE_BOUNDS: np.ndarray = np.array(
-    [[-10.0, 40.0], [0.0, 60.0], [0.0, 40.0], [0.0, 40.0], [0.0, 60.0], [0.0, 1.0],
-     [2 * math.pi / 1.0, 2 * math.pi / 0.25]]
+    [
+        [-10.0, 40.0],
+        [0.0, 60.0],
+        [0.0, 40.0],
+        [0.0, 40.0],
+        [0.0, 60.0],
+        [0.0, 1.0],
+        [2 * math.pi / 1.0, 2 * math.pi / 0.25],
+    ]
 )
 
 #: Named boxes a run folder records (``--bounds``), so a resumed run searches the box it began in.

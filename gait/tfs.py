@@ -8,6 +8,7 @@ half a period from ``t2`` (phase taken modulo T) -- the swing phase's knee flexi
 The right leg runs the same signal half a period later (``t + T/2``), as in the real-server
 calibration walk, so one leg supports while the other swings.
 """
+
 from __future__ import annotations
 
 import math

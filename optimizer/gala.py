@@ -1,5 +1,6 @@
 """``python -m optimizer.gala``: the paper's Table I protocol. Only the entry point: the command lives in
 ``optimizer.cli.gala``."""
+
 from optimizer.cli.gala import main
 
 if __name__ == "__main__":

@@ -1,5 +1,6 @@
 """``python -m optimizer.transfer``: a run's gaits walked on a real server. Only the entry point: the command lives in
 ``optimizer.cli.transfer``."""
+
 from optimizer.cli.transfer import main
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
 """Command-line values the project's programs (``agent``, ``server_stub``, ``optimizer``) check
 the same way: ports, finite and positive numbers, rates. Each error names what is wrong and
 argparse adds the flag. Kept here because ``protocol`` is the one package all three import."""
+
 from __future__ import annotations
 
 import argparse

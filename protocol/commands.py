@@ -1,5 +1,6 @@
 """Effector commands (agent -> server), byte for byte as a real agent sent them
 (``tests/data/rcssserver3d/agent_commands_sent.txt``). Several may be concatenated in one message."""
+
 from __future__ import annotations
 
 import math

@@ -4,6 +4,7 @@ One exception type for every malformed input, so a server can drop a bad message
 (and an agent a bad message from a server) without catching unrelated bugs: ``ProtocolError`` is a
 ``ValueError`` that says where the input went wrong and what the reader wanted there.
 """
+
 from __future__ import annotations
 
 #: Most characters of offending input an error message quotes: enough to recognise it, never a

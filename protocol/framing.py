@@ -4,6 +4,7 @@ big-endian unsigned length followed by that many bytes (docs/robot_and_server.md
 The decoder is incremental because TCP delivers arbitrary chunks, and it checks every prefix
 against a cap before buffering the body, so a hostile or corrupt prefix (up to 4 GiB) costs nothing.
 """
+
 from __future__ import annotations
 
 import struct
@@ -54,9 +55,7 @@ class FrameDecoder:
             (size,) = _PREFIX.unpack_from(buf, pos)
             if size > self.max_size:
                 self._consume(pos)
-                raise FrameTooLarge(
-                    self._offset, f"a frame length of at most {self.max_size} bytes", str(size)
-                )
+                raise FrameTooLarge(self._offset, f"a frame length of at most {self.max_size} bytes", str(size))
             if end - pos - 4 < size:
                 break
             frames.append(bytes(buf[pos + 4 : pos + 4 + size]))

@@ -15,6 +15,7 @@ A full scene is read token by token once (it comes on connect and when robots ap
 A delta is not parsed into a tree: the reader steps over ``(nd`` openings with ``str.find`` to
 the torsos' nodes and decodes only their ``SLT``s.
 """
+
 from __future__ import annotations
 
 import re
@@ -133,8 +134,14 @@ class MonitorReader:
         play_mode = self._play_modes[self._play_mode]
         robots = [RobotPose(r.team, r.unum, r.robot_type, *r.pose) for r in self._robots]
         return MonitorState(
-            self._game_time, play_mode, self._half, self._score_left, self._score_right,
-            self._team_left, self._team_right, robots,
+            self._game_time,
+            play_mode,
+            self._half,
+            self._score_left,
+            self._score_right,
+            self._team_left,
+            self._team_right,
+            robots,
         )
 
     def _header_predicate(self, name: str, values: list[str], text: str) -> None:
@@ -196,8 +203,9 @@ class MonitorReader:
         if open_kinds:
             raise ProtocolError(len(text), "')' (the full scene ends inside a node)", "end of message")
         self._node_count = len(parents)
-        self._robots = [self._robot(node, robot_type, materials, parents, slts)
-                        for node, robot_type, materials in meshes]
+        self._robots = [
+            self._robot(node, robot_type, materials, parents, slts) for node, robot_type, materials in meshes
+        ]
         self._torsos = sorted(((robot.torso, robot) for robot in self._robots), key=lambda item: item[0])
 
     @staticmethod
@@ -244,4 +252,4 @@ class MonitorReader:
             following = text.find("(nd", at + 3)
             slt = text.find("(SLT ", at + 3, len(text) if following < 0 else following)
             if slt >= 0:
-                robot.pose = _pose(text[slt + 5:text.find(")", slt)], slt)
+                robot.pose = _pose(text[slt + 5 : text.find(")", slt)], slt)

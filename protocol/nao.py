@@ -4,6 +4,7 @@ These are the facts every package needs to agree on (the agent to command joints
 clamp targets through the agent, the stub to enforce the same rules), so they live here once.
 Source of every number: ``docs/robot_and_server.md`` (rcssserver3d 0.7.3 / SimSpark 0.3.2).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -80,11 +81,27 @@ ROBOT_TYPES: tuple[int, ...] = (0, 1, 2, 3, 4)
 
 #: Play-mode names in the monitor's index order (section 9).
 PLAY_MODES: tuple[str, ...] = (
-    "BeforeKickOff", "KickOff_Left", "KickOff_Right", "PlayOn", "KickIn_Left", "KickIn_Right",
-    "corner_kick_left", "corner_kick_right", "goal_kick_left", "goal_kick_right",
-    "offside_left", "offside_right", "GameOver", "Goal_Left", "Goal_Right",
-    "free_kick_left", "free_kick_right", "direct_free_kick_left", "direct_free_kick_right",
-    "pass_left", "pass_right",
+    "BeforeKickOff",
+    "KickOff_Left",
+    "KickOff_Right",
+    "PlayOn",
+    "KickIn_Left",
+    "KickIn_Right",
+    "corner_kick_left",
+    "corner_kick_right",
+    "goal_kick_left",
+    "goal_kick_right",
+    "offside_left",
+    "offside_right",
+    "GameOver",
+    "Goal_Left",
+    "Goal_Right",
+    "free_kick_left",
+    "free_kick_right",
+    "direct_free_kick_left",
+    "direct_free_kick_right",
+    "pass_left",
+    "pass_right",
 )
 #: Play modes in which ``beam`` is honoured (section 6).
 BEAM_PLAY_MODES: frozenset[str] = frozenset({"BeforeKickOff", "Goal_Left", "Goal_Right"})

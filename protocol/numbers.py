@@ -1,4 +1,5 @@
 """Number text for commands: the server reads plain decimals, so never print an exponent."""
+
 from __future__ import annotations
 
 import math

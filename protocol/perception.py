@@ -24,6 +24,7 @@ Grammar (one message; perceptors in scene-graph order, section 5)::
                | (P (team <name>) (id <n>) (<part> (pol <d> <h> <v>))*)
                | (mypos <x> <y> <z>) | (myorien <deg>) | (ballpos <x> <y> <z>)
 """
+
 from __future__ import annotations
 
 import re
@@ -129,9 +130,27 @@ class Perception:
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Perception):
             return NotImplemented
-        return ((self.time, self.game, self.gyro, self.acc, self.joints, self.frp, self.vision, self.hear, self.unknown)
-                == (other.time, other.game, other.gyro, other.acc, other.joints, other.frp, other.vision,
-                    other.hear, other.unknown))
+        return (
+            self.time,
+            self.game,
+            self.gyro,
+            self.acc,
+            self.joints,
+            self.frp,
+            self.vision,
+            self.hear,
+            self.unknown,
+        ) == (
+            other.time,
+            other.game,
+            other.gyro,
+            other.acc,
+            other.joints,
+            other.frp,
+            other.vision,
+            other.hear,
+            other.unknown,
+        )
 
 
 def parse_perception(msg: str | bytes) -> Perception:
@@ -167,9 +186,11 @@ def _see(number: str, integer: str) -> str:
     """``See`` with the given patterns for numbers. Lines first: they are the most frequent
     entry, and trying them first halves the match time."""
     pol = rf"\(pol {number} {number} {number}\)"
-    return (rf"\(See(?: \((?:L {pol} {pol}|[A-Z]\w* {pol}"
-            rf"|P \(team {_ATOM}\) \(id {integer}\)(?: \([a-z]\w* {pol}\))*"
-            rf"|mypos {number} {number} {number}|myorien {number}|ballpos {number} {number} {number})\))*\)")
+    return (
+        rf"\(See(?: \((?:L {pol} {pol}|[A-Z]\w* {pol}"
+        rf"|P \(team {_ATOM}\) \(id {integer}\)(?: \([a-z]\w* {pol}\))*"
+        rf"|mypos {number} {number} {number}|myorien {number}|ballpos {number} {number} {number})\))*\)"
+    )
 
 
 #: Parsing a message checks only the layout of its See (numbers as any text without parentheses
@@ -199,9 +220,12 @@ _PERCEPTORS = [j.perceptor for j in JOINTS]
 #: block, FRP rf after the second, FRP lf after the third.
 _TYPICAL = re.compile(
     _HEADER
-    + "".join(map(_hj, HJ_BEFORE_SEE)) + rf"(?P<see>{_SEE_LAYOUT})?"
-    + "".join(map(_hj, HJ_BEFORE_FRP_RF)) + _frp("rf")
-    + "".join(map(_hj, HJ_BEFORE_FRP_LF)) + _frp("lf")
+    + "".join(map(_hj, HJ_BEFORE_SEE))
+    + rf"(?P<see>{_SEE_LAYOUT})?"
+    + "".join(map(_hj, HJ_BEFORE_FRP_RF))
+    + _frp("rf")
+    + "".join(map(_hj, HJ_BEFORE_FRP_LF))
+    + _frp("lf")
     + "".join(map(_hj, HJ_LAST))
 )
 #: Where each value sits in ``_TYPICAL``'s ``groups()`` tuple.
@@ -245,15 +269,20 @@ def _foot(g: tuple[str | None, ...], i: int) -> ForceResistance | None:
 
 
 def _perception_from_header(
-    g: tuple[str | None, ...], joints: dict[str, float], frp: dict[str, ForceResistance],
+    g: tuple[str | None, ...],
+    joints: dict[str, float],
+    frp: dict[str, ForceResistance],
     see: tuple[str, int, int] | None,
 ) -> Perception:
     """Assemble a ``Perception`` from ``_HEADER``'s groups and the already collected rest;
     ``see``: (message, start, end) of the See, read on first use."""
     game = GameState(
-        None if g[1] is None else int(g[1]), g[2],
-        None if g[3] is None else int(g[3]), None if g[4] is None else int(g[4]),
-        None if g[5] is None else float(g[5]), g[6],
+        None if g[1] is None else int(g[1]),
+        g[2],
+        None if g[3] is None else int(g[3]),
+        None if g[4] is None else int(g[4]),
+        None if g[5] is None else float(g[5]),
+        g[6],
     )
     gyro = None if g[7] is None else _vec3(g[7], g[8], g[9])  # type: ignore[arg-type]
     acc = None if g[10] is None else _vec3(g[10], g[11], g[12])  # type: ignore[arg-type]
@@ -316,7 +345,9 @@ def _read_vision_fast(body: str) -> Vision:
     myorien = _last(_MYORIEN, "(myorien ", body)
     ballpos = _last(_BALLPOS, "(ballpos ", body)
     return Vision(
-        objects, lines, players,
+        objects,
+        lines,
+        players,
         None if mypos is None else _vec3(*mypos),
         None if myorien is None else float(myorien),  # type: ignore[arg-type]
         None if ballpos is None else _vec3(*ballpos),
@@ -368,11 +399,7 @@ def _vec(node: SExp, what: str) -> Vec3:
 
 def _fields(node: SExp) -> dict[str, SExp]:
     """Named sub-lists ``(<key> ...)`` of ``node`` by key; later ones win."""
-    return {
-        item[0]: item
-        for item in node[1:]
-        if isinstance(item, SExp) and item and isinstance(item[0], str)
-    }
+    return {item[0]: item for item in node[1:] if isinstance(item, SExp) and item and isinstance(item[0], str)}
 
 
 def _required(fields: dict[str, SExp], key: str, node: SExp, shape: str) -> SExp:
@@ -424,11 +451,7 @@ def _read_player(node: SExp) -> SeenPlayer:
     fields = _fields(node)
     team = _atom(_required(fields, "team", node, "(team <name>)"), 1, "a team name")
     unum = _integer(_required(fields, "id", node, "(id <n>)"), 1, "player id")
-    parts = {
-        key: _polar_node(item[1], f"P {key}")
-        for key, item in fields.items()
-        if key not in ("team", "id")
-    }
+    parts = {key: _polar_node(item[1], f"P {key}") for key, item in fields.items() if key not in ("team", "id")}
     return SeenPlayer(team, unum, parts)
 
 

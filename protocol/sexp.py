@@ -4,6 +4,7 @@ Used where messages are short or rare (agent commands and trainer commands on th
 the validating slow path of the perception parser, tests). Hot paths (perceptions, monitor
 deltas) use specialised readers instead, because building a tree per message is slow at 50 Hz.
 """
+
 from __future__ import annotations
 
 import re

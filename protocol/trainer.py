@@ -4,6 +4,7 @@ docs/robot_and_server.md section 9. On this port team sides are capitalised: ``L
 Numbers keep their Python type in the text (``-3.0`` for a float, ``90`` for an int), which is
 how the captured commands look; the server reads either.
 """
+
 from __future__ import annotations
 
 from protocol.nao import PLAY_MODES

@@ -1,4 +1,5 @@
 """Configuration of the stand-in server: every setting in one dataclass per concern."""
+
 from __future__ import annotations
 
 import os

@@ -4,6 +4,7 @@ physics world, the camera, the monitor header and the referee.
 
 Field frame: origin at the centre spot, +x towards the goal the left team attacks, z up.
 """
+
 from __future__ import annotations
 
 import math
@@ -32,10 +33,14 @@ HALF_WIDTH = WIDTH / 2
 
 #: The flags and goal posts the camera reports, in the order the real server lists them.
 LANDMARKS: tuple[tuple[str, Vec3], ...] = (
-    ("G1L", (-HALF_LENGTH, GOAL_WIDTH / 2, GOAL_HEIGHT)), ("G2L", (-HALF_LENGTH, -GOAL_WIDTH / 2, GOAL_HEIGHT)),
-    ("G2R", (HALF_LENGTH, -GOAL_WIDTH / 2, GOAL_HEIGHT)), ("G1R", (HALF_LENGTH, GOAL_WIDTH / 2, GOAL_HEIGHT)),
-    ("F1L", (-HALF_LENGTH, HALF_WIDTH, 0.0)), ("F2L", (-HALF_LENGTH, -HALF_WIDTH, 0.0)),
-    ("F1R", (HALF_LENGTH, HALF_WIDTH, 0.0)), ("F2R", (HALF_LENGTH, -HALF_WIDTH, 0.0)),
+    ("G1L", (-HALF_LENGTH, GOAL_WIDTH / 2, GOAL_HEIGHT)),
+    ("G2L", (-HALF_LENGTH, -GOAL_WIDTH / 2, GOAL_HEIGHT)),
+    ("G2R", (HALF_LENGTH, -GOAL_WIDTH / 2, GOAL_HEIGHT)),
+    ("G1R", (HALF_LENGTH, GOAL_WIDTH / 2, GOAL_HEIGHT)),
+    ("F1L", (-HALF_LENGTH, HALF_WIDTH, 0.0)),
+    ("F2L", (-HALF_LENGTH, -HALF_WIDTH, 0.0)),
+    ("F1R", (HALF_LENGTH, HALF_WIDTH, 0.0)),
+    ("F2R", (HALF_LENGTH, -HALF_WIDTH, 0.0)),
 )
 
 

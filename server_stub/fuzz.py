@@ -11,6 +11,7 @@ The corpus is the real server's captured traffic (``agent_commands_sent.txt``,
 ``monitor_commands_sent.txt``, perceptions and monitor messages, sent to the wrong port too);
 ``tests/test_stub_fuzz.py`` runs a bounded run, ``bench/bench_fuzz.py`` a long one.
 """
+
 from __future__ import annotations
 
 import random
@@ -26,16 +27,53 @@ from pathlib import Path
 _REPO = Path(__file__).resolve().parents[1]
 _PREFIX = struct.Struct("!I")
 #: Used when no fixtures folder is given: the shapes every session starts from.
-_SEED_AGENT = [b"(scene rsg/agent/nao/nao.rsg)", b"(init (unum 1)(teamname Fuzz))", b"(beam -1 0 0)",
-               b"(he1 0.5)(lle3 -0.2)(syn)", b"(say hello)", b"(syn)"]
-_SEED_MONITOR = [b"(playMode PlayOn)", b"(agent (unum 1) (team Left) (pos -4.0 -1.0 0.5))",
-                 b"(ball (pos 1.0 0.5 0.042) (vel 0.0 0.0 0.0))", b"(time 0)", b"(reqfullstate)"]
+_SEED_AGENT = [
+    b"(scene rsg/agent/nao/nao.rsg)",
+    b"(init (unum 1)(teamname Fuzz))",
+    b"(beam -1 0 0)",
+    b"(he1 0.5)(lle3 -0.2)(syn)",
+    b"(say hello)",
+    b"(syn)",
+]
+_SEED_MONITOR = [
+    b"(playMode PlayOn)",
+    b"(agent (unum 1) (team Left) (pos -4.0 -1.0 0.5))",
+    b"(ball (pos 1.0 0.5 0.042) (vel 0.0 0.0 0.0))",
+    b"(time 0)",
+    b"(reqfullstate)",
+]
 #: ``(killsim)`` is a trainer's way to end the server, not a crash: the fuzzer never sends it.
 _KILLSIM = re.compile(rb"killsim", re.IGNORECASE)
 #: Atoms a mutation swaps in: numbers a parser or the physics may choke on, names of the protocol.
-_ATOMS = [b"nan", b"inf", b"-inf", b"1e400", b"-0", b"1e-320", b"9" * 40, b"0x10", b"1_0", b"", b"\x00",
-          b"\xff\xfe", b"\x1b[2J", b"rsg/agent/nao/nao_hetero.rsg", b"4", b"-1", b"Left", b"Right",
-          b"PlayOn", b"kill", b"scene", b"init", b"beam", b"say", b"syn", b"unum", b"team"]
+_ATOMS = [
+    b"nan",
+    b"inf",
+    b"-inf",
+    b"1e400",
+    b"-0",
+    b"1e-320",
+    b"9" * 40,
+    b"0x10",
+    b"1_0",
+    b"",
+    b"\x00",
+    b"\xff\xfe",
+    b"\x1b[2J",
+    b"rsg/agent/nao/nao_hetero.rsg",
+    b"4",
+    b"-1",
+    b"Left",
+    b"Right",
+    b"PlayOn",
+    b"kill",
+    b"scene",
+    b"init",
+    b"beam",
+    b"say",
+    b"syn",
+    b"unum",
+    b"team",
+]
 
 
 def load_corpus(fixtures: Path | None) -> tuple[list[bytes], list[bytes]]:
@@ -73,7 +111,7 @@ class Mutator:
             elif kind == 1:
                 data[pos:pos] = bytes([rng.randrange(256)])
             elif kind == 2 and data:
-                del data[pos:pos + rng.randrange(1, 8)]
+                del data[pos : pos + rng.randrange(1, 8)]
             elif kind == 3:
                 tokens = re.split(rb"([()\s])", bytes(data))
                 atoms = [i for i, t in enumerate(tokens) if t and t not in b"() \t\n"]
@@ -118,7 +156,11 @@ class _Stub:
         self._log = log_path.open("ab")
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "server_stub", "--agent-port", "0", "--monitor-port", "0", *args],
-            cwd=_REPO, stdout=subprocess.PIPE, stderr=self._log, text=True)
+            cwd=_REPO,
+            stdout=subprocess.PIPE,
+            stderr=self._log,
+            text=True,
+        )
         assert self.proc.stdout is not None  # stdout=PIPE
         match = re.search(r"agent port (\d+), monitor port (\d+)", self.proc.stdout.readline())
         if not match:
@@ -276,9 +318,16 @@ def canary(stub: _Stub, timeout: float = 20.0) -> bool:
     return False
 
 
-def run(messages: int, seed: int = 0, fixtures: Path | None = None, sync: bool = True,
-        log_path: Path = Path("fuzz-stub.log"), canary_every: int = 200,
-        storm_every: int = 100, progress=None) -> FuzzReport:
+def run(
+    messages: int,
+    seed: int = 0,
+    fixtures: Path | None = None,
+    sync: bool = True,
+    log_path: Path = Path("fuzz-stub.log"),
+    canary_every: int = 200,
+    storm_every: int = 100,
+    progress=None,
+) -> FuzzReport:
     """Fuzz one stub (``--sync`` or real time) until ``messages`` messages were sent."""
     fuzzer = Fuzzer(seed, fixtures)
     report = FuzzReport()

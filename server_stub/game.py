@@ -2,6 +2,7 @@
 
 Only what a walker, a trainer and a multi-agent test touch; no ball rules, no fouls.
 """
+
 from __future__ import annotations
 
 import math

@@ -1,4 +1,5 @@
 """Shared test fixtures: where the real-server captures live."""
+
 from __future__ import annotations
 
 import os

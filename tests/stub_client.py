@@ -3,6 +3,7 @@
 Deliberately independent of the project's protocol package: framing with struct, parsing with
 regular expressions, as another team's client would do it.
 """
+
 from __future__ import annotations
 
 import re
@@ -35,7 +36,7 @@ class RawClient:
             if len(self._buffer) >= 4:
                 (n,) = struct.unpack("!I", self._buffer[:4])
                 if len(self._buffer) >= 4 + n:
-                    body, self._buffer = self._buffer[4:4 + n], self._buffer[4 + n:]
+                    body, self._buffer = self._buffer[4 : 4 + n], self._buffer[4 + n :]
                     return body.decode("ascii")
             chunk = self.sock.recv(1 << 16)
             if not chunk:
@@ -61,7 +62,7 @@ def torso_from_monitor(message: str) -> tuple[float, float, float] | None:
         return None
     # walk back to the grandparent transform's SLT: the second '(nd TRF (SLT' before the mesh
     starts = [m.start() for m in re.finditer(r"\(nd TRF \(SLT ", message[:mesh])]
-    slt = re.match(r"\(nd TRF \(SLT ([^)]*)\)", message[starts[-2]:]).group(1).split()
+    slt = re.match(r"\(nd TRF \(SLT ([^)]*)\)", message[starts[-2] :]).group(1).split()
     return float(slt[12]), float(slt[13]), float(slt[14])
 
 
@@ -71,7 +72,10 @@ class StubProcess:
     def __init__(self, *args: str) -> None:
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "server_stub", "--agent-port", "0", "--monitor-port", "0", *args],
-            cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            cwd=REPO,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
         )
         self._stderr = ""
         line = self.proc.stdout.readline()

@@ -4,6 +4,7 @@ The calibration walk (tests/data/rcssserver3d/walk_calibration) was driven by a 
 same gait, mapping and controller the agent implements; feeding the agent the perceptions that
 probe received must make it send the same commands, cycle by cycle.
 """
+
 from __future__ import annotations
 
 import math

@@ -3,6 +3,7 @@
 The scripted server is written here with plain sockets and struct (not the protocol package), so a
 framing mistake shared by the agent and the protocol package cannot hide.
 """
+
 from __future__ import annotations
 
 import re
@@ -91,10 +92,13 @@ def _play_on(lines: list[str]) -> list[str]:
 
 
 def test_sync_handshake_beam_syn_and_velocity_cap(fixtures_dir, first20: list[str]) -> None:
-    perceptions = first20[:3] + _play_on((fixtures_dir / "agent_perceptions_full_run.txt").read_text().splitlines()[3:60])
+    perceptions = first20[:3] + _play_on(
+        (fixtures_dir / "agent_perceptions_full_run.txt").read_text().splitlines()[3:60]
+    )
     server = ScriptedServer(perceptions, sync=True)
-    done = _run_agent("--port", str(server.port), "--sync", "--team", "Probe", "--beam", "-1", "0", "0",
-                      "--duration", "0.5")
+    done = _run_agent(
+        "--port", str(server.port), "--sync", "--team", "Probe", "--beam", "-1", "0", "0", "--duration", "0.5"
+    )
     server.join()
     assert done.returncode == 0, done.stderr
     sent = server.received
@@ -169,8 +173,13 @@ def test_agent_sets_tcp_nodelay_and_sends_each_message_whole(first20: list[str])
     listener.bind(("127.0.0.1", 0))
     listener.listen(1)
     port = listener.getsockname()[1]
-    proc = subprocess.Popen([sys.executable, "-m", "agent", "--port", str(port), "--duration", "0.1"],
-                            cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "agent", "--port", str(port), "--duration", "0.1"],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     conn, _ = listener.accept()
     conn.settimeout(10)
     whole = 0

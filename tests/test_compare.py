@@ -1,5 +1,6 @@
 """The optimizer comparison (``python -m optimizer.compare``): equal budgets, every output file,
 resume, robust scoring, methods found by looking, and the statistics on data with a known answer."""
+
 from __future__ import annotations
 
 import csv
@@ -20,8 +21,21 @@ from optimizer.compare.methods import Problem, discover
 from optimizer.compare.statistics import holm, pairwise, summarise
 from optimizer.search.ga import Batch
 
-TINY = ["--methods", "random,ga-paper", "--seeds", "2", "--budget", "14", "--population", "4", "--seed", "3",
-        "--check-repeats", "2", "--quiet"]
+TINY = [
+    "--methods",
+    "random,ga-paper",
+    "--seeds",
+    "2",
+    "--budget",
+    "14",
+    "--population",
+    "4",
+    "--seed",
+    "3",
+    "--check-repeats",
+    "2",
+    "--quiet",
+]
 
 
 def _log(folder: Path) -> list[dict]:
@@ -39,8 +53,12 @@ def test_a_tiny_comparison_spends_equal_budgets_and_writes_every_file(tmp_path: 
     checks = [r for r in logged if r["key"].startswith("check/")]
     assert len(checks) == 4 * 2  # counted apart
     runs = list(csv.DictReader((out / "runs.csv").open()))
-    assert [(r["method"], r["seed_index"]) for r in runs] == [("random", "0"), ("random", "1"),
-                                                               ("ga-paper", "0"), ("ga-paper", "1")]
+    assert [(r["method"], r["seed_index"]) for r in runs] == [
+        ("random", "0"),
+        ("random", "1"),
+        ("ga-paper", "0"),
+        ("ga-paper", "1"),
+    ]
     for run in runs:  # the best is the best of the run's own walks
         own = [r for r in logged if r["key"].startswith(f"{run['method']}/s0{run['seed_index']}/")]
         assert float(run["best_distance"]) == pytest.approx(max(r["distance"] for r in own))
@@ -68,8 +86,25 @@ def test_a_killed_comparison_resumes_to_the_same_files(tmp_path: Path) -> None:
 
 def test_robust_scoring_walks_each_gait_from_moved_starts_within_the_budget(tmp_path: Path) -> None:
     out = tmp_path / "r"
-    argv = ["--methods", "random", "--seeds", "1", "--budget", "12", "--population", "4", "--robust", "3",
-            "--robust-quantile", "0.25", "--check-repeats", "0", "--quiet", "--out", str(out)]
+    argv = [
+        "--methods",
+        "random",
+        "--seeds",
+        "1",
+        "--budget",
+        "12",
+        "--population",
+        "4",
+        "--robust",
+        "3",
+        "--robust-quantile",
+        "0.25",
+        "--check-repeats",
+        "0",
+        "--quiet",
+        "--out",
+        str(out),
+    ]
     assert main(argv, make_evaluator=lambda s: FakeEvaluator()) == 0
     logged = _log(out)
     assert len(logged) == 12 and all(r["key"].endswith(("/k0", "/k1", "/k2")) for r in logged)
@@ -78,10 +113,12 @@ def test_robust_scoring_walks_each_gait_from_moved_starts_within_the_budget(tmp_
 
 
 def test_refusals_name_the_flag(tmp_path: Path, capsys) -> None:
-    for flags, said in ((["--methods", "gala,nope"], "unknown method(s) nope"),
-                        (["--methods", "gala,gala"], "named twice"),
-                        (["--robust-quantile", "0.2"], "--robust-quantile needs --robust"),
-                        (["--budget", "2", "--robust", "3"], "less than one gait's 3 robust walks")):
+    for flags, said in (
+        (["--methods", "gala,nope"], "unknown method(s) nope"),
+        (["--methods", "gala,gala"], "named twice"),
+        (["--robust-quantile", "0.2"], "--robust-quantile needs --robust"),
+        (["--budget", "2", "--robust", "3"], "less than one gait's 3 robust walks"),
+    ):
         with pytest.raises(SystemExit) as exit_:
             main([*flags, "--out", str(tmp_path / "x")], make_evaluator=lambda s: FakeEvaluator())
         assert exit_.value.code == 2 and said in capsys.readouterr().err, flags
@@ -92,7 +129,8 @@ def test_the_six_methods_are_found_and_a_new_module_adds_one(tmp_path: Path, mon
     (tmp_path / "zigzag.py").write_text(
         "from optimizer.compare.methods import Method\n"
         "from optimizer.compare.methods.random_search import _program\n"
-        "METHODS = (Method('zigzag', 'a plug-in', _program),)\n")
+        "METHODS = (Method('zigzag', 'a plug-in', _program),)\n"
+    )
     monkeypatch.setattr(methods_package, "__path__", [*methods_package.__path__, str(tmp_path)])
     assert "zigzag" in discover()
 
@@ -101,6 +139,7 @@ def test_the_six_methods_are_found_and_a_new_module_adds_one(tmp_path: Path, mon
 def test_every_method_stays_in_the_box_and_is_seeded(name: str) -> None:
     """Its first 60 candidates on the synthetic hill: inside the box and repaired, the same for the
     same seed, others for another."""
+
     def first(seed: int) -> list[np.ndarray]:
         problem = Problem(GENE_BOUNDS, repair_genes, seed, 60, 10, True)
         batches = budgeted(discover()[name].program(problem), 60)
@@ -159,8 +198,27 @@ def test_a_summary_gives_median_quartiles_best_and_success() -> None:
 @pytest.mark.slow
 def test_a_tiny_comparison_on_the_stub(tmp_path: Path) -> None:
     out = tmp_path / "stub"
-    argv = ["--methods", "cmaes,random", "--seeds", "1", "--budget", "6", "--population", "3", "--walk-time", "2",
-            "--check-repeats", "2", "--workers", "2", "--seed", "1", "--quiet", "--out", str(out)]
+    argv = [
+        "--methods",
+        "cmaes,random",
+        "--seeds",
+        "1",
+        "--budget",
+        "6",
+        "--population",
+        "3",
+        "--walk-time",
+        "2",
+        "--check-repeats",
+        "2",
+        "--workers",
+        "2",
+        "--seed",
+        "1",
+        "--quiet",
+        "--out",
+        str(out),
+    ]
     assert main(argv) == 0
     logged = _log(out)
     assert all(r["status"] == "ok" for r in logged) and len(logged) == 2 * 6 + 2 * 2

@@ -1,4 +1,5 @@
 """Dask-distributed evaluation on a LocalCluster: same results as local mode, lost workers retried."""
+
 from __future__ import annotations
 
 import json
@@ -19,8 +20,21 @@ from optimizer.evaluation.dask_cluster import DaskEvaluator  # noqa: E402
 from optimizer.evaluation.pool import EpisodeTask  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
-TINY = ["--crossover", "0.8", "--population", "4", "--iterations", "2", "--generations", "2",
-        "--walk-time", "2", "--seed", "11", "--quiet"]
+TINY = [
+    "--crossover",
+    "0.8",
+    "--population",
+    "4",
+    "--iterations",
+    "2",
+    "--generations",
+    "2",
+    "--walk-time",
+    "2",
+    "--seed",
+    "11",
+    "--quiet",
+]
 
 
 def _fitness_by_key(folder: Path) -> dict[str, float]:
@@ -32,8 +46,13 @@ def _fitness_by_key(folder: Path) -> dict[str, float]:
 @pytest.mark.slow
 def test_dask_local_run_equals_the_local_run(tmp_path: Path) -> None:
     def gala(*args: str) -> None:
-        done = subprocess.run([sys.executable, "-m", "optimizer.gala", *TINY, *args], cwd=REPO,
-                              capture_output=True, text=True, timeout=600)
+        done = subprocess.run(
+            [sys.executable, "-m", "optimizer.gala", *TINY, *args],
+            cwd=REPO,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
         assert done.returncode == 0, done.stderr
 
     gala("--dask-local", "2", "--out", str(tmp_path / "dask"))

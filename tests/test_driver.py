@@ -1,5 +1,6 @@
 """The driver: every episode logged as it finishes, and a resumed run (kill -9 included) replays
 the log to exactly the uninterrupted result without running any episode twice."""
+
 from __future__ import annotations
 
 import json
@@ -44,8 +45,20 @@ class FakeEvaluator:
                 raise Killed()
             self.evaluated.append(task.key)
             fitness = synthetic_fitness(task.genes)
-            yield EpisodeOutcome(task, 0, {"distance": fitness / 10, "fell": False, "time": 15.0, "fitness": fitness,
-                                           "mean_speed": fitness / 150, "status": "ok", "reason": "", "wall": 0.01})
+            yield EpisodeOutcome(
+                task,
+                0,
+                {
+                    "distance": fitness / 10,
+                    "fell": False,
+                    "time": 15.0,
+                    "fitness": fitness,
+                    "mean_speed": fitness / 150,
+                    "status": "ok",
+                    "reason": "",
+                    "wall": 0.01,
+                },
+            )
 
     def close(self) -> None:
         pass

@@ -1,4 +1,5 @@
 """Episodes (paper eq. 9) on the stub over real sockets, and their failure handling."""
+
 from __future__ import annotations
 
 import os
@@ -109,7 +110,9 @@ def test_hung_server_times_out_and_fails_the_episode() -> None:
     thread = threading.Thread(target=accept_and_ignore, daemon=True)
     thread.start()
     try:
-        with EpisodeRunner(EpisodeConfig(walk_time=1.0, episode_timeout=1.0), ServerAddress("127.0.0.1", port, port)) as r:
+        with EpisodeRunner(
+            EpisodeConfig(walk_time=1.0, episode_timeout=1.0), ServerAddress("127.0.0.1", port, port)
+        ) as r:
             result = r.evaluate(load_gait())
     finally:
         stop.set()
@@ -134,8 +137,10 @@ def test_a_dead_stub_is_restarted() -> None:
     assert stub.pid is None  # stopped with the runner
 
 
-@pytest.mark.parametrize("text, words", [("localhost:3100", "HOST:AGENT_PORT:MONITOR_PORT"),
-                                         ("h:x:3200", "integers"), ("h:3100:70000", "70000")])
+@pytest.mark.parametrize(
+    "text, words",
+    [("localhost:3100", "HOST:AGENT_PORT:MONITOR_PORT"), ("h:x:3200", "integers"), ("h:3100:70000", "70000")],
+)
 def test_server_address_errors_say_what_is_wrong(text: str, words: str) -> None:
     with pytest.raises(ValueError, match=words):
         ServerAddress.parse(text)
@@ -145,8 +150,10 @@ def test_server_address_errors_say_what_is_wrong(text: str, words: str) -> None:
 def test_a_killed_worker_does_not_leave_its_stub_behind(tmp_path: Path) -> None:
     """SIGKILL gives a worker no chance to stop its stub; the stub notices and exits by itself."""
     pid_file = tmp_path / "stub.pid"
-    script = ("import time; from optimizer.episode.servers import StubProcess; s = StubProcess(); s.ensure_running(); "
-              f"open({str(pid_file)!r}, 'w').write(str(s._process.pid)); time.sleep(60)")
+    script = (
+        "import time; from optimizer.episode.servers import StubProcess; s = StubProcess(); s.ensure_running(); "
+        f"open({str(pid_file)!r}, 'w').write(str(s._process.pid)); time.sleep(60)"
+    )
     worker = subprocess.Popen([sys.executable, "-c", script], cwd=REPO)
     deadline = time.monotonic() + 30
     while not (pid_file.exists() and pid_file.read_text()):

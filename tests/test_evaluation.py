@@ -1,6 +1,7 @@
 """The worker pool: every task answered once, workers that die, hang or raise are handled, runners
 are reused. Fake runners (no physics) stand in for EpisodeRunner; what a fake does is chosen by
 its first gene."""
+
 from __future__ import annotations
 
 import os
@@ -29,8 +30,17 @@ class FakeResult:
     seed: int
 
     def to_dict(self) -> dict:
-        return {"distance": self.fitness / 10, "fell": False, "time": 15.0, "fitness": self.fitness,
-                "mean_speed": self.fitness / 150, "status": "ok", "reason": "", "wall": 0.0, "runner_seed": self.seed}
+        return {
+            "distance": self.fitness / 10,
+            "fell": False,
+            "time": 15.0,
+            "fitness": self.fitness,
+            "mean_speed": self.fitness / 150,
+            "status": "ok",
+            "reason": "",
+            "wall": 0.0,
+            "runner_seed": self.seed,
+        }
 
 
 class FakeRunner:

@@ -1,5 +1,6 @@
 """The fidelity benchmark (issue 15): its statistics on data with known answers, the stored gait
 sets, its output files, the episode trace it reads, and a small end-to-end gate on a real server."""
+
 from __future__ import annotations
 
 import csv
@@ -40,6 +41,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 # ----- statistics -----
 
+
 def test_spearman_of_a_known_pairing() -> None:
     # ranks differ by 1, 1, 1, 1, 0: rho = 1 - 6 * 4 / (5 * 24) = 0.8
     assert spearman([1, 2, 3, 4, 5], [2, 1, 4, 3, 5]) == pytest.approx(0.8)
@@ -48,8 +50,8 @@ def test_spearman_of_a_known_pairing() -> None:
 @given(st.lists(st.integers(-1000, 1000), min_size=3, max_size=30, unique=True))
 def test_spearman_sees_ranks_only(xs: list[int]) -> None:
     """Any increasing transform ranks the same (1), any decreasing one the other way (-1)."""
-    assert spearman(xs, [x ** 3 + 7 for x in xs]) == pytest.approx(1.0)
-    assert spearman(xs, [-(x ** 3) for x in xs]) == pytest.approx(-1.0)
+    assert spearman(xs, [x**3 + 7 for x in xs]) == pytest.approx(1.0)
+    assert spearman(xs, [-(x**3) for x in xs]) == pytest.approx(-1.0)
 
 
 def test_spearman_is_nan_where_undefined() -> None:
@@ -109,8 +111,12 @@ def test_heading_change_of_a_known_turn() -> None:
 
 def test_heading_change_stops_where_the_torso_stopped_being_upright() -> None:
     """A torso tipping over swings its forward axis: the turn is read up to the last upright state."""
-    track = [TracePoint(0.04, 0, 0, 0.37, 0.99, 0.0), TracePoint(0.08, 0, 0, 0.37, 0.95, 5.0),
-             TracePoint(0.12, 0, 0, 0.30, 0.70, 40.0), TracePoint(0.16, 0, 0, 0.20, 0.50, 80.0)]
+    track = [
+        TracePoint(0.04, 0, 0, 0.37, 0.99, 0.0),
+        TracePoint(0.08, 0, 0, 0.37, 0.95, 5.0),
+        TracePoint(0.12, 0, 0, 0.30, 0.70, 40.0),
+        TracePoint(0.16, 0, 0, 0.20, 0.50, 80.0),
+    ]
     assert heading_change(track) == pytest.approx(5.0)
     assert heading_change(track, upright_up_z=0.4) == pytest.approx(80.0)
     assert heading_change([TracePoint(0.04, 0, 0, 0.1, 0.1, 0.0), TracePoint(0.08, 0, 0, 0.1, 0.1, 30.0)]) == 0.0
@@ -123,6 +129,7 @@ def test_sideways_drift_is_to_the_left_of_the_start_line() -> None:
 
 
 # ----- over a set -----
+
 
 def _walk(distance: float, fell: bool = False, turn: float = 0.0, status: str = "ok") -> Walk:
     return Walk(distance, fell, 1.0 if fell else 15.0, 0.0, turn, status)
@@ -138,8 +145,9 @@ def _comparisons() -> list[GaitComparison]:
     e (the stand-in's walk could not be run: left out)."""
     return [
         GaitComparison(_gait("a"), _walk(9.0), (_walk(9.5), _walk(10.0), _walk(10.5))),
-        GaitComparison(_gait("b"), _walk(5.2, turn=20.0), (_walk(4.0, turn=4.0), _walk(4.0, turn=4.0),
-                                                           _walk(4.0, turn=4.0))),
+        GaitComparison(
+            _gait("b"), _walk(5.2, turn=20.0), (_walk(4.0, turn=4.0), _walk(4.0, turn=4.0), _walk(4.0, turn=4.0))
+        ),
         GaitComparison(_gait("c"), _walk(2.0), (_walk(1.0, True), _walk(1.0, True), _walk(4.0))),
         GaitComparison(_gait("d"), _walk(0.1, True), (_walk(0.2, True), _walk(0.3, True), _walk(0.1, True))),
         GaitComparison(_gait("e"), _walk(0.0, status="failed"), (_walk(8.0),)),
@@ -162,15 +170,20 @@ def test_summary_of_known_comparisons() -> None:
     assert "Spearman" not in misses and "fall agreement 0.750" in misses
     assert "median |1-ratio| 0.200" in misses and "worst |1-ratio| 0.300" in misses and "heading" in misses
     a, b, _, d, _ = _comparisons()
-    assert summarize([a, b, d]).misses(FidelityTargets(median_ratio_error=0.25, worst_ratio_error=0.35,
-                                                       turn_factor=4.0)) == []
-    assert summarize([a, b]).misses(FidelityTargets(median_ratio_error=0.25, worst_ratio_error=0.35,
-                                                    turn_factor=4.0)) == ["Spearman - (target >= 0.9)"]
+    assert (
+        summarize([a, b, d]).misses(FidelityTargets(median_ratio_error=0.25, worst_ratio_error=0.35, turn_factor=4.0))
+        == []
+    )
+    assert summarize([a, b]).misses(
+        FidelityTargets(median_ratio_error=0.25, worst_ratio_error=0.35, turn_factor=4.0)
+    ) == ["Spearman - (target >= 0.9)"]
 
 
 def test_a_real_walk_that_could_not_be_run_is_left_out() -> None:
     c = GaitComparison(_gait("x"), _walk(3.0), (_walk(3.0), _walk(0.0, status="failed"), _walk(3.3)))
-    assert len(c.real_ran) == 2 and c.real_mean("distance") == pytest.approx(3.15) and c.walks_on_real(FidelityTargets())
+    assert (
+        len(c.real_ran) == 2 and c.real_mean("distance") == pytest.approx(3.15) and c.walks_on_real(FidelityTargets())
+    )
 
 
 def test_output_files(tmp_path: Path) -> None:
@@ -192,7 +205,8 @@ def test_output_files(tmp_path: Path) -> None:
     again, stored = fidelity.read_run(tmp_path / "f.json")
     assert stored["real_repeats"] == 3 and [c.gait for c in again] == [c.gait for c in comparisons]
     assert [(c.stand_in.distance, c.stand_in.fell, c.real) for c in again] == [
-        (c.stand_in.distance, c.stand_in.fell, c.real) for c in comparisons]  # real walks: no track, as stored
+        (c.stand_in.distance, c.stand_in.fell, c.real) for c in comparisons
+    ]  # real walks: no track, as stored
     # the stand-in's turn and drift are taken again from its track: 0 -> 2 deg, 0.1 m to the left
     assert again[1].stand_in.heading_change == pytest.approx(2.0) and again[1].stand_in.drift == pytest.approx(0.1)
     report = fidelity.report(comparisons, summary)
@@ -200,6 +214,7 @@ def test_output_files(tmp_path: Path) -> None:
 
 
 # ----- the stored gait sets -----
+
 
 def test_the_gait_sets_load_and_are_valid_gaits_inside_the_box() -> None:
     training, held = fidelity.gait_set("training"), fidelity.gait_set("held_aside")
@@ -235,6 +250,7 @@ def test_a_set_file_must_say_its_format(tmp_path: Path) -> None:
 
 # ----- the trace the benchmark reads -----
 
+
 def test_the_episode_trace_is_what_the_judge_scored() -> None:
     config = EpisodeConfig(walk_time=1.0, start=(-6.0, 1.0), heading=30.0)
     with EpisodeRunner(config, trace=True) as runner:
@@ -268,9 +284,24 @@ GATE_GAITS = ("line-00", "line-05", "line-10", "found-stub0", "centre-realrun0")
 def gate(rcssserver3d: str, tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("fidelity")
     done = subprocess.run(
-        [sys.executable, str(ROOT / "bench" / "bench_fidelity.py"), "--set", "all", "--gaits", ",".join(GATE_GAITS),
-         "--real-repeats", "1", "--out", str(out)],
-        cwd=ROOT, capture_output=True, text=True, timeout=600, env={**os.environ, "RCSSSERVER3D": rcssserver3d})
+        [
+            sys.executable,
+            str(ROOT / "bench" / "bench_fidelity.py"),
+            "--set",
+            "all",
+            "--gaits",
+            ",".join(GATE_GAITS),
+            "--real-repeats",
+            "1",
+            "--out",
+            str(out),
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "RCSSSERVER3D": rcssserver3d},
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     assert "Spearman rank correlation of the distances" in done.stdout
     return out
@@ -294,10 +325,13 @@ def test_the_gate_runs_end_to_end_and_writes_its_files(gate: Path) -> None:
 
 @pytest.mark.real_server
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="stand-in not yet faithful at walking speed (issue 15): measured on all 50 "
-                   "gaits, 3 real walks each: Spearman -0.09, fall agreement 0.52, |1-ratio| median 1.00 and worst "
-                   "1.05 over the 22 gaits walking >= 3 m on the real server, heading change up to 6.8x apart; "
-                   "the 13.27 m gait falls at 0.46 s on the stand-in")
+@pytest.mark.xfail(
+    strict=False,
+    reason="stand-in not yet faithful at walking speed (issue 15): measured on all 50 "
+    "gaits, 3 real walks each: Spearman -0.09, fall agreement 0.52, |1-ratio| median 1.00 and worst "
+    "1.05 over the 22 gaits walking >= 3 m on the real server, heading change up to 6.8x apart; "
+    "the 13.27 m gait falls at 0.46 s on the stand-in",
+)
 def test_the_gate_meets_the_issue_targets(gate: Path) -> None:
     summary = json.loads((gate / "fidelity.json").read_text())["summary"]
     targets = FidelityTargets()

@@ -1,4 +1,5 @@
 """The genetic algorithm: operators, invariants (hypothesis), convergence on a synthetic 7-D function."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -40,6 +41,7 @@ def run_ga(config: GAConfig, seed: int, fitness=sphere, **kwargs) -> GeneticAlgo
 
 # --- roulette wheel -------------------------------------------------------------------------------
 
+
 def test_roulette_weights_shift_negative_fitness_to_positive_slices() -> None:
     w = roulette_weights(np.array([-5.0, 0.0, 15.0]))
     # shift: f - min + 1 % of the spread (20) -> [0.2, 5.2, 20.2]
@@ -60,6 +62,7 @@ def test_roulette_selection_favours_the_fitter() -> None:
 
 
 # --- operators ------------------------------------------------------------------------------------
+
 
 @given(st.integers(0, 2**32 - 1), st.integers(2, 9))
 def test_one_point_crossover_swaps_tails(seed: int, n: int) -> None:
@@ -106,6 +109,7 @@ def test_gaussian_mutation_sigma_scales_with_each_genes_range() -> None:
 
 
 # --- the GA ---------------------------------------------------------------------------------------
+
 
 def test_ga_improves_and_gets_near_the_optimum() -> None:
     ga = run_ga(GAConfig(generations=30), seed=3)
@@ -201,23 +205,26 @@ def test_a_new_selection_scheme_is_just_a_callable() -> None:
 
 # --- invariants (hypothesis) ----------------------------------------------------------------------
 
-bounds_strategy = st.lists(
-    st.tuples(st.floats(-1e3, 1e3), st.floats(0.0, 1e3)), min_size=1, max_size=8
-).map(lambda rows: np.array([[lo, lo + width] for lo, width in rows]))
+bounds_strategy = st.lists(st.tuples(st.floats(-1e3, 1e3), st.floats(0.0, 1e3)), min_size=1, max_size=8).map(
+    lambda rows: np.array([[lo, lo + width] for lo, width in rows])
+)
 
 
 @settings(max_examples=40, deadline=None)
 @given(
     bounds_strategy,
     st.integers(0, 2**32 - 1),
-    st.floats(0, 1), st.floats(0, 1), st.booleans(),
+    st.floats(0, 1),
+    st.floats(0, 1),
+    st.booleans(),
     st.sampled_from([one_point_crossover, BlendCrossover(0.5)]),
     st.sampled_from([GaussianMutation(0.3), uniform_reset_mutation]),
 )
 def test_genes_stay_within_bounds(bounds, seed, pc, pm, elitism, crossover, mutation) -> None:
     config = GAConfig(population_size=7, generations=4, crossover_rate=pc, mutation_rate=pm, elitism=elitism)
-    ga = GeneticAlgorithm(bounds, config, np.random.default_rng(seed),
-                          operators=GAOperators(crossover=crossover, mutation=mutation))
+    ga = GeneticAlgorithm(
+        bounds, config, np.random.default_rng(seed), operators=GAOperators(crossover=crossover, mutation=mutation)
+    )
     fitness = np.random.default_rng(seed + 1)
     for _ in range(config.generations):
         genes = ga.ask()
@@ -252,6 +259,7 @@ def test_a_repair_that_leaves_the_bounds_is_an_error() -> None:
 
 
 # --- keyed runs -----------------------------------------------------------------------------------
+
 
 def test_ga_run_keys_are_stable_unique_and_name_generation_and_individual() -> None:
     config = GAConfig(population_size=5, generations=3)

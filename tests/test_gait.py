@@ -1,4 +1,5 @@
 """The TFS gait: eq. 3-5 as SPEC.md reads them, the NAO mapping and the gait files."""
+
 from __future__ import annotations
 
 import json
@@ -73,10 +74,10 @@ def test_knee_never_below_its_lock_and_bump_bounded(p: TFSParams, t: float) -> N
 def test_portions_use_their_own_amplitude() -> None:
     p = TFSParams(c_h=5, c_k=10, A=20, B=8, C=30, t2=0.1, w=2 * math.pi)
     gait = TFSGait(p)
-    assert gait.hip(0.25) == pytest.approx(5 + 20)      # peak of the upper portion
-    assert gait.hip(0.75) == pytest.approx(5 - 8)       # trough of the lower portion
-    assert gait.knee(0.1 + 0.25) == pytest.approx(40)   # middle of the bump, T/4 after t2
-    assert gait.knee(0.1 + 0.6) == pytest.approx(10)    # locked outside the bump
+    assert gait.hip(0.25) == pytest.approx(5 + 20)  # peak of the upper portion
+    assert gait.hip(0.75) == pytest.approx(5 - 8)  # trough of the lower portion
+    assert gait.knee(0.1 + 0.25) == pytest.approx(40)  # middle of the bump, T/4 after t2
+    assert gait.knee(0.1 + 0.6) == pytest.approx(10)  # locked outside the bump
 
 
 @given(tfs_params(), times)
@@ -137,8 +138,14 @@ def test_gait_file_round_trip(tmp_path) -> None:
         ("not json", "not valid JSON"),
         ('{"format": "other"}', "format"),
         ('{"format": "tfs-gait/1", "params": {"c_h": 1}}', "missing parameters"),
-        ('{"format": "tfs-gait/1", "units": {"t2": "ms"}, "params": {"c_h": 15, "c_k": 30, "A": 10, "B": 10, "C": 20, "t2": 0.35, "w": 15.7}}', "units"),
-        ('{"format": "tfs-gait/1", "params": {"c_h": 15, "c_k": -3, "A": 10, "B": 10, "C": 20, "t2": 0.35, "w": 15.7}}', "c_k"),
+        (
+            '{"format": "tfs-gait/1", "units": {"t2": "ms"}, "params": {"c_h": 15, "c_k": 30, "A": 10, "B": 10, "C": 20, "t2": 0.35, "w": 15.7}}',
+            "units",
+        ),
+        (
+            '{"format": "tfs-gait/1", "params": {"c_h": 15, "c_k": -3, "A": 10, "B": 10, "C": 20, "t2": 0.35, "w": 15.7}}',
+            "c_k",
+        ),
     ],
 )
 def test_bad_gait_files_are_refused_with_the_reason(tmp_path, content: str, words: str) -> None:
@@ -175,10 +182,13 @@ def test_the_gene_box_comes_from_the_robot() -> None:
     assert t2[1] == pytest.approx(2 * math.pi / w[0])
 
 
-@pytest.mark.parametrize("genes", [
-    (14.95, 16.83, 37.56, 24.10, 89.0, 0.2346, 22.44),   # the fastest TFS walk known on the real server
-    (15.0, 30.0, 10.0, 10.0, 20.0, 0.35, 15.708),        # the shipped calibration walk
-])
+@pytest.mark.parametrize(
+    "genes",
+    [
+        (14.95, 16.83, 37.56, 24.10, 89.0, 0.2346, 22.44),  # the fastest TFS walk known on the real server
+        (15.0, 30.0, 10.0, 10.0, 20.0, 0.35, 15.708),  # the shipped calibration walk
+    ],
+)
 def test_known_real_walks_lie_inside_the_box(genes) -> None:
     assert np.all(np.array(genes) >= GENE_BOUNDS[:, 0]) and np.all(np.array(genes) <= GENE_BOUNDS[:, 1])
     assert list(repair_genes(np.array(genes))) == pytest.approx(list(genes))

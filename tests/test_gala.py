@@ -1,4 +1,5 @@
 """GALA: keys, determinism and replay (what resume relies on), the feedback rule, and learning."""
+
 from __future__ import annotations
 
 import json
@@ -57,8 +58,13 @@ def test_keys_name_phase_iteration_generation_and_individual() -> None:
 def test_restart_reading_runs_a_fresh_ga_per_iteration() -> None:
     config = GALAConfig(ga=GAConfig(population_size=4, generations=2), iterations=3, restart_each_iteration=True)
     keys = [key for key, _ in drive(GALA(BOUNDS, config, 0.3, 2))]
-    assert keys[:5] == ["pc0.3/it000/g00/i000", "pc0.3/it000/g00/i001", "pc0.3/it000/g00/i002",
-                        "pc0.3/it000/g00/i003", "pc0.3/it000/g01/i000"]
+    assert keys[:5] == [
+        "pc0.3/it000/g00/i000",
+        "pc0.3/it000/g00/i001",
+        "pc0.3/it000/g00/i002",
+        "pc0.3/it000/g00/i003",
+        "pc0.3/it000/g01/i000",
+    ]
     assert not any("/init/" in k for k in keys)
     assert len(keys) == 3 * (4 + 3) + (4 + 3)
 
@@ -138,7 +144,7 @@ def test_baseline_window_averages_only_the_last_bests(window: int) -> None:
     drive(gala, lambda g: sphere(g) + float(np.sin(1e4 * g.sum())))
     log = gala.result().iteration_log
     for k, record in enumerate(log[1:], start=1):
-        last = [r.best_fitness for r in log[max(0, k - window):k]]
+        last = [r.best_fitness for r in log[max(0, k - window) : k]]
         assert record.baseline == pytest.approx(np.mean(last), abs=1e-12)
         assert record.rewarded == (record.best_fitness > record.baseline)
     with pytest.raises(ValueError, match="baseline_window"):
@@ -172,8 +178,10 @@ def test_gala_learns_that_mutation_helps() -> None:
     moves the population past its random start. Of the two rates {0, 0.5}, the automaton must
     come to favour 0.5 on average over the run (L_R-P with the paper's steps, restart reading)."""
     config = GALAConfig(
-        ga=GAConfig(population_size=10, generations=5), la=LAConfig(actions=(0.0, 0.5)),
-        iterations=60, restart_each_iteration=True,
+        ga=GAConfig(population_size=10, generations=5),
+        la=LAConfig(actions=(0.0, 0.5)),
+        iterations=60,
+        restart_each_iteration=True,
     )
     for seed in range(5):
         result = run_sync(GALA(np.array([[0.0, 1.0]]), config, 0.8, seed), lambda g: float(g[0]))

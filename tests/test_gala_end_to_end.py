@@ -1,4 +1,5 @@
 """A tiny GALA on the embedded stub, end to end: every output file, and kill -9 + --resume."""
+
 from __future__ import annotations
 
 import csv
@@ -15,13 +16,31 @@ import pytest
 from gait import TFSParams, load_gait
 
 REPO = Path(__file__).resolve().parents[1]
-TINY = ["--crossover", "0.8", "--population", "4", "--iterations", "3", "--generations", "2",
-        "--walk-time", "2", "--workers", "2", "--seed", "7", "--check-repeats", "3", "--quiet"]
+TINY = [
+    "--crossover",
+    "0.8",
+    "--population",
+    "4",
+    "--iterations",
+    "3",
+    "--generations",
+    "2",
+    "--walk-time",
+    "2",
+    "--workers",
+    "2",
+    "--seed",
+    "7",
+    "--check-repeats",
+    "3",
+    "--quiet",
+]
 
 
 def _gala(*args: str, timeout: float = 600) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "optimizer.gala", *args], cwd=REPO, capture_output=True,
-                          text=True, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "optimizer.gala", *args], cwd=REPO, capture_output=True, text=True, timeout=timeout
+    )
 
 
 def _log(folder: Path) -> list[dict]:
@@ -78,8 +97,13 @@ def test_tiny_gala_on_the_stub_writes_every_output(tmp_path: Path) -> None:
 def test_killed_run_resumes_with_nothing_lost_or_counted_twice(tmp_path: Path) -> None:
     whole, cut = tmp_path / "whole", tmp_path / "cut"
     assert _gala(*TINY, "--out", str(whole)).returncode == 0
-    proc = subprocess.Popen([sys.executable, "-m", "optimizer.gala", *TINY, "--out", str(cut)], cwd=REPO,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "optimizer.gala", *TINY, "--out", str(cut)],
+        cwd=REPO,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline and (not (cut / "episodes.jsonl").exists() or len(_log(cut)) < 6):
         time.sleep(0.05)
@@ -92,7 +116,7 @@ def test_killed_run_resumes_with_nothing_lost_or_counted_twice(tmp_path: Path) -
     after = _log(cut)
     keys = [r["key"] for r in after]
     assert len(keys) == len(set(keys)) == len(_log(whole)), "nothing lost, nothing counted twice"
-    assert after[:len(before)] == before, "finished episodes are kept, not re-run"
+    assert after[: len(before)] == before, "finished episodes are kept, not re-run"
     fitness = {r["key"]: r["fitness"] for r in _log(whole)}
     assert {r["key"]: r["fitness"] for r in after} == fitness
     assert (cut / "table1.csv").read_text() == (whole / "table1.csv").read_text()

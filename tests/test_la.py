@@ -1,4 +1,5 @@
 """Learning automata: eq. 6-8 against hand-computed values, and the probability vector's invariants."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -82,8 +83,9 @@ def test_lri_keeps_a_distribution_and_ignores_penalties(sequence, a) -> None:
 @settings(max_examples=30)
 @given(st.integers(0, 2**32 - 1), feedback)
 def test_automaton_keeps_a_distribution_and_chooses_valid_actions(seed, sequence) -> None:
-    automaton = LearningAutomaton([0.01 * k for k in range(10)], LinearRewardPenalty(0.1, 0.2),
-                                  np.random.default_rng(seed))
+    automaton = LearningAutomaton(
+        [0.01 * k for k in range(10)], LinearRewardPenalty(0.1, 0.2), np.random.default_rng(seed)
+    )
     for _, rewarded in sequence:
         i = automaton.choose()
         assert 0 <= i < 10

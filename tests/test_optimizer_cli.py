@@ -1,6 +1,7 @@
 """The command lines: refused input names its flag; a run writes its folder; a killed run resumed
 with --resume ends with the same files as an uninterrupted one. A fake evaluator stands in for
 the workers (no physics); the end-to-end runs on the stub are the lead's slow tests."""
+
 from __future__ import annotations
 
 import json
@@ -35,22 +36,25 @@ def refused(main, argv: list[str], capsys) -> str:
     return capsys.readouterr().err
 
 
-@pytest.mark.parametrize("argv, flag, why", [
-    (["--crossover", "1.5"], "--crossover", "[0, 1]"),
-    (["--crossover", "abc"], "--crossover", "number"),
-    (["--workers", "0"], "--workers", ">= 1"),
-    (["--population", "-3"], "--population", ">= 1"),
-    (["--walk-time", "0"], "--walk-time", "> 0"),
-    (["--scheme", "lrx"], "--scheme", "invalid choice"),
-    (["--server", "localhost:3100"], "--server", "HOST:AGENT_PORT:MONITOR_PORT"),
-    (["--server", "localhost:3100:99999"], "--server", "outside 1-65535"),
-    (["--crossover", "0.8", "--crossover", "0.8"], "--crossover", "given twice"),
-    (["--server", "h:1:2", "--server", "h:3:4", "--workers", "3"], "--workers 3", "one worker per server"),
-    (["--check-repeats", "-1"], "--check-repeats", ">= 0"),
-    (["--check-repeats", "2.5"], "--check-repeats", "whole number"),
-    (["--check-jitter", "0.1", "0.1"], "--check-jitter", "expected 3 arguments"),
-    (["--check-jitter", "0.1", "0.1", "-2"], "--check-jitter", ">= 0"),
-])
+@pytest.mark.parametrize(
+    "argv, flag, why",
+    [
+        (["--crossover", "1.5"], "--crossover", "[0, 1]"),
+        (["--crossover", "abc"], "--crossover", "number"),
+        (["--workers", "0"], "--workers", ">= 1"),
+        (["--population", "-3"], "--population", ">= 1"),
+        (["--walk-time", "0"], "--walk-time", "> 0"),
+        (["--scheme", "lrx"], "--scheme", "invalid choice"),
+        (["--server", "localhost:3100"], "--server", "HOST:AGENT_PORT:MONITOR_PORT"),
+        (["--server", "localhost:3100:99999"], "--server", "outside 1-65535"),
+        (["--crossover", "0.8", "--crossover", "0.8"], "--crossover", "given twice"),
+        (["--server", "h:1:2", "--server", "h:3:4", "--workers", "3"], "--workers 3", "one worker per server"),
+        (["--check-repeats", "-1"], "--check-repeats", ">= 0"),
+        (["--check-repeats", "2.5"], "--check-repeats", "whole number"),
+        (["--check-jitter", "0.1", "0.1"], "--check-jitter", "expected 3 arguments"),
+        (["--check-jitter", "0.1", "0.1", "-2"], "--check-jitter", ">= 0"),
+    ],
+)
 def test_gala_refuses_a_wrong_value_naming_the_flag(argv, flag, why, capsys) -> None:
     err = refused(gala_command.main, argv, capsys)
     assert flag in err and why in err
@@ -60,8 +64,13 @@ def test_resume_needs_a_run_folder_and_the_same_settings(tmp_path: Path, capsys)
     assert "no manifest.json" in refused(gala_command.main, ["--resume", str(tmp_path)], capsys)
     assert "no manifest.json" in refused(gala_command.main, ["--resume", str(tmp_path / "none")], capsys)
     out = tmp_path / "run"
-    assert gala_command.main(["--crossover", "0.8", *SMALL, "--seed", "3", "--out", str(out)],
-                             make_evaluator=lambda setup: FakeEvaluator()) == 0
+    assert (
+        gala_command.main(
+            ["--crossover", "0.8", *SMALL, "--seed", "3", "--out", str(out)],
+            make_evaluator=lambda setup: FakeEvaluator(),
+        )
+        == 0
+    )
     err = refused(gala_command.main, ["--resume", str(out), "--population", "7"], capsys)
     assert "--population 7 conflicts with the run's --population 6" in err
     err = refused(gala_command.main, ["--resume", str(out), "--seed", "4"], capsys)
@@ -87,8 +96,23 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
         setups.append(setup)
         return FakeEvaluator()
 
-    argv = ["--crossover", "0.8", "--crossover", "0.3", *SMALL, "--seed", "9", "--out", str(out),
-            "--server", "127.0.0.1:3100:3200", "--server", "127.0.0.1:3101:3201", "--walk-time", "5"]
+    argv = [
+        "--crossover",
+        "0.8",
+        "--crossover",
+        "0.3",
+        *SMALL,
+        "--seed",
+        "9",
+        "--out",
+        str(out),
+        "--server",
+        "127.0.0.1:3100:3200",
+        "--server",
+        "127.0.0.1:3101:3201",
+        "--walk-time",
+        "5",
+    ]
     assert gala_command.main(argv, make_evaluator=fake) == 0
     assert setups[0].workers == 2 and [s.agent_port for s in setups[0].servers] == [3100, 3101]
     assert setups[0].walk_time == 5.0 and setups[0].seed == 9 and setups[0].start == (-5.0, 0.0, 0.0)
@@ -161,8 +185,9 @@ def test_fastest_gait_is_the_fastest_walk_that_passes_its_check(tmp_path: Path, 
     plain = tmp_path / "plain"
     argv = ["--crossover", "0.8", *SMALL, "--seed", "4"]
     evaluator = FastestIsFragile()
-    assert gala_command.main([*argv, "--out", str(plain), "--check-repeats", "0"],
-                             make_evaluator=lambda s: evaluator) == 0
+    assert (
+        gala_command.main([*argv, "--out", str(plain), "--check-repeats", "0"], make_evaluator=lambda s: evaluator) == 0
+    )
     first = json.loads((plain / "results.json").read_text())["fastest_episode"]
     FastestIsFragile.fragile = tuple(first["genes"])
     capsys.readouterr()
@@ -171,8 +196,7 @@ def test_fastest_gait_is_the_fastest_walk_that_passes_its_check(tmp_path: Path, 
     assert gala_command.main([*argv, "--out", str(out)], make_evaluator=lambda s: FastestIsFragile()) == 0
     records = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
     searched = [r for r in records if "start" not in r]
-    runner_up = max((r for r in searched if not r["fell"] and r["genes"] != first["genes"]),
-                    key=lambda r: r["fitness"])
+    runner_up = max((r for r in searched if not r["fell"] and r["genes"] != first["genes"]), key=lambda r: r["fitness"])
     results = json.loads((out / "results.json").read_text())
     assert results["fastest_episode"]["key"] == results["fastest_check"]["key"] == runner_up["key"]
     assert results["fastest_check"]["falls"] == 0
@@ -233,8 +257,13 @@ def test_a_run_made_before_start_checks_and_the_robot_box_existed_resumes_as_it_
 
 def test_a_new_run_searches_the_box_derived_from_the_robot(tmp_path: Path) -> None:
     out = tmp_path / "new"
-    assert gala_command.main(["--crossover", "0.8", *SMALL, "--seed", "5", "--out", str(out), "--quiet"],
-                             make_evaluator=lambda s: FakeEvaluator()) == 0
+    assert (
+        gala_command.main(
+            ["--crossover", "0.8", *SMALL, "--seed", "5", "--out", str(out), "--quiet"],
+            make_evaluator=lambda s: FakeEvaluator(),
+        )
+        == 0
+    )
     assert json.loads((out / "manifest.json").read_text())["settings"]["bounds"] == "robot"
     genes = np.array([r["genes"] for r in map(json.loads, (out / "episodes.jsonl").read_text().splitlines())])
     assert np.all(genes >= GENE_BOUNDS[:, 0]) and np.all(genes <= GENE_BOUNDS[:, 1])
@@ -249,8 +278,9 @@ def test_sigterm_ends_a_run_as_ctrl_c_does(tmp_path: Path, capsys) -> None:
             os.kill(os.getpid(), signal.SIGTERM)  # what a scheduler sends to stop a job
 
     before = signal.getsignal(signal.SIGTERM)
-    code = gala_command.main(["--crossover", "0.8", *SMALL, "--out", str(tmp_path / "r")],
-                             make_evaluator=lambda s: Terminated())
+    code = gala_command.main(
+        ["--crossover", "0.8", *SMALL, "--out", str(tmp_path / "r")], make_evaluator=lambda s: Terminated()
+    )
     assert code == 130
     assert f"--resume {tmp_path / 'r'}" in capsys.readouterr().err
     assert len((tmp_path / "r" / "episodes.jsonl").read_text().splitlines()) == 3  # nothing finished is lost
@@ -262,15 +292,28 @@ def test_an_interrupted_run_says_how_to_resume(tmp_path: Path, capsys) -> None:
         def evaluate(self, tasks):
             raise KeyboardInterrupt
 
-    code = gala_command.main(["--crossover", "0.8", *SMALL, "--out", str(tmp_path / "r")],
-                             make_evaluator=lambda s: Interrupted())
+    code = gala_command.main(
+        ["--crossover", "0.8", *SMALL, "--out", str(tmp_path / "r")], make_evaluator=lambda s: Interrupted()
+    )
     assert code == 130
     assert f"--resume {tmp_path / 'r'}" in capsys.readouterr().err
 
 
 def test_ga_presets_and_its_folder(tmp_path: Path, capsys) -> None:
     out = tmp_path / "ga"
-    argv = ["--preset", "dejong", "--population", "6", "--generations", "3", "--quiet", "--seed", "2", "--out", str(out)]
+    argv = [
+        "--preset",
+        "dejong",
+        "--population",
+        "6",
+        "--generations",
+        "3",
+        "--quiet",
+        "--seed",
+        "2",
+        "--out",
+        str(out),
+    ]
     assert ga_command.main(argv, make_evaluator=lambda s: FakeEvaluator()) == 0
     settings = json.loads((out / "manifest.json").read_text())["settings"]
     assert (settings["crossover"], settings["mutation"], settings["preset"]) == (0.6, 0.001, "dejong")
@@ -341,10 +384,16 @@ def test_episode_command_takes_a_start(monkeypatch, capsys) -> None:
 def test_episode_command_refuses_a_bad_gait_file_or_server(tmp_path: Path, capsys) -> None:
     bad = tmp_path / "gait.json"
     bad.write_text("{}")
-    for argv, flag in ((["--gait", str(bad)], "--gait"), (["--server", "nowhere"], "--server"),
-                       (["--agent-mode", "thread"], "--agent-mode"), (["--start", "1", "2"], "--start"),
-                       (["--start", "1", "2", "nan"], "--start"), (["--repeat", "0"], "--repeat"),
-                       (["--jitter", "0.1", "-0.1", "0"], "--jitter"), (["--jitter", "0.1", "0.1"], "--jitter")):
+    for argv, flag in (
+        (["--gait", str(bad)], "--gait"),
+        (["--server", "nowhere"], "--server"),
+        (["--agent-mode", "thread"], "--agent-mode"),
+        (["--start", "1", "2"], "--start"),
+        (["--start", "1", "2", "nan"], "--start"),
+        (["--repeat", "0"], "--repeat"),
+        (["--jitter", "0.1", "-0.1", "0"], "--jitter"),
+        (["--jitter", "0.1", "0.1"], "--jitter"),
+    ):
         with pytest.raises(SystemExit) as exit_info:
             episode_command.main(argv)
         assert exit_info.value.code == 2
@@ -367,5 +416,6 @@ def test_episode_command_repeats_from_jittered_starts(monkeypatch, capsys) -> No
     out, err = capsys.readouterr()
     assert "could not be run: server gone" in err
     assert len(out.splitlines()) == 4  # the three that ran, then the summary
-    assert out.splitlines()[-1] == ("3 walks: 1 fell; distance 1.000-4.000 m, mean 2.333 m; "
-                                    "mean speed 0.100 m/s; 1 could not be run")
+    assert out.splitlines()[-1] == (
+        "3 walks: 1 fell; distance 1.000-4.000 m, mean 2.333 m; mean speed 0.100 m/s; 1 could not be run"
+    )

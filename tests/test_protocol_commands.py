@@ -1,4 +1,5 @@
 """Effector and trainer commands, byte for byte against what real clients sent."""
+
 from __future__ import annotations
 
 import math
@@ -43,9 +44,13 @@ def test_first_agent_messages_byte_for_byte(fixtures_dir: Path) -> None:
     assert lines[0] == commands.scene()
     assert lines[1] == commands.init(1, "Probe") + commands.syn()
     assert lines[2] == commands.beam(-1.0, 0.0, 0.0) + commands.syn()
-    assert lines[3] == commands.hinge_velocities(
-        {"lle3": 0.188, "lle4": -0.188, "lle5": 0.188, "rle3": 0.188, "rle4": -0.188, "rle5": 0.188}
-    ) + commands.syn()
+    assert (
+        lines[3]
+        == commands.hinge_velocities(
+            {"lle3": 0.188, "lle4": -0.188, "lle5": 0.188, "rle3": 0.188, "rle4": -0.188, "rle5": 0.188}
+        )
+        + commands.syn()
+    )
 
 
 @pytest.mark.parametrize(

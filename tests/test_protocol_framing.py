@@ -1,4 +1,5 @@
 """Length-prefixed framing: any chunking of a stream gives back the same frames; caps hold."""
+
 from __future__ import annotations
 
 import struct

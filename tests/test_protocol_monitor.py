@@ -1,4 +1,5 @@
 """Monitor stream reader against the real captures."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -35,7 +36,12 @@ def test_header_and_robot_identity_from_materials(monitor_messages: list[str]) -
     states = read_all(monitor_messages)
     first = states[0]
     assert (first.game_time, first.play_mode, first.half, first.score_left, first.score_right) == (
-        0.0, "BeforeKickOff", 1, 0, 0)
+        0.0,
+        "BeforeKickOff",
+        1,
+        0,
+        0,
+    )
     assert first.robots == [] and first.team_left is None
     (before_init,) = states[6].robots  # robot appeared, team not known yet: matNum matTeam
     assert (before_init.team, before_init.unum, before_init.robot_type) == (None, None, 0)

@@ -1,5 +1,6 @@
 """Perception parser: every real message, the fast paths against the validating slow path,
 round trips of generated messages, and precise errors on malformed input."""
+
 from __future__ import annotations
 
 import re
@@ -204,8 +205,10 @@ def generated(draw: st.DrawFn) -> tuple[str, Perception]:
     t, pm = draw(st.integers(0, 60000)), draw(st.sampled_from(PLAY_MODES))
     gyr, acc = draw(vec), draw(vec)
     all_joints = [j.perceptor for j in JOINTS]
-    chosen = draw(st.just(all_joints) | st.lists(st.sampled_from(all_joints), unique=True).map(
-        lambda c: [n for n in all_joints if n in c]))
+    chosen = draw(
+        st.just(all_joints)
+        | st.lists(st.sampled_from(all_joints), unique=True).map(lambda c: [n for n in all_joints if n in c])
+    )
     angles = {n: draw(cents) for n in chosen}
     feet = {f: (draw(vec), draw(vec)) for f in ("rf", "lf") if draw(st.booleans())}
     see = draw(st.booleans())
@@ -217,10 +220,22 @@ def generated(draw: st.DrawFn) -> tuple[str, Perception]:
     text += f"(GYR (n torso) (rt {vtext(gyr)}))(ACC (n torso) (a {vtext(acc)}))"
     vision = None
     if see:
-        objects = draw(st.dictionaries(st.sampled_from(["F1L", "F2L", "F1R", "F2R", "G1L", "G2L", "G1R", "G2R", "B"]), pol))
+        objects = draw(
+            st.dictionaries(st.sampled_from(["F1L", "F2L", "F1R", "F2R", "G1L", "G2L", "G1R", "G2R", "B"]), pol)
+        )
         lines = draw(st.lists(st.tuples(pol, pol), max_size=6))
-        players = draw(st.lists(st.tuples(names, st.integers(1, 11), st.dictionaries(
-            st.sampled_from(["head", "rlowerarm", "llowerarm", "rfoot", "lfoot"]), pol, min_size=1)), max_size=3))
+        players = draw(
+            st.lists(
+                st.tuples(
+                    names,
+                    st.integers(1, 11),
+                    st.dictionaries(
+                        st.sampled_from(["head", "rlowerarm", "llowerarm", "rfoot", "lfoot"]), pol, min_size=1
+                    ),
+                ),
+                max_size=3,
+            )
+        )
         mypos, myorien, ballpos = draw(st.none() | vec), draw(st.none() | cents), draw(st.none() | vec)
         items = [f"({k} (pol {vtext(v)}))" for k, v in objects.items()]
         items += [("P", tm, i, parts) for tm, i, parts in players]
@@ -235,16 +250,23 @@ def generated(draw: st.DrawFn) -> tuple[str, Perception]:
                 return item
             if item[0] == "L":
                 return f"(L (pol {vtext(item[1])}) (pol {vtext(item[2])}))"
-            return f"(P (team {item[1]}) (id {item[2]})" + "".join(
-                f" ({k} (pol {vtext(v)}))" for k, v in item[3].items()) + ")"
+            return (
+                f"(P (team {item[1]}) (id {item[2]})"
+                + "".join(f" ({k} (pol {vtext(v)}))" for k, v in item[3].items())
+                + ")"
+            )
 
         see_text = "(See" + "".join(" " + see_item(i) for i in items) + ")"
         vision = Vision(
             {k: Polar(*vval(v)) for k, v in objects.items()},
             [(Polar(*vval(i[1])), Polar(*vval(i[2]))) for i in items if isinstance(i, tuple) and i[0] == "L"],
-            [SeenPlayer(i[1], i[2], {k: Polar(*vval(v)) for k, v in i[3].items()})
-             for i in items if isinstance(i, tuple) and i[0] == "P"],
-            vval(mypos) if mypos else None, float(num(myorien)) if myorien is not None else None,
+            [
+                SeenPlayer(i[1], i[2], {k: Polar(*vval(v)) for k, v in i[3].items()})
+                for i in items
+                if isinstance(i, tuple) and i[0] == "P"
+            ],
+            vval(mypos) if mypos else None,
+            float(num(myorien)) if myorien is not None else None,
             vval(ballpos) if ballpos else None,
         )
     for name in all_joints:
@@ -257,10 +279,15 @@ def generated(draw: st.DrawFn) -> tuple[str, Perception]:
         if name == "hj2" and see:
             text += see_text
     expected = Perception(
-        float(num(now)), GameState(unum, team, sl, sr, float(num(t)), pm), vval(gyr), vval(acc),
+        float(num(now)),
+        GameState(unum, team, sl, sr, float(num(t)), pm),
+        vval(gyr),
+        vval(acc),
         {n: float(num(a)) for n, a in angles.items()},
         {f: ForceResistance(vval(c), vval(force)) for f, (c, force) in sorted(feet.items(), reverse=True)},
-        vision, [], [],
+        vision,
+        [],
+        [],
     )
     return text, expected
 

@@ -1,4 +1,5 @@
 """The generic S-expression reader: structure, positions in errors, truncation."""
+
 from __future__ import annotations
 
 import pytest

@@ -1,6 +1,7 @@
 """Real rcssserver3d servers the optimizer starts itself (``--real``): finding the server, the sync
 profile, the start a real referee leaves alone, and, against a real server where one is
 configured, walks that score their real distance and servers that never outlive their owner."""
+
 from __future__ import annotations
 
 import csv
@@ -83,7 +84,7 @@ _SHIPPED = {
     "rcssserver3d/rcssserver3d.rb": "$enableRealTimeMode = true\n",
     "rcssserver3d/naosoccersim.rb": "addSoccerVar('BeamNoiseXY',0.05)\naddSoccerVar('BeamNoiseAngle',10.0)\n",
     "rcssserver3d/rsg/agent/nao/naoneckhead.rsg": "(setSenseMyPos false)\n(setSenseMyOrien false)\n"
-                                                  "(setSenseBallPos false)\n",
+    "(setSenseBallPos false)\n",
 }
 
 
@@ -140,11 +141,13 @@ def test_a_start_on_the_centre_line_is_refused_for_real_servers_only(monkeypatch
 
 def test_real_conflicts_are_refused(monkeypatch, capsys, tmp_path: Path) -> None:
     monkeypatch.setenv(RCSSSERVER3D_ENV, str(_executable(tmp_path / "rcssserver3d")))
-    for flags, said in ((["--real", "2", "--workers", "3"], "--workers 3 conflicts with --real 2"),
-                        (["--real", "2", "--dask-local", "3"], "--dask-local 3 conflicts with --real 2"),
-                        (["--real", "1", "--scheduler", "tcp://127.0.0.1:1"], "GALA_REAL_SERVER=1"),
-                        (["--real", "1", "--server", "127.0.0.1:1:2"], "not allowed with argument"),
-                        (["--real", "0"], "--real")):
+    for flags, said in (
+        (["--real", "2", "--workers", "3"], "--workers 3 conflicts with --real 2"),
+        (["--real", "2", "--dask-local", "3"], "--dask-local 3 conflicts with --real 2"),
+        (["--real", "1", "--scheduler", "tcp://127.0.0.1:1"], "GALA_REAL_SERVER=1"),
+        (["--real", "1", "--server", "127.0.0.1:1:2"], "not allowed with argument"),
+        (["--real", "0"], "--real"),
+    ):
         with pytest.raises(SystemExit) as exit_:
             gala_command.main(["--out", str(tmp_path / "r"), *flags])
         assert exit_.value.code == 2
@@ -196,8 +199,14 @@ def _tagged_env(command: str) -> tuple[dict[str, str], str]:
 @pytest.mark.real_server
 def test_the_shipped_gait_scores_its_real_distance_with_no_options(rcssserver3d: str) -> None:
     env, tag = _tagged_env(rcssserver3d)
-    done = subprocess.run([sys.executable, "-m", "optimizer.episode", "--real", "1", "--json"], cwd=REPO, env=env,
-                          capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [sys.executable, "-m", "optimizer.episode", "--real", "1", "--json"],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr
     walk = json.loads(done.stdout)
     # the shipped gait walks 2.9-3.2 m in 15 s on the real server (a fall after ~0.2 m from the
@@ -235,12 +244,33 @@ def test_an_error_in_the_owner_stops_its_server(rcssserver3d: str) -> None:
 def _start_gala(rcssserver3d: str, out: Path) -> tuple[subprocess.Popen, str]:
     env, tag = _tagged_env(rcssserver3d)
     process = subprocess.Popen(
-        [sys.executable, "-m", "optimizer.gala", "--real", "2", "--crossover", "0.8", "--population", "30",
-         "--iterations", "50", "--seed", "3", "--quiet", "--out", str(out)],
-        cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
+        [
+            sys.executable,
+            "-m",
+            "optimizer.gala",
+            "--real",
+            "2",
+            "--crossover",
+            "0.8",
+            "--population",
+            "30",
+            "--iterations",
+            "50",
+            "--seed",
+            "3",
+            "--quiet",
+            "--out",
+            str(out),
+        ],
+        cwd=REPO,
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     assert _wait_for(lambda: len(_servers_tagged(tag)) == 2, 60.0), "the run did not start its 2 servers"
-    assert _wait_for(lambda: (out / "episodes.jsonl").exists() and (out / "episodes.jsonl").stat().st_size > 0,
-                     60.0)
+    assert _wait_for(lambda: (out / "episodes.jsonl").exists() and (out / "episodes.jsonl").stat().st_size > 0, 60.0)
     return process, tag
 
 
@@ -276,9 +306,36 @@ def test_tiny_gala_on_a_real_server_end_to_end(rcssserver3d: str, tmp_path: Path
     env, tag = _tagged_env(rcssserver3d)
     out = tmp_path / "run"
     done = subprocess.run(
-        [sys.executable, "-m", "optimizer.gala", "--real", "1", "--crossover", "0.8", "--population", "6",
-         "--iterations", "3", "--generations", "2", "--walk-time", "5", "--check-repeats", "3", "--seed", "5",
-         "--quiet", "--out", str(out)], cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
+        [
+            sys.executable,
+            "-m",
+            "optimizer.gala",
+            "--real",
+            "1",
+            "--crossover",
+            "0.8",
+            "--population",
+            "6",
+            "--iterations",
+            "3",
+            "--generations",
+            "2",
+            "--walk-time",
+            "5",
+            "--check-repeats",
+            "3",
+            "--seed",
+            "5",
+            "--quiet",
+            "--out",
+            str(out),
+        ],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0, done.stderr
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["runtime"]["real"]["servers"] == 1 and manifest["settings"]["bounds"] == "robot"
@@ -299,9 +356,38 @@ def test_each_dask_worker_starts_and_stops_its_own_real_server(rcssserver3d: str
     env, tag = _tagged_env(rcssserver3d)
     out = tmp_path / "run"
     done = subprocess.run(
-        [sys.executable, "-m", "optimizer.gala", "--real", "1", "--dask-local", "1", "--crossover", "0.8",
-         "--population", "4", "--iterations", "2", "--generations", "2", "--walk-time", "2", "--check-repeats", "0",
-         "--seed", "2", "--quiet", "--out", str(out)], cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
+        [
+            sys.executable,
+            "-m",
+            "optimizer.gala",
+            "--real",
+            "1",
+            "--dask-local",
+            "1",
+            "--crossover",
+            "0.8",
+            "--population",
+            "4",
+            "--iterations",
+            "2",
+            "--generations",
+            "2",
+            "--walk-time",
+            "2",
+            "--check-repeats",
+            "0",
+            "--seed",
+            "2",
+            "--quiet",
+            "--out",
+            str(out),
+        ],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0, done.stderr
     logged = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
     assert logged and all(r["status"] == "ok" for r in logged), [r["reason"] for r in logged if r["status"] != "ok"]
@@ -310,8 +396,9 @@ def test_each_dask_worker_starts_and_stops_its_own_real_server(rcssserver3d: str
 
 @pytest.mark.real_server
 @pytest.mark.parametrize("x, stands_at", [(-0.02, -2.5), (-0.08, -0.08)])
-def test_the_referee_moves_a_robot_at_the_centre_line_on_both_servers(rcssserver3d: str, x: float,
-                                                                     stands_at: float) -> None:
+def test_the_referee_moves_a_robot_at_the_centre_line_on_both_servers(
+    rcssserver3d: str, x: float, stands_at: float
+) -> None:
     """Before kick-off the referee moves a left-team robot whose torso reaches into the right half
     2.5 m back; the stand-in does the same, so a walk placed there starts where it would on the
     real server."""

@@ -1,4 +1,5 @@
 """Result files: Table I round-trips through CSV, Markdown reads like the paper's, plots are PNGs."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -37,8 +38,9 @@ def gala_result():
 
 def test_table_i_csv_round_trips_and_markdown_lists_every_row(tmp_path: Path, gala_result) -> None:
     rows = [
-        TableRow.from_gala(gala_result, distance_m=gala_result.best_fitness / 10,
-                           speed_mps=gala_result.best_fitness / 10 / 15),
+        TableRow.from_gala(
+            gala_result, distance_m=gala_result.best_fitness / 10, speed_mps=gala_result.best_fitness / 10 / 15
+        ),
         TableRow(0.1, 0.08, 12.456, None, None),  # a fallen robot: no distance or speed
         TableRow(0.9, 0.06, -3.25, 0.1 + 0.2, 1 / 3, 10, 2, 0.1 + 0.05, 0.2 + 0.1, 0.7),
     ]
@@ -59,9 +61,22 @@ finite = st.floats(allow_nan=False, allow_infinity=False)
 
 
 @settings(max_examples=30, deadline=None)
-@given(st.lists(st.builds(TableRow, finite, finite, finite, st.none() | finite, st.none() | finite,
-                          st.none() | st.integers(0, 10**6), st.none() | st.integers(0, 10**6), st.none() | finite),
-                max_size=5))
+@given(
+    st.lists(
+        st.builds(
+            TableRow,
+            finite,
+            finite,
+            finite,
+            st.none() | finite,
+            st.none() | finite,
+            st.none() | st.integers(0, 10**6),
+            st.none() | st.integers(0, 10**6),
+            st.none() | finite,
+        ),
+        max_size=5,
+    )
+)
 def test_any_table_round_trips_exactly(tmp_path_factory, rows) -> None:
     path = tmp_path_factory.mktemp("t") / "table.csv"
     write_table_csv(rows, path)

@@ -1,4 +1,5 @@
 """Run folders: the manifest, and an episode log that survives a kill mid-write and never counts twice."""
+
 from __future__ import annotations
 
 import json
@@ -23,13 +24,31 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def record(key: str, fitness: float = 1.0) -> dict:
-    return {"key": key, "genes": [0.5, 1.5], "seed": 7, "worker": 0, "fitness": fitness, "distance": fitness / 10,
-            "fell": False, "time": 15.0, "mean_speed": fitness / 150, "status": "ok", "reason": "", "wall": 0.3}
+    return {
+        "key": key,
+        "genes": [0.5, 1.5],
+        "seed": 7,
+        "worker": 0,
+        "fitness": fitness,
+        "distance": fitness / 10,
+        "fell": False,
+        "time": 15.0,
+        "mean_speed": fitness / 150,
+        "status": "ok",
+        "reason": "",
+        "wall": 0.3,
+    }
 
 
 def test_manifest_records_what_was_run_and_reopens(tmp_path: Path) -> None:
-    RunFolder.create(tmp_path / "run", "gala", {"population": 10, "crossover": [0.8]}, 42,
-                     ["--population", "10"], {"workers": 2, "servers": []})
+    RunFolder.create(
+        tmp_path / "run",
+        "gala",
+        {"population": 10, "crossover": [0.8]},
+        42,
+        ["--population", "10"],
+        {"workers": 2, "servers": []},
+    )
     manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
     assert manifest["command"] == "gala" and manifest["seed"] == 42
     assert manifest["settings"] == {"population": 10, "crossover": [0.8]}
@@ -125,15 +144,26 @@ def _lines(*records: dict) -> list[bytes]:
     return [json.dumps(r).encode() for r in records]
 
 
-@pytest.mark.parametrize("bad, problem", [
-    (b"garbage{", "line 2: not JSON"),
-    (json.dumps(record("x", 1.0) | {"fitness": "oops"}).encode(), 'line 2: "fitness" must be a finite number, found "oops"'),
-    (json.dumps(record("x", 1.0) | {"key": ["x"]}).encode(), 'line 2: "key" must be a non-empty string, found ["x"]'),
-    (json.dumps(record("x", 1.0) | {"genes": [1, "a"]}).encode(), 'line 2: "genes" must be a list of numbers'),
-    (b'{"key": "\xff\xfe"}', "line 2: not UTF-8 text"),
-    (b"[1, 2]", "line 2: expected a JSON object"),
-])
-def test_a_damaged_line_is_one_line_error_naming_file_line_and_problem(tmp_path: Path, bad: bytes, problem: str) -> None:
+@pytest.mark.parametrize(
+    "bad, problem",
+    [
+        (b"garbage{", "line 2: not JSON"),
+        (
+            json.dumps(record("x", 1.0) | {"fitness": "oops"}).encode(),
+            'line 2: "fitness" must be a finite number, found "oops"',
+        ),
+        (
+            json.dumps(record("x", 1.0) | {"key": ["x"]}).encode(),
+            'line 2: "key" must be a non-empty string, found ["x"]',
+        ),
+        (json.dumps(record("x", 1.0) | {"genes": [1, "a"]}).encode(), 'line 2: "genes" must be a list of numbers'),
+        (b'{"key": "\xff\xfe"}', "line 2: not UTF-8 text"),
+        (b"[1, 2]", "line 2: expected a JSON object"),
+    ],
+)
+def test_a_damaged_line_is_one_line_error_naming_file_line_and_problem(
+    tmp_path: Path, bad: bytes, problem: str
+) -> None:
     path = tmp_path / "episodes.jsonl"
     good = _lines(record("a"), record("b"))
     path.write_bytes(b"\n".join([good[0], bad, good[1]]) + b"\n")
@@ -159,9 +189,29 @@ def test_repair_moves_bad_lines_aside_and_keeps_every_intact_line(tmp_path: Path
 
 
 def _ga(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "optimizer.ga", "--population", "2", "--generations", "1",
-                           "--walk-time", "0.2", "--check-repeats", "0", "--workers", "1", "--quiet", *args],
-                          cwd=REPO, capture_output=True, text=True, timeout=300)
+    return subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "optimizer.ga",
+            "--population",
+            "2",
+            "--generations",
+            "1",
+            "--walk-time",
+            "0.2",
+            "--check-repeats",
+            "0",
+            "--workers",
+            "1",
+            "--quiet",
+            *args,
+        ],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
 
 
 def test_resume_of_a_damaged_log_stops_with_one_line_then_goes_on_with_skip_bad_lines(tmp_path: Path) -> None:
@@ -174,7 +224,7 @@ def test_resume_of_a_damaged_log_stops_with_one_line_then_goes_on_with_skip_bad_
     assert refused.returncode == 1
     assert "Traceback" not in refused.stderr
     error = [line for line in refused.stderr.splitlines() if "error:" in line]
-    assert len(error) == 1 and f"{log}, line 2: \"key\" must be a non-empty string" in error[0], refused.stderr
+    assert len(error) == 1 and f'{log}, line 2: "key" must be a non-empty string' in error[0], refused.stderr
     resumed = _ga("--resume", str(run), "--skip-bad-lines")
     assert resumed.returncode == 0, resumed.stderr
     assert "moved 1 bad line(s) to episodes.jsonl.rejected" in resumed.stderr

@@ -1,4 +1,5 @@
 """Where an episode is scored (``optimizer.episode.scoring``): eq. 9 from monitor states alone."""
+
 from __future__ import annotations
 
 import math
@@ -11,9 +12,17 @@ from optimizer.episode import EpisodeConfig, Judge
 from protocol.monitor import MonitorState, RobotPose
 
 
-def _state(t: float, x: float, y: float, z: float = 0.38, up_z: float = 1.0, mode: str = "PlayOn",
-           team: str = "left", unum: int = 1) -> MonitorState:
-    up = (math.sqrt(max(0.0, 1 - up_z ** 2)), 0.0, up_z)
+def _state(
+    t: float,
+    x: float,
+    y: float,
+    z: float = 0.38,
+    up_z: float = 1.0,
+    mode: str = "PlayOn",
+    team: str = "left",
+    unum: int = 1,
+) -> MonitorState:
+    up = (math.sqrt(max(0.0, 1 - up_z**2)), 0.0, up_z)
     robot = RobotPose(team, unum, 0, (x, y, z), up, (1.0, 0.0, 0.0))
     return MonitorState(t, mode, 1, 0, 0, "GALA", None, [robot])
 
@@ -21,7 +30,7 @@ def _state(t: float, x: float, y: float, z: float = 0.38, up_z: float = 1.0, mod
 def test_the_distance_counts_from_where_the_walk_began_along_the_heading() -> None:
     judge = Judge(EpisodeConfig(walk_time=1.0, start=(-5.0, 0.0), heading=90.0))
     judge.feed(_state(0.0, -5.0, 0.0, mode="BeforeKickOff"))  # before the walk: not counted
-    judge.feed(_state(0.02, -4.9, 0.1))                        # the first PlayOn state: the origin
+    judge.feed(_state(0.02, -4.9, 0.1))  # the first PlayOn state: the origin
     judge.feed(_state(0.5, -3.0, 0.6))
     assert judge.result is None
     judge.feed(_state(1.0, -2.0, 1.1))
@@ -52,8 +61,7 @@ def test_other_robots_and_a_robot_without_a_team_are_not_judged() -> None:
 
 
 @given(st.floats(-10, 10), st.floats(-10, 10), st.floats(-180, 180), st.floats(0.1, 5.0))
-def test_a_walk_straight_along_the_heading_scores_its_length(x: float, y: float, heading: float,
-                                                             length: float) -> None:
+def test_a_walk_straight_along_the_heading_scores_its_length(x: float, y: float, heading: float, length: float) -> None:
     h = math.radians(heading)
     judge = Judge(EpisodeConfig(walk_time=2.0, heading=heading), trace=True)
     judge.feed(_state(0.02, x, y))

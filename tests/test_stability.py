@@ -1,6 +1,7 @@
 """The stability check: repeats walk the checked gait from seeded moved starts, are logged with
 their start and answered from the log on resume; the fastest stable gait is the fastest walk whose
 check has no fall. A fake evaluator decides falls from the start, no physics."""
+
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
@@ -34,8 +35,20 @@ class StartSensitive:
             moved = task.start is not None and task.start[0] > BASE[0]
             fell = moved and task.genes[0] in self.fragile
             distance = task.genes[0]
-            yield EpisodeOutcome(task, 0, {"distance": distance, "fell": fell, "time": 15.0, "fitness": 10 * distance,
-                                           "mean_speed": distance / 15, "status": "ok", "reason": "", "wall": 0.0})
+            yield EpisodeOutcome(
+                task,
+                0,
+                {
+                    "distance": distance,
+                    "fell": fell,
+                    "time": 15.0,
+                    "fitness": 10 * distance,
+                    "mean_speed": distance / 15,
+                    "status": "ok",
+                    "reason": "",
+                    "wall": 0.0,
+                },
+            )
 
     def close(self) -> None:
         pass
@@ -130,14 +143,32 @@ def test_when_no_candidate_passes_the_one_that_fell_least_is_kept(tmp_path: Path
 def test_every_walk_fell_gives_no_fastest(tmp_path: Path) -> None:
     with EpisodeLog(tmp_path / "episodes.jsonl") as log:
         driver = Driver(StartSensitive(), log, run_seed=1)
-        log.append({"key": "s/i000", "genes": [1.0], "seed": 0, "worker": 0, "distance": 0.3, "fell": True,
-                    "time": 2.0, "fitness": 3.0, "mean_speed": 0.15, "status": "ok", "reason": "", "wall": 0.0})
+        log.append(
+            {
+                "key": "s/i000",
+                "genes": [1.0],
+                "seed": 0,
+                "worker": 0,
+                "distance": 0.3,
+                "fell": True,
+                "time": 2.0,
+                "fitness": 3.0,
+                "mean_speed": 0.15,
+                "status": "ok",
+                "reason": "",
+                "wall": 0.0,
+            }
+        )
         assert fastest_stable(driver, log.records, BASE, CONFIG) is None
 
 
 @settings(max_examples=50, deadline=None)
-@given(st.lists(st.floats(-10, 10), min_size=3, max_size=3), st.lists(st.floats(0, 2), min_size=3, max_size=3),
-       st.integers(1, 20), st.integers(0, 2**32))
+@given(
+    st.lists(st.floats(-10, 10), min_size=3, max_size=3),
+    st.lists(st.floats(0, 2), min_size=3, max_size=3),
+    st.integers(1, 20),
+    st.integers(0, 2**32),
+)
 def test_jittered_starts_stay_within_the_jitter_and_follow_the_seed(base, jitter, count, seed) -> None:
     points = jittered_starts(base, jitter, count, seed)
     assert len(points) == count
@@ -149,7 +180,12 @@ def test_jittered_starts_stay_within_the_jitter_and_follow_the_seed(base, jitter
 
 
 def test_a_stability_config_refuses_impossible_values() -> None:
-    for bad in ({"repeats": -1}, {"jitter": (0.1, 0.1)}, {"jitter": (0.1, -0.1, 0.0)},
-                {"jitter": (0.1, float("inf"), 0.0)}, {"candidates": 0}):
+    for bad in (
+        {"repeats": -1},
+        {"jitter": (0.1, 0.1)},
+        {"jitter": (0.1, -0.1, 0.0)},
+        {"jitter": (0.1, float("inf"), 0.0)},
+        {"candidates": 0},
+    ):
         with pytest.raises(ValueError, match="StabilityConfig"):
             StabilityConfig(**bad)

@@ -1,6 +1,7 @@
 """Whatever an agent or a trainer sends, the stub never raises (a malformed message must not
 take the server down): hypothesis drives the server's frame handlers in-process, the way the
 socket loop calls them, with command-shaped text and with arbitrary bytes."""
+
 from __future__ import annotations
 
 import math
@@ -74,8 +75,21 @@ def test_no_frame_makes_the_command_handler_raise(server_and_agent, frame: bytes
     state.robot.beam(-3.0, 0.0, 0.0)  # back on the field for the next example
 
 
-TRAINER_NAMES = ["playMode", "kickOff", "time", "agent", "ball", "dropBall", "score", "repos", "kill",
-                 "select", "reqfullstate", "killsim", "nonsense"]
+TRAINER_NAMES = [
+    "playMode",
+    "kickOff",
+    "time",
+    "agent",
+    "ball",
+    "dropBall",
+    "score",
+    "repos",
+    "kill",
+    "select",
+    "reqfullstate",
+    "killsim",
+    "nonsense",
+]
 FIELDS = ["team", "unum", "pos", "move", "vel", "left", "right", "battery"]
 
 
@@ -85,9 +99,13 @@ def trainer_texts(draw) -> bytes:
     or a broken one might send them."""
     commands = []
     for _ in range(draw(st.integers(0, 3))):
-        fields = "".join(f"({draw(st.sampled_from(FIELDS))} {' '.join(draw(st.lists(ATOMS, max_size=5)))})"
-                         for _ in range(draw(st.integers(0, 3))))
-        atoms = " ".join(draw(st.lists(st.one_of(ATOMS, st.sampled_from(["Left", "Right", "PlayOn", "1"])), max_size=2)))
+        fields = "".join(
+            f"({draw(st.sampled_from(FIELDS))} {' '.join(draw(st.lists(ATOMS, max_size=5)))})"
+            for _ in range(draw(st.integers(0, 3)))
+        )
+        atoms = " ".join(
+            draw(st.lists(st.one_of(ATOMS, st.sampled_from(["Left", "Right", "PlayOn", "1"])), max_size=2))
+        )
         commands.append(f"({draw(st.sampled_from(TRAINER_NAMES))} {atoms}{fields})")
     return "".join(commands).encode(draw(st.sampled_from(["ascii", "latin-1"])), errors="replace")
 

@@ -2,6 +2,7 @@
 
 Real traffic: ``tests/data/rcssserver3d`` (agent_perceptions_*.txt, monitor_messages.txt).
 """
+
 from __future__ import annotations
 
 import math
@@ -36,7 +37,7 @@ def _perceptor_names(msg: str) -> list[str]:
         elif ch == ")":
             depth -= 1
             if depth == 0:
-                entry = msg[start:i + 1]
+                entry = msg[start : i + 1]
                 head = re.match(r"\((\w+)(?: \(n (\w+)\))?", entry)
                 names.append(head.group(1) + (f" {head.group(2)}" if head.group(2) else ""))
     return names
@@ -59,8 +60,15 @@ def test_perception_order_matches_the_real_server(fixtures_dir):
     real = _lines(fixtures_dir, "agent_perceptions_first20.txt")
     # Line 7 of the capture: vision on, both feet touching.
     see = re.search(r"\(See .*?\)\)\)(?=\(HJ)", real[6]).group(0)
-    ours = format_perception(553.02, GameStateText(0, 0, 0.0, "BeforeKickOff"), (1, 2, 3), (4, 5, 6),
-                             _ANGLES, {"lf": _CONTACT, "rf": _CONTACT}, see)
+    ours = format_perception(
+        553.02,
+        GameStateText(0, 0, 0.0, "BeforeKickOff"),
+        (1, 2, 3),
+        (4, 5, 6),
+        _ANGLES,
+        {"lf": _CONTACT, "rf": _CONTACT},
+        see,
+    )
     assert _perceptor_names(ours) == _perceptor_names(real[6])
     # Line 2: no vision, no contact.
     ours = format_perception(552.92, GameStateText(0, 0, 0.0, "BeforeKickOff"), (1, 2, 3), (4, 5, 6), _ANGLES, {})
@@ -68,26 +76,39 @@ def test_perception_order_matches_the_real_server(fixtures_dir):
 
 
 def test_perception_prints_numbers_like_the_fixtures():
-    msg = format_perception(552.9, GameStateText(0, 0, 0.0, "BeforeKickOff", unum=1, team="left"),
-                            (0.01, -0.001, -0.004), (0.0, 0.0, 29.42), _ANGLES, {"rf": _CONTACT})
-    assert msg.startswith("(time (now 552.90))(GS (unum 1) (team left) (sl 0) (sr 0) (t 0.00) "
-                          "(pm BeforeKickOff))(GYR (n torso) (rt 0.01 -0.00 -0.00))"
-                          "(ACC (n torso) (a 0.00 0.00 29.42))(HJ (n hj1) (ax -4.00))")
+    msg = format_perception(
+        552.9,
+        GameStateText(0, 0, 0.0, "BeforeKickOff", unum=1, team="left"),
+        (0.01, -0.001, -0.004),
+        (0.0, 0.0, 29.42),
+        _ANGLES,
+        {"rf": _CONTACT},
+    )
+    assert msg.startswith(
+        "(time (now 552.90))(GS (unum 1) (team left) (sl 0) (sr 0) (t 0.00) "
+        "(pm BeforeKickOff))(GYR (n torso) (rt 0.01 -0.00 -0.00))"
+        "(ACC (n torso) (a 0.00 0.00 29.42))(HJ (n hj1) (ax -4.00))"
+    )
     assert "(FRP (n rf) (c 0.00 -0.06 -0.01) (f 0.00 14.17 104.85))(HJ (n rlj6)" in msg
     assert "(FRP (n lf)" not in msg
 
 
 @settings(max_examples=60, deadline=None)
-@given(now=st.floats(0, 1e5), t=st.floats(0, 600), mode=st.sampled_from(PLAY_MODES),
-       angles=st.lists(st.floats(-130, 130), min_size=22, max_size=22),
-       feet=st.sampled_from([(), ("lf",), ("rf",), ("lf", "rf")]),
-       ident=st.booleans())
+@given(
+    now=st.floats(0, 1e5),
+    t=st.floats(0, 600),
+    mode=st.sampled_from(PLAY_MODES),
+    angles=st.lists(st.floats(-130, 130), min_size=22, max_size=22),
+    feet=st.sampled_from([(), ("lf",), ("rf",), ("lf", "rf")]),
+    ident=st.booleans(),
+)
 def test_perception_round_trips_through_the_parser(now, t, mode, angles, feet, ident):
     joints = {j.perceptor: a for j, a in zip(JOINTS, angles)}
     gs = GameStateText(2, 1, t, mode, unum=7 if ident else None, team="right" if ident else None)
     hear = [format_hear("Probe", t, None, "hello"), format_hear("Other", t, -35.5, "go")]
-    p = parse_perception(format_perception(now, gs, (1.234, -5.0, 0.0), (0.0, -9.8, 1.0), joints,
-                                           {k: _CONTACT for k in feet}, hear=hear))
+    p = parse_perception(
+        format_perception(now, gs, (1.234, -5.0, 0.0), (0.0, -9.8, 1.0), joints, {k: _CONTACT for k in feet}, hear=hear)
+    )
     assert p.time == pytest.approx(now, abs=0.0051)
     assert (p.game.unum, p.game.team) == ((7, "right") if ident else (None, None))
     assert (p.game.score_left, p.game.score_right, p.game.play_mode) == (2, 1, mode)
@@ -97,23 +118,29 @@ def test_perception_round_trips_through_the_parser(now, t, mode, angles, feet, i
     for name, value in joints.items():
         assert p.joints[name] == pytest.approx(value, abs=0.0051)
     assert set(p.frp) == set(feet)
-    assert [(h.team, h.direction, h.message) for h in p.hear] == [("Probe", "self", "hello"),
-                                                                   ("Other", "-35.50", "go")]
+    assert [(h.team, h.direction, h.message) for h in p.hear] == [("Probe", "self", "hello"), ("Other", "-35.50", "go")]
 
 
 # ---------------------------------------------------------------------------------------------
 # Vision
 
-@pytest.mark.parametrize("name,line", [("agent_perceptions_first20.txt", 1),
-                                       ("agent_perceptions_first20.txt", 4),
-                                       ("agent_perceptions_full_run.txt", 355)])
+
+@pytest.mark.parametrize(
+    "name,line",
+    [
+        ("agent_perceptions_first20.txt", 1),
+        ("agent_perceptions_first20.txt", 4),
+        ("agent_perceptions_full_run.txt", 355),
+    ],
+)
 def test_vision_geometry_reproduces_the_fixture(fixtures_dir, name, line):
     """From the fixture's own mypos/myorien (head level), our noise-free camera sees the same
     landmarks at the same polar coordinates and the same number of field lines."""
     real = parse_perception(_lines(fixtures_dir, name)[line - 1]).vision
     sensor = VisionSensor(np.random.default_rng(0), noise=False, sense_mypos=True)
-    ours = parse_perception("(time (now 0.00))" + sensor.see(
-        real.mypos, _upright_head(real.myorien), "left", real.ballpos, [])).vision
+    ours = parse_perception(
+        "(time (now 0.00))" + sensor.see(real.mypos, _upright_head(real.myorien), "left", real.ballpos, [])
+    ).vision
     assert list(ours.objects) == list(real.objects)
     for key, pol in real.objects.items():
         got = ours.objects[key]
@@ -121,9 +148,11 @@ def test_vision_geometry_reproduces_the_fixture(fixtures_dir, name, line):
         assert got.horizontal == pytest.approx(pol.horizontal, abs=1.0)
         assert got.vertical == pytest.approx(pol.vertical, abs=1.0)
     assert len(ours.lines) == len(real.lines)
+
     # The line ends too, as unordered pairs (the server's end order is not stable).
     def gap(p, q):
         return abs(p.distance - q.distance) + abs(p.horizontal - q.horizontal) + abs(p.vertical - q.vertical)
+
     for (a, b), (c, d) in zip(ours.lines, real.lines):
         pairs = [(a, c), (b, d)] if gap(a, c) + gap(b, d) <= gap(a, d) + gap(b, c) else [(a, d), (b, c)]
         for mine, theirs in pairs:
@@ -137,16 +166,27 @@ def test_vision_sees_own_lower_arms_like_the_fixture(fixtures_dir):
     """Fixture line 4 (standing, arms forward): the own P entry shows both lower arms only."""
     real = parse_perception(_lines(fixtures_dir, "agent_perceptions_first20.txt")[3]).vision
     head = np.array([-1.0, 0.0, 0.55])
+
     # docs/robot_and_server.md section 2: centres relative to the torso; robot faces +x (right = -y world).
     def world(rel):  # robot frame (x right, y forward, z up) -> world, torso at head - 0.155
         x, y, z = rel
         return (head[0] + y, head[1] - x, head[2] - 0.155 + z)
-    me = SeenRobot("Probe", 1, {"head": tuple(head), "rlowerarm": world((0.098, 0.14, 0.084)),
-                                "llowerarm": world((-0.098, 0.14, 0.084)),
-                                "rfoot": world((0.055, 0.025, -0.375)), "lfoot": world((-0.055, 0.025, -0.375))})
+
+    me = SeenRobot(
+        "Probe",
+        1,
+        {
+            "head": tuple(head),
+            "rlowerarm": world((0.098, 0.14, 0.084)),
+            "llowerarm": world((-0.098, 0.14, 0.084)),
+            "rfoot": world((0.055, 0.025, -0.375)),
+            "lfoot": world((-0.055, 0.025, -0.375)),
+        },
+    )
     sensor = VisionSensor(np.random.default_rng(1), noise=False)
-    ours = parse_perception("(time (now 0.00))" + sensor.see(head, _upright_head(0.0), "left",
-                                                             (0, 0, 0.042), [me])).vision
+    ours = parse_perception(
+        "(time (now 0.00))" + sensor.see(head, _upright_head(0.0), "left", (0, 0, 0.042), [me])
+    ).vision
     assert len(ours.players) == len(real.players) == 1
     mine, theirs = ours.players[0], real.players[0]
     assert (mine.team, mine.id) == (theirs.team, theirs.id)
@@ -161,8 +201,9 @@ def test_vision_order_inside_see_matches_the_fixture(fixtures_dir):
     real = _lines(fixtures_dir, "agent_perceptions_first20.txt")[3]
     sensor = VisionSensor(np.random.default_rng(2), noise=True, sense_mypos=True)
     arm = (-0.86, -0.098, 0.48)
-    ours = sensor.see((-1.0, 0.0, 0.55), _upright_head(0.0), "left", (0, 0, 0.042),
-                      [SeenRobot("Probe", 1, {"rlowerarm": arm})])
+    ours = sensor.see(
+        (-1.0, 0.0, 0.55), _upright_head(0.0), "left", (0, 0, 0.042), [SeenRobot("Probe", 1, {"rlowerarm": arm})]
+    )
     kinds = lambda text: re.findall(r"\((G\w+|F\w+|B|P|mypos|myorien|ballpos|L) ", text)
     assert kinds(ours) == kinds(re.search(r"\(See .*?\)\)\)(?=\(HJ)", real).group(0))
 
@@ -189,8 +230,8 @@ def test_vision_noise_has_the_documented_spread():
     h = np.array([s.horizontal for s in samples])
     true_d = math.dist((10.0, 9.0, 0.5), (15.0, 10.0, 0.0))
     assert abs(d.mean() - true_d) < 0.02
-    assert 0.08 < h.std() < 0.25          # 0.148 deg plus rounding to 0.01
-    assert d.std() < 0.02                 # 0.0965 % of 5.1 m = 0.005 m plus rounding
+    assert 0.08 < h.std() < 0.25  # 0.148 deg plus rounding to 0.01
+    assert d.std() < 0.02  # 0.0965 % of 5.1 m = 0.005 m plus rounding
 
 
 def test_vision_drops_things_behind_and_too_close():
@@ -209,16 +250,22 @@ def _in_pyramid(points: np.ndarray) -> np.ndarray:
 
 
 @settings(max_examples=150, deadline=None)
-@given(x=st.floats(-14.0, 14.0), y=st.floats(-9.0, 9.0), z=st.floats(0.3, 0.6),
-       heading=st.floats(-180.0, 180.0), pitch=st.floats(-40.0, 40.0))
+@given(
+    x=st.floats(-14.0, 14.0),
+    y=st.floats(-9.0, 9.0),
+    z=st.floats(0.3, 0.6),
+    heading=st.floats(-180.0, 180.0),
+    pitch=st.floats(-40.0, 40.0),
+)
 def test_field_lines_are_cut_to_the_view_pyramid(x, y, z, heading, pitch):
     """Against brute force: a line is reported iff some of its points lie in the pyramid, and the
     reported piece runs from the first to the last such point (checked by sampling each line)."""
     sensor = VisionSensor(np.random.default_rng(0), noise=False)
     rot = _pose((x, y, z), heading, pitch)[:3, :3]
     cam = np.array([x, y, z])
-    reported = parse_perception("(time (now 0.00))" + sensor.see(
-        (x, y, z), rot, "left", (50.0, 50.0, 0.0), [])).vision.lines
+    reported = parse_perception(
+        "(time (now 0.00))" + sensor.see((x, y, z), rot, "left", (50.0, 50.0, 0.0), [])
+    ).vision.lines
     expected = []
     t = np.linspace(0.0, 1.0, 4001)
     for start, end in FIELD_LINES:
@@ -235,12 +282,15 @@ def test_field_lines_are_cut_to_the_view_pyramid(x, y, z, heading, pitch):
         if np.linalg.norm(last - first) < 0.05:
             continue  # a sliver: sampling and exact cut may disagree on whether it shows
         want = (np.linalg.norm(first), np.linalg.norm(last))  # distances from the camera
-        assert any(abs(a.distance - want[0]) < 0.03 + 0.01 * want[0]
-                   and abs(b.distance - want[1]) < 0.03 + 0.01 * want[1] for a, b in reported), (want, reported)
+        assert any(
+            abs(a.distance - want[0]) < 0.03 + 0.01 * want[0] and abs(b.distance - want[1]) < 0.03 + 0.01 * want[1]
+            for a, b in reported
+        ), (want, reported)
 
 
 # ---------------------------------------------------------------------------------------------
 # Monitor
+
 
 def _pose(position, heading_deg: float, pitch_deg: float = 0.0) -> np.ndarray:
     """World pose of a part (columns right, forward, up) facing ``heading_deg`` (0 = +x)."""
@@ -253,22 +303,44 @@ def _pose(position, heading_deg: float, pitch_deg: float = 0.0) -> np.ndarray:
     return m
 
 
-_PART_NAMES = ["torso", "neck", "head", "rshoulder", "rupperarm", "relbow", "rlowerarm",
-               "lshoulder", "lupperarm", "lelbow", "llowerarm", "rhip1", "rhip2", "rthigh", "rshank",
-               "rankle", "rfoot", "lhip1", "lhip2", "lthigh", "lshank", "lankle", "lfoot"]
+_PART_NAMES = [
+    "torso",
+    "neck",
+    "head",
+    "rshoulder",
+    "rupperarm",
+    "relbow",
+    "rlowerarm",
+    "lshoulder",
+    "lupperarm",
+    "lelbow",
+    "llowerarm",
+    "rhip1",
+    "rhip2",
+    "rthigh",
+    "rshank",
+    "rankle",
+    "rfoot",
+    "lhip1",
+    "lhip2",
+    "lthigh",
+    "lshank",
+    "lankle",
+    "lfoot",
+]
 
 
 def _robot(team, unum, torso, heading=0.0, pitch=0.0, robot_type=0) -> RobotView:
-    poses = np.array([_pose(np.asarray(torso) + [0.01 * k, 0.0, 0.0], heading, pitch)
-                      for k in range(len(_PART_NAMES))])
+    poses = np.array([_pose(np.asarray(torso) + [0.01 * k, 0.0, 0.0], heading, pitch) for k in range(len(_PART_NAMES))])
     return RobotView(team, unum, robot_type, tuple(_PART_NAMES), poses)
 
 
 def test_full_header_equals_the_real_header(fixtures_dir):
     real = _lines(fixtures_dir, "monitor_messages.txt")
-    for line, header, robots in ((0, GameHeader(0.0, "BeforeKickOff"), []),
-                                 (7, GameHeader(0.0, "BeforeKickOff", team_left="Probe"),
-                                  [_robot("left", 1, (-1, 0, 0.4))])):
+    for line, header, robots in (
+        (0, GameHeader(0.0, "BeforeKickOff"), []),
+        (7, GameHeader(0.0, "BeforeKickOff", team_left="Probe"), [_robot("left", 1, (-1, 0, 0.4))]),
+    ):
         ours = MonitorScene().full(header, robots, (0, 0, 0.042))
         assert ours.split("(RSG 0 1)")[0] == real[line].split("(RSG 0 1)")[0]
 
@@ -276,20 +348,24 @@ def test_full_header_equals_the_real_header(fixtures_dir):
 def test_robot_subtree_has_the_real_shape(fixtures_dir):
     """Same node skeleton (kinds, nesting, loaded meshes, materials) as the real robot after init."""
     real = _lines(fixtures_dir, "monitor_messages.txt")[7]
-    ours = MonitorScene().full(GameHeader(0.0, "BeforeKickOff", team_left="Probe"),
-                               [_robot("left", 1, (-1, 0, 0.4))], (0, 0, 0.042))
+    ours = MonitorScene().full(
+        GameHeader(0.0, "BeforeKickOff", team_left="Probe"), [_robot("left", 1, (-1, 0, 0.4))], (0, 0, 0.042)
+    )
+
     def robot_skeleton(text):
         start = text.index("(nd TRF (SLT 1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1)(nd TRF", text.index("soccerball.obj"))
         body = re.sub(r"\(SLT[^)]*\)", "", text[start:])
         return re.sub(r"\(sSc[^)]*\)", "", body)
+
     assert robot_skeleton(ours) == robot_skeleton(real)
 
 
 def test_monitor_reader_reads_back_full_and_deltas():
     scene, reader = MonitorScene(), MonitorReader()
     robots = [_robot("left", 1, (-1.0, 0.0, 0.4)), _robot("right", 3, (2.0, 1.0, 0.38), heading=180.0)]
-    state = reader.feed(scene.full(GameHeader(0.0, "BeforeKickOff", team_left="A", team_right="B"),
-                                   robots, (0, 0, 0.042)))
+    state = reader.feed(
+        scene.full(GameHeader(0.0, "BeforeKickOff", team_left="A", team_right="B"), robots, (0, 0, 0.042))
+    )
     assert [(r.team, r.unum, r.robot_type) for r in state.robots] == [("left", 1, 0), ("right", 3, 0)]
     assert state.robots[1].position == pytest.approx((2.0, 1.0, 0.38), abs=1e-5)
     assert (state.team_left, state.team_right, state.play_mode) == ("A", "B", "BeforeKickOff")
@@ -297,10 +373,13 @@ def test_monitor_reader_reads_back_full_and_deltas():
     for k in range(1, 8):
         t = 0.04 * k
         pitch = -12.0 * k
-        robots = [_robot("left", 1, (-1.0 + 0.03 * k, 0.0, 0.4 - 0.02 * k), pitch=pitch),
-                  _robot("right", 3, (2.0, 1.0, 0.38), heading=180.0)]
-        msg = scene.delta(GameHeader(t, "PlayOn", team_left="A", team_right="B", score_left=k // 4),
-                          robots, (0.1 * k, 0, 0.042))
+        robots = [
+            _robot("left", 1, (-1.0 + 0.03 * k, 0.0, 0.4 - 0.02 * k), pitch=pitch),
+            _robot("right", 3, (2.0, 1.0, 0.38), heading=180.0),
+        ]
+        msg = scene.delta(
+            GameHeader(t, "PlayOn", team_left="A", team_right="B", score_left=k // 4), robots, (0.1 * k, 0, 0.042)
+        )
         state = reader.feed(msg)
         torso = robots[0].poses[0]
         assert state.robots[0].position == pytest.approx(tuple(torso[:3, 3]), abs=1e-5)
@@ -342,16 +421,48 @@ def test_slt_numbers_print_like_the_server():
 
 
 #: ties at the 7th digit (C rounds them half to even), powers of ten, the ends of fixed notation
-_EDGE_NUMBERS = [0.0, -0.0, 1e-4, 1e-5, 99999.5, 999999.5, 1234565.0, 1234575.0, 123457.5, 9999995.0,
-                 0.5, 2.5, 1e22, 1e-17, 1e-18, math.nan, math.inf, -math.inf, 123456.5, 0.000123456,
-                 9.999995, 1e100, -2.5e-300]
-_SCALED = st.builds(lambda m, e: m * 10.0 ** e, st.floats(-10, 10), st.integers(-30, 30))
+_EDGE_NUMBERS = [
+    0.0,
+    -0.0,
+    1e-4,
+    1e-5,
+    99999.5,
+    999999.5,
+    1234565.0,
+    1234575.0,
+    123457.5,
+    9999995.0,
+    0.5,
+    2.5,
+    1e22,
+    1e-17,
+    1e-18,
+    math.nan,
+    math.inf,
+    -math.inf,
+    123456.5,
+    0.000123456,
+    9.999995,
+    1e100,
+    -2.5e-300,
+]
+_SCALED = st.builds(lambda m, e: m * 10.0**e, st.floats(-10, 10), st.integers(-30, 30))
 
 
 @settings(max_examples=300, deadline=None)
-@given(st.lists(st.one_of(st.floats(allow_nan=True, allow_infinity=True), _SCALED, st.floats(-40, 40),
-                          st.sampled_from(_EDGE_NUMBERS), st.integers(-10**7, 10**7).map(lambda n: n / 2.0)),
-                min_size=1, max_size=50))
+@given(
+    st.lists(
+        st.one_of(
+            st.floats(allow_nan=True, allow_infinity=True),
+            _SCALED,
+            st.floats(-40, 40),
+            st.sampled_from(_EDGE_NUMBERS),
+            st.integers(-(10**7), 10**7).map(lambda n: n / 2.0),
+        ),
+        min_size=1,
+        max_size=50,
+    )
+)
 def test_compiled_g_prints_what_python_prints(numbers):
     """The monitor's compiled %g (6 digits, C's rounding of the exact binary value) against
     Python's own %g, which uses C's rules: every kind of double, ties and powers of ten included.
@@ -361,8 +472,13 @@ def test_compiled_g_prints_what_python_prints(numbers):
 
 def test_compiled_g_on_a_walking_robots_numbers():
     rng = np.random.default_rng(3)
-    values = np.concatenate([rng.uniform(-1, 1, (500, 16)), rng.normal(0, 10, (500, 16)),
-                             rng.normal(0, 1, (500, 16)) * 10.0 ** rng.integers(-20, 20, (500, 1))])
+    values = np.concatenate(
+        [
+            rng.uniform(-1, 1, (500, 16)),
+            rng.normal(0, 10, (500, 16)),
+            rng.normal(0, 1, (500, 16)) * 10.0 ** rng.integers(-20, 20, (500, 1)),
+        ]
+    )
     assert g_rows(values) == [" ".join("%g" % v for v in row) for row in values.tolist()]
 
 
@@ -374,8 +490,10 @@ def test_robot_delta_has_the_real_shape(fixtures_dir):
     scene.full(GameHeader(0.0, "BeforeKickOff", team_left="Probe"), [robot], (0, 0, 0.042))
     fallen = _robot("left", 1, (-0.9, 0, 0.35), pitch=-30.0)
     ours = scene.delta(GameHeader(0.0, "BeforeKickOff", team_left="Probe"), [fallen], (0, 0, 0.042))
+
     def robot_delta(text):
         body = re.sub(r" ?\(SLT[^)]*\)", "", text)
-        return body[body.rindex("(nd(nd StaticMesh))(nd(nd(nd(nd StaticMesh))") + len("(nd(nd StaticMesh))"):]
+        return body[body.rindex("(nd(nd StaticMesh))(nd(nd(nd(nd StaticMesh))") + len("(nd(nd StaticMesh))") :]
+
     assert robot_delta(ours) == robot_delta(real)
     assert ours.count("(SLT") == len(_PART_NAMES)

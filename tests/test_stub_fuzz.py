@@ -3,6 +3,7 @@ real time: mutated captures of the real server's traffic on both ports, framing 
 leaving by FIN, RST or mid-frame, and connect/reset storms. The stub must never stop serving a
 well-behaved agent, and its log must stay small, short-lined and free of control bytes. The long
 run is ``bench/bench_fuzz.py``."""
+
 from __future__ import annotations
 
 import random
@@ -16,8 +17,9 @@ from server_stub import fuzz
 @pytest.mark.parametrize("sync", [True, False], ids=["sync", "realtime"])
 def test_a_bounded_fuzzing_run_finds_no_crash(fixtures_dir: Path, tmp_path: Path, sync: bool) -> None:
     log = tmp_path / "stub.log"
-    report = fuzz.run(2500, seed=16 + sync, fixtures=fixtures_dir, sync=sync, log_path=log,
-                      canary_every=40, storm_every=40)
+    report = fuzz.run(
+        2500, seed=16 + sync, fixtures=fixtures_dir, sync=sync, log_path=log, canary_every=40, storm_every=40
+    )
     assert report.crashes == 0, report.crash_logs
     assert report.messages >= 2500 and report.resets >= 50
     text = log.read_bytes()

@@ -1,4 +1,5 @@
 """The compiled motor rule (server_stub.physics.motors) joint by joint, on any state."""
+
 from __future__ import annotations
 
 import math
@@ -22,7 +23,9 @@ due_st = st.lists(st.one_of(st.just(math.nan), st.floats(-6.0, 6.0)), min_size=N
 
 
 @settings(max_examples=300, deadline=None)
-@given(angles_st, speeds_st, torques_st, due_st, speeds_st, st.booleans(), st.lists(st.booleans(), min_size=N, max_size=N))
+@given(
+    angles_st, speeds_st, torques_st, due_st, speeds_st, st.booleans(), st.lists(st.booleans(), min_size=N, max_size=N)
+)
 def test_each_joint_follows_the_servers_rule(angles, rates, torques, due, motor, first, stopped_before):
     angles, rates, torques, due = map(np.array, (angles, rates, torques, due))
     motor_before = np.array(motor)
@@ -30,8 +33,8 @@ def test_each_joint_follows_the_servers_rule(angles, rates, torques, due, motor,
     last_target = np.zeros(0) if first else np.zeros(N)
     last_force = np.zeros(0) if first else np.where(stopped_before, STOP, LIMIT)
     target, force, yielding, load, changed = motor_step(
-        angles, rates, torques, LOWER, UPPER, due, motor_now, last_target, last_force,
-        LIMIT, ERP, BOUNCE, CYCLE, STOP)
+        angles, rates, torques, LOWER, UPPER, due, motor_now, last_target, last_force, LIMIT, ERP, BOUNCE, CYCLE, STOP
+    )
     for i in range(N):
         inside = LOWER[i] < angles[i] < UPPER[i]
         # a command reaches the sticky motor only while the joint is strictly inside its range

@@ -1,5 +1,6 @@
 """The "ode" physics backend (``server_stub.physics.ode_step``): its dynamics against Bullet's, its LCP
 solver, its ODE-style contacts, and the real server's standing numbers."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -32,26 +33,47 @@ def test_free_flight_velocity_change_matches_bullets_multibody_step():
         c, b = robot._client, robot.body_id
         for link in range(-1, 22):
             pb.changeDynamics(b, link, linearDamping=0.0, angularDamping=0.0, physicsClientId=c)
-        pb.setJointMotorControlArray(b, list(range(22)), pb.VELOCITY_CONTROL, targetVelocities=[0.0] * 22,
-                                     forces=[0.0] * 22, physicsClientId=c)
+        pb.setJointMotorControlArray(
+            b, list(range(22)), pb.VELOCITY_CONTROL, targetVelocities=[0.0] * 22, forces=[0.0] * 22, physicsClientId=c
+        )
         rng = np.random.default_rng(1)
-        pb.resetBasePositionAndOrientation(b, (0, 0, 3), pb.getQuaternionFromEuler(rng.normal(size=3) * 0.5),
-                                           physicsClientId=c)
+        pb.resetBasePositionAndOrientation(
+            b, (0, 0, 3), pb.getQuaternionFromEuler(rng.normal(size=3) * 0.5), physicsClientId=c
+        )
         pb.resetBaseVelocity(b, rng.normal(size=3).tolist(), (rng.normal(size=3) * 3).tolist(), physicsClientId=c)
         rates = rng.normal(size=22) * 3
-        pb.resetJointStatesMultiDof(b, list(range(22)), [[x] for x in rng.normal(size=22) * 0.5],
-                                    targetVelocities=[[x] for x in rates], physicsClientId=c)
+        pb.resetJointStatesMultiDof(
+            b,
+            list(range(22)),
+            [[x] for x in rng.normal(size=22) * 0.5],
+            targetVelocities=[[x] for x in rates],
+            physicsClientId=c,
+        )
         static = ode_step._Static(c, b, world._ground)
         position, orientation = pb.getBasePositionAndOrientation(b, physicsClientId=c)
         v0, w0 = pb.getBaseVelocity(b, physicsClientId=c)
-        links = pb.getLinkStates(b, static.indices, computeLinkVelocity=1, computeForwardKinematics=1,
-                                 physicsClientId=c)
+        links = pb.getLinkStates(
+            b, static.indices, computeLinkVelocity=1, computeForwardKinematics=1, physicsClientId=c
+        )
         coms = np.array([position] + [s[0] for s in links])
         quats = np.array([orientation] + [s[1] for s in links])
-        m, q, _ = ode_kernels.dynamics(static.masses, static.principal, static.chains, static.parents,
-                                       static.joint_of, static.local_axes, coms, quats,
-                                       np.array([s[4] for s in links]), np.array(v0), np.array(w0), rates,
-                                       np.array([0.0, 0.0, -9.81]), 0.0, 0.0)
+        m, q, _ = ode_kernels.dynamics(
+            static.masses,
+            static.principal,
+            static.chains,
+            static.parents,
+            static.joint_of,
+            static.local_axes,
+            coms,
+            quats,
+            np.array([s[4] for s in links]),
+            np.array(v0),
+            np.array(w0),
+            rates,
+            np.array([0.0, 0.0, -9.81]),
+            0.0,
+            0.0,
+        )
         u = np.concatenate([v0, w0, rates])
         energy = 0.0
         for k, (mass, moments) in enumerate(zip(static.masses, static.principal)):
@@ -88,16 +110,26 @@ def test_box_qp_solves_the_boxed_lcp_exactly(seed):
 
 
 def _contacts(kind, size, centre, quat=(0.0, 0.0, 0.0, 1.0)):
-    return ode_kernels.ground_contacts(np.array([0], dtype=np.int64), np.array([kind], dtype=np.int64),
-                                       np.array([size], dtype=float), np.array([centre], dtype=float),
-                                       np.array([quat], dtype=float), 4)
+    return ode_kernels.ground_contacts(
+        np.array([0], dtype=np.int64),
+        np.array([kind], dtype=np.int64),
+        np.array([size], dtype=float),
+        np.array([centre], dtype=float),
+        np.array([quat], dtype=float),
+        4,
+    )
 
 
 def test_ground_contacts_follow_odes_plane_colliders():
     # a flat foot 1 mm into the ground: its 4 sole corners, nothing above
     bodies, points, depths = _contacts(ode_kernels.BOX, (0.08, 0.16, 0.02), (0.0, 0.0, 0.009))
     assert len(bodies) == 4 and np.allclose(depths, 0.001)
-    assert sorted(map(tuple, np.round(points[:, :2], 3))) == [(-0.04, -0.08), (-0.04, 0.08), (0.04, -0.08), (0.04, 0.08)]
+    assert sorted(map(tuple, np.round(points[:, :2], 3))) == [
+        (-0.04, -0.08),
+        (-0.04, 0.08),
+        (0.04, -0.08),
+        (0.04, 0.08),
+    ]
     # just above: no contact at all (ODE makes none for separated geometry)
     assert len(_contacts(ode_kernels.BOX, (0.08, 0.16, 0.02), (0.0, 0.0, 0.0101))[0]) == 0
     # a heel strike: only the corners that reach the ground
@@ -139,9 +171,11 @@ def test_standing_numbers_match_the_real_server(standing):
     assert np.allclose(robot.torso_position(), start, atol=1e-4)
 
 
-@pytest.mark.xfail(reason="measured: the ode backend falls in this start (walk probe: 10 of 24 perturbed "
-                          "starts ok, the rest fall in the first 1.5 s); the bullet backend stays the default",
-                   strict=False)
+@pytest.mark.xfail(
+    reason="measured: the ode backend falls in this start (walk probe: 10 of 24 perturbed "
+    "starts ok, the rest fall in the first 1.5 s); the bullet backend stays the default",
+    strict=False,
+)
 def test_calibration_walk_on_the_ode_backend():
     with World(ODE) as world:
         result = calibration_walk.run(world)
@@ -156,8 +190,13 @@ def test_odes_box_plane_rule_gives_the_deepest_corner_and_at_most_two_neighbours
     the second less its own side's projection, as ODE counts it."""
     tilt = pb.getQuaternionFromEuler((0.001, 0.002, 0.0))  # a hair off flat picks the deepest corner
     bodies, points, depths = ode_kernels.ground_contacts(
-        np.array([0], dtype=np.int64), np.array([ode_kernels.BOX], dtype=np.int64),
-        np.array([[0.08, 0.16, 0.02]]), np.array([[0.0, 0.0, 0.009]]), np.array([tilt]), 3)
+        np.array([0], dtype=np.int64),
+        np.array([ode_kernels.BOX], dtype=np.int64),
+        np.array([[0.08, 0.16, 0.02]]),
+        np.array([[0.0, 0.0, 0.009]]),
+        np.array([tilt]),
+        3,
+    )
     assert len(bodies) == 3
     corners = {tuple(np.sign(p[:2]).astype(int)) for p in points}
     assert len(corners) == 3 and all(abs(x) == 1 for c in corners for x in c)
@@ -169,6 +208,11 @@ def test_odes_box_plane_rule_gives_the_deepest_corner_and_at_most_two_neighbours
     # standing on an edge (a heel strike): only the corners that reach the ground
     heel = pb.getQuaternionFromEuler((0.2, 0.0, 0.0))
     bodies, points, depths = ode_kernels.ground_contacts(
-        np.array([0], dtype=np.int64), np.array([ode_kernels.BOX], dtype=np.int64),
-        np.array([[0.08, 0.16, 0.02]]), np.array([[0.0, 0.0, 0.025]]), np.array([heel]), 3)
+        np.array([0], dtype=np.int64),
+        np.array([ode_kernels.BOX], dtype=np.int64),
+        np.array([[0.08, 0.16, 0.02]]),
+        np.array([[0.0, 0.0, 0.025]]),
+        np.array([heel]),
+        3,
+    )
     assert len(bodies) == 2 and np.all(points[:, 1] < 0.0) and np.all(depths >= 0.0)

@@ -1,4 +1,5 @@
 """The stub's physics core against the real server's numbers (docs/robot_and_server.md)."""
+
 from __future__ import annotations
 
 import math
@@ -73,9 +74,12 @@ def test_hetero_types_move_the_chain_below_the_changed_offset():
 def test_only_colliding_parts_have_collision_shapes(world):
     robot = world.add_robot()
     body = robot.body_id
-    shapes = {pb.getJointInfo(body, i, physicsClientId=world._client)[12].decode():
-              len(pb.getCollisionShapeData(body, i, physicsClientId=world._client))
-              for i in range(len(JOINTS))}
+    shapes = {
+        pb.getJointInfo(body, i, physicsClientId=world._client)[12].decode(): len(
+            pb.getCollisionShapeData(body, i, physicsClientId=world._client)
+        )
+        for i in range(len(JOINTS))
+    }
     parts = {p.name: p for p in nao_model.body_parts()}
     for name, count in shapes.items():
         assert (count > 0) == parts[name].collides, name
@@ -186,8 +190,9 @@ def _drive(world, robot, effector, velocity, cycles):
 def test_joint_signs_match_the_facts_sheet(world):
     robot = world.add_robot()
     robot.place(0.0, 0.0, 3.0)
-    pb.createConstraint(robot.body_id, -1, -1, -1, pb.JOINT_FIXED, (0, 0, 0), (0, 0, 0),
-                        (0.0, 0.0, 3.0), physicsClientId=world._client)
+    pb.createConstraint(
+        robot.body_id, -1, -1, -1, pb.JOINT_FIXED, (0, 0, 0), (0, 0, 0), (0.0, 0.0, 3.0), physicsClientId=world._client
+    )
     foot0 = _torso_frame(robot, _part(robot, "lfoot")[:3, 3])
     _drive(world, robot, "lle3", 2.0, 10)  # thigh forward
     foot1 = _torso_frame(robot, _part(robot, "lfoot")[:3, 3])
@@ -282,8 +287,10 @@ def test_a_command_is_dropped_while_the_joint_is_outside_its_range(world):
 
 
 @settings(max_examples=40, deadline=None)
-@given(st.sampled_from([j.effector for j in JOINTS]),
-       st.floats(allow_nan=False, allow_infinity=False, min_value=-1e6, max_value=1e6))
+@given(
+    st.sampled_from([j.effector for j in JOINTS]),
+    st.floats(allow_nan=False, allow_infinity=False, min_value=-1e6, max_value=1e6),
+)
 def test_command_accepts_any_finite_velocity_and_clips_it(effector, velocity):
     robot = _shared_robot()
     robot.command(effector, velocity)
@@ -397,4 +404,5 @@ def test_same_seed_same_commands_same_motion():
                 robot.command("rle2", 0.3 * math.cos(i / 7.0))
                 world.step()
             return robot.torso_position(), robot.joint_angles()
+
     assert run() == run()

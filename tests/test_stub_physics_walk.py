@@ -1,4 +1,5 @@
 """The real calibration walk (tests/data/rcssserver3d/walk_calibration) replayed on the stub."""
+
 from __future__ import annotations
 
 import json
@@ -56,31 +57,53 @@ def test_calibration_walk_goes_as_far_as_on_the_real_server(fixtures_dir):
     # Over 72 perturbed starts ours has a median of 0.65 m (the real runs': 0.66 m) and reaches 1.62 m.
     assert abs(result.dy) <= _DRIFT_FACTOR * max(abs(r["dy"]) for r in real)
     # Feet alternate with the gait, about every 0.2 s: 75-76 single-support phases on the real server.
-    real_phases = [_single_support_phases([frozenset(_FRP.findall(line)) for line in
-                                           (folder / f"run{r['run']}_perceptions.txt").read_text()
-                                           .splitlines()[28:28 + calibration_walk.WALK_CYCLES]])
-                   for r in real]
+    real_phases = [
+        _single_support_phases(
+            [
+                frozenset(_FRP.findall(line))
+                for line in (folder / f"run{r['run']}_perceptions.txt")
+                .read_text()
+                .splitlines()[28 : 28 + calibration_walk.WALK_CYCLES]
+            ]
+        )
+        for r in real
+    ]
     assert min(real_phases) >= 70
     assert _single_support_phases(result.feet) == pytest.approx(sum(real_phases) / 3, abs=5)
     # Both feet report FRP in 11.6-12.0% of the real walk's cycles (a touching foot counts even
     # with no load on it); ours, without that rule, showed under 1%.
-    real_double = [sum(len(set(_FRP.findall(line))) == 2 for line in
-                       (folder / f"run{r['run']}_perceptions.txt").read_text()
-                       .splitlines()[28:28 + calibration_walk.WALK_CYCLES]) / calibration_walk.WALK_CYCLES
-                   for r in real]
+    real_double = [
+        sum(
+            len(set(_FRP.findall(line))) == 2
+            for line in (folder / f"run{r['run']}_perceptions.txt")
+            .read_text()
+            .splitlines()[28 : 28 + calibration_walk.WALK_CYCLES]
+        )
+        / calibration_walk.WALK_CYCLES
+        for r in real
+    ]
     ours_double = sum(len(feet) == 2 for feet in result.feet) / len(result.feet)
     assert ours_double == pytest.approx(sum(real_double) / 3, abs=0.03)
     # The stance foot never leaves the ground: no cycle of the real walks lacks an FRP. Ours had
     # 8.9% such cycles until contacts got ODE's surface layer (a resting foot ended each step just
     # above the ground, so the next step found no contact and the robot dropped for a cycle).
-    real_none = [sum(not _FRP.findall(line) for line in
-                     (folder / f"run{r['run']}_perceptions.txt").read_text()
-                     .splitlines()[28:28 + calibration_walk.WALK_CYCLES]) for r in real]
+    real_none = [
+        sum(
+            not _FRP.findall(line)
+            for line in (folder / f"run{r['run']}_perceptions.txt")
+            .read_text()
+            .splitlines()[28 : 28 + calibration_walk.WALK_CYCLES]
+        )
+        for r in real
+    ]
     assert real_none == [0, 0, 0]
     assert sum(not feet for feet in result.feet) / len(result.feet) <= 0.01
     # The torso rides at the real height while walking (monitor track, mean 0.377 m).
-    real_z = [float(row.split("\t")[3]) for r in real
-              for row in (folder / f"run{r['run']}_torso_track.tsv").read_text().splitlines()[1:]]
+    real_z = [
+        float(row.split("\t")[3])
+        for r in real
+        for row in (folder / f"run{r['run']}_torso_track.tsv").read_text().splitlines()[1:]
+    ]
     ours = sum(p[2] for p in result.torso) / len(result.torso)
     assert ours == pytest.approx(sum(real_z) / len(real_z), abs=0.01)
 

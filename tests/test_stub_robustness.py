@@ -1,6 +1,7 @@
 """One client must never take the stand-in down (issue 16): each input that once ended the whole
 server is sent over a real socket, and a well-behaved agent is served afterwards; the error
 boundary, the log limits and the parser's depth cap are checked where they live."""
+
 from __future__ import annotations
 
 import logging
@@ -72,12 +73,15 @@ def test_the_parser_refuses_nesting_past_its_cap_with_a_protocol_error() -> None
         parse_sexp(NEST)
 
 
-@pytest.mark.parametrize("message", [
-    NEST,
-    f"(agent (unum 1) (team Left) {NEST})",
-    f"(ball (pos {NEST}))",
-    f"(time {NEST})",
-])
+@pytest.mark.parametrize(
+    "message",
+    [
+        NEST,
+        f"(agent (unum 1) (team Left) {NEST})",
+        f"(ball (pos {NEST}))",
+        f"(time {NEST})",
+    ],
+)
 def test_deep_nesting_on_the_monitor_port(stub: StubProcess, message: str) -> None:
     trainer = RawClient(stub.monitor_port)
     trainer.send(message)
@@ -151,8 +155,7 @@ def test_a_storm_of_connect_and_reset_on_both_ports(stub: StubProcess) -> None:
 def threaded_server():
     """An in-process server on free ports, its loop on a thread (``parent_pid`` keeps its select
     from blocking forever when no agent is connected, so ``stop`` is seen)."""
-    server = StubServer(ServerConfig(agent_port=0, monitor_port=0, sync=True, realtime=False,
-                                     parent_pid=os.getppid()))
+    server = StubServer(ServerConfig(agent_port=0, monitor_port=0, sync=True, realtime=False, parent_pid=os.getppid()))
     thread = threading.Thread(target=server.serve_forever, daemon=True)
     thread.start()
     yield server

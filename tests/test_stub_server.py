@@ -1,4 +1,5 @@
 """server_stub over real sockets: other teams' clients, the project's agent, bad input, trainer."""
+
 from __future__ import annotations
 
 import re
@@ -17,8 +18,30 @@ from tests.stub_client import (
     torso_from_monitor,
 )
 
-HJ_NAMES = ["hj1", "hj2", "raj1", "raj2", "raj3", "raj4", "laj1", "laj2", "laj3", "laj4",
-            "rlj1", "rlj2", "rlj3", "rlj4", "rlj5", "rlj6", "llj1", "llj2", "llj3", "llj4", "llj5", "llj6"]
+HJ_NAMES = [
+    "hj1",
+    "hj2",
+    "raj1",
+    "raj2",
+    "raj3",
+    "raj4",
+    "laj1",
+    "laj2",
+    "laj3",
+    "laj4",
+    "rlj1",
+    "rlj2",
+    "rlj3",
+    "rlj4",
+    "rlj5",
+    "rlj6",
+    "llj1",
+    "llj2",
+    "llj3",
+    "llj4",
+    "llj5",
+    "llj6",
+]
 
 
 @pytest.fixture()
@@ -27,8 +50,9 @@ def stub():
         yield server
 
 
-def _handshake(client: RawClient, team: str = "Raw", unum: int = 1, scene: str = "(scene rsg/agent/nao/nao.rsg)",
-               syn: bool = True) -> list[str]:
+def _handshake(
+    client: RawClient, team: str = "Raw", unum: int = 1, scene: str = "(scene rsg/agent/nao/nao.rsg)", syn: bool = True
+) -> list[str]:
     """scene -> perception -> init -> perception; returns the two perceptions."""
     tail = "(syn)" if syn else ""
     client.send(scene + tail)
@@ -66,9 +90,27 @@ def test_another_teams_raw_client_is_served(stub: StubProcess) -> None:
 
 
 def test_the_projects_agent_walks_on_the_stub(stub: StubProcess) -> None:
-    done = subprocess.run([sys.executable, "-m", "agent", "--port", str(stub.agent_port), "--sync", "--start-now",
-                           "--duration", "2", "--beam", "-2", "0", "0"], cwd=REPO, capture_output=True, text=True,
-                          timeout=60)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "agent",
+            "--port",
+            str(stub.agent_port),
+            "--sync",
+            "--start-now",
+            "--duration",
+            "2",
+            "--beam",
+            "-2",
+            "0",
+            "0",
+        ],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert done.returncode == 0, done.stderr
 
 
@@ -108,12 +150,12 @@ def test_two_teams_and_removal_of_a_disconnected_robot(stub: StubProcess) -> Non
 @pytest.mark.parametrize(
     ("bad", "warning"),
     [
-        (b"(lle3 0.5", "does not parse"),                                        # unbalanced
+        (b"(lle3 0.5", "does not parse"),  # unbalanced
         (b"(lle3 fast)(syn)", "(lle3 ...) ignored: could not convert string to float: 'fast'"),
-        (b"(xyz9 1.0)(syn)", "(xyz9 ...) ignored: xyz9"),                         # unknown effector
+        (b"(xyz9 1.0)(syn)", "(xyz9 ...) ignored: xyz9"),  # unknown effector
         (b"(lle3 nan)(syn)", "(lle3 ...) ignored: velocity for lle3 must be finite"),
         (b"(scene rsg/agent/nao/other.rsg)(syn)", "(scene ...) ignored: robot already created"),
-        (b"(beam 1e400 0 0)(syn)", "(beam ...) ignored"),                        # absurd
+        (b"(beam 1e400 0 0)(syn)", "(beam ...) ignored"),  # absurd
         (b"(he1 \xff)(syn)", "does not parse: at position 5: expected an ASCII character"),  # not ASCII
         (b"(say \xc3\xa9)(syn)", "does not parse: at position 5: expected an ASCII character"),
     ],

@@ -1,5 +1,6 @@
 """The contact slip model (server_stub/physics/slip.py): its equations, checked against rigid-body
 mechanics written out independently here, and the robot it keeps from exploding."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -31,8 +32,7 @@ vectors = st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3)
 
 
 @settings(max_examples=60, deadline=None)
-@given(n=st.integers(1, 8), seed=st.integers(0, 2**32 - 1), mass=st.floats(0.5, 10.0),
-       tilt=st.floats(0.0, 0.5))
+@given(n=st.integers(1, 8), seed=st.integers(0, 2**32 - 1), mass=st.floats(0.5, 10.0), tilt=st.floats(0.0, 0.5))
 def test_slip_forces_leave_each_point_sliding_at_slip_times_its_force(n, seed, mass, tilt):
     """Newton-Euler over one step with only the slip forces: the points' new tangential
     velocities are -slip x force (ODE's force-dependent slip), and no force has a normal part."""
@@ -56,8 +56,9 @@ def test_slip_forces_leave_each_point_sliding_at_slip_times_its_force(n, seed, m
 def test_one_point_on_a_heavy_body_is_held_almost_still():
     """Behind a whole robot's mass a foot corner barely slides: the force nearly stops it."""
     v = np.array([[0.1, 0.0, 0.0]])
-    f = slip.slip_forces(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), v, np.array([0, 0, 0.0]),
-                         1e6, np.eye(3) * 1e6, SLIP, H)
+    f = slip.slip_forces(
+        np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), v, np.array([0, 0, 0.0]), 1e6, np.eye(3) * 1e6, SLIP, H
+    )
     assert f[0] == pytest.approx([-0.1 / SLIP, 0.0, 0.0], rel=1e-4)
 
 
@@ -74,8 +75,9 @@ def test_composite_body_adds_masses_and_moves_inertia_by_the_parallel_axis_rule(
 
 
 @settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), axis=vectors.filter(lambda v: np.linalg.norm(v) > 0.1),
-       angle=st.floats(0.0, 6.0))
+@given(
+    seed=st.integers(0, 2**32 - 1), axis=vectors.filter(lambda v: np.linalg.norm(v) > 0.1), angle=st.floats(0.0, 6.0)
+)
 def test_composite_body_turns_with_the_frame(seed, axis, angle):
     rng = np.random.default_rng(seed)
     masses = rng.uniform(0.05, 1.0, 5)
@@ -112,9 +114,13 @@ def _two_hinge_pose() -> slip.Pose:
     """A torso at the origin, a thigh-like part below it on hinge 0 (at z -0.1, about x) and a
     shank-like part below that on hinge 1 (at z -0.3, about y)."""
     parts = 3
-    return slip.Pose(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -0.2], [0.0, 0.0, -0.4]]),
-                     np.tile([0.0, 0.0, 0.0, 1.0], (parts, 1)), np.zeros((parts, 3)), np.zeros((parts, 3)),
-                     np.array([[0.0, 0.0, -0.1], [0.0, 0.0, -0.3]]))
+    return slip.Pose(
+        np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -0.2], [0.0, 0.0, -0.4]]),
+        np.tile([0.0, 0.0, 0.0, 1.0], (parts, 1)),
+        np.zeros((parts, 3)),
+        np.zeros((parts, 3)),
+        np.array([[0.0, 0.0, -0.1], [0.0, 0.0, -0.3]]),
+    )
 
 
 _AXES = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # of the two hinges above, in the world
@@ -132,9 +138,13 @@ def test_hinge_torques_count_a_force_on_every_hinge_up_its_chain_only():
 
 
 def _skeleton(limit: float = 10.0) -> slip.Skeleton:
-    return slip.Skeleton(np.array([4.0, 0.5, 0.2]), np.array([[0.03, 0.03, 0.02], [1e-3] * 3, [1e-3] * 3]),
-                         np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
-                         np.array([[False, False], [True, False], [True, True]]), limit)
+    return slip.Skeleton(
+        np.array([4.0, 0.5, 0.2]),
+        np.array([[0.03, 0.03, 0.02], [1e-3] * 3, [1e-3] * 3]),
+        np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+        np.array([[False, False], [True, False], [True, True]]),
+        limit,
+    )
 
 
 def test_a_point_behind_a_yielding_motor_gets_its_own_links_damper():
@@ -147,8 +157,9 @@ def test_a_point_behind_a_yielding_motor_gets_its_own_links_damper():
     loose, _ = slip.contact_forces(_skeleton(), pose, np.array([2]), *args)
     expected = slip.loose_slip_forces(normals, velocity[None, :], np.array([0.2]), SLIP, H)
     assert loose == pytest.approx(expected)
-    held, _ = slip.contact_forces(_skeleton(), pose, np.array([2]), points, normals, np.zeros(2),
-                                  np.array([False, False]), np.zeros(2), SLIP, H)
+    held, _ = slip.contact_forces(
+        _skeleton(), pose, np.array([2]), points, normals, np.zeros(2), np.array([False, False]), np.zeros(2), SLIP, H
+    )
     assert np.linalg.norm(held) > 1.5 * np.linalg.norm(loose)  # the whole body stands behind it
 
 
@@ -156,13 +167,25 @@ def test_a_point_whose_force_would_overload_a_motor_is_let_go():
     pose = _two_hinge_pose()
     pose.velocities[2] = [0.0, 4.0, 0.0]  # fast: the rigid damper would want ~70 N, 28 N m
     points, normals = np.array([[0.0, 0.0, -0.5]]), np.array([[0.0, 0.0, 1.0]])
-    forces, torque = slip.contact_forces(_skeleton(), pose, np.array([2]), points, normals,
-                                         np.zeros(2), np.array([False, False]), np.zeros(2), SLIP, H)
-    assert forces == pytest.approx(slip.loose_slip_forces(normals, pose.velocities[2][None, :],
-                                                           np.array([0.2]), SLIP, H))
+    forces, torque = slip.contact_forces(
+        _skeleton(), pose, np.array([2]), points, normals, np.zeros(2), np.array([False, False]), np.zeros(2), SLIP, H
+    )
+    assert forces == pytest.approx(
+        slip.loose_slip_forces(normals, pose.velocities[2][None, :], np.array([0.2]), SLIP, H)
+    )
     assert torque == pytest.approx(slip.hinge_torques(points, forces, np.array([[True, True]]), pose.anchors, _AXES))
-    strong, _ = slip.contact_forces(_skeleton(limit=1000.0), pose, np.array([2]), points, normals,
-                                    np.zeros(2), np.array([False, False]), np.zeros(2), SLIP, H)
+    strong, _ = slip.contact_forces(
+        _skeleton(limit=1000.0),
+        pose,
+        np.array([2]),
+        points,
+        normals,
+        np.zeros(2),
+        np.array([False, False]),
+        np.zeros(2),
+        SLIP,
+        H,
+    )
     assert np.linalg.norm(strong) > 1.5 * np.linalg.norm(forces)  # held when the motors can take it
 
 

@@ -1,5 +1,6 @@
 """The transfer report (``python -m optimizer.transfer``): which gaits a run reported, walked again
 elsewhere, with every output file; on a real server where one is configured."""
+
 from __future__ import annotations
 
 import csv
@@ -16,8 +17,23 @@ from optimizer.cli.common import EvaluationSetup
 from optimizer.episode import DEFAULT_START
 from optimizer.episode.real_server import RCSSSERVER3D_ENV
 
-TINY = ["--crossover", "0.8", "--crossover", "0.3", "--population", "6", "--iterations", "3", "--generations", "2",
-        "--seed", "4", "--check-repeats", "2", "--quiet"]
+TINY = [
+    "--crossover",
+    "0.8",
+    "--crossover",
+    "0.3",
+    "--population",
+    "6",
+    "--iterations",
+    "3",
+    "--generations",
+    "2",
+    "--seed",
+    "4",
+    "--check-repeats",
+    "2",
+    "--quiet",
+]
 
 
 def _run(tmp_path: Path) -> Path:
@@ -27,17 +43,32 @@ def _run(tmp_path: Path) -> Path:
 
 
 def test_each_reported_gait_is_listed_once_under_all_its_names() -> None:
-    check = {"walks": [{"distance": 2.0, "fell": False, "status": "ok"}, {"distance": 1.0, "fell": True, "status": "ok"},
-                       {"distance": 0.0, "fell": False, "status": "failed"}]}
-    results = {"rows": [{"crossover": 0.8, "best_genes": [1.0] * 7, "check": check, "best_episode": None},
-                        {"crossover": 0.3, "best_genes": [2.0] * 7, "check": None,
-                         "best_episode": {"distance": 4.0, "fell": False}}],
-               "fastest_episode": {"genes": [2.0] * 7, "distance": 4.0, "fell": False}, "fastest_check": None}
+    check = {
+        "walks": [
+            {"distance": 2.0, "fell": False, "status": "ok"},
+            {"distance": 1.0, "fell": True, "status": "ok"},
+            {"distance": 0.0, "fell": False, "status": "failed"},
+        ]
+    }
+    results = {
+        "rows": [
+            {"crossover": 0.8, "best_genes": [1.0] * 7, "check": check, "best_episode": None},
+            {
+                "crossover": 0.3,
+                "best_genes": [2.0] * 7,
+                "check": None,
+                "best_episode": {"distance": 4.0, "fell": False},
+            },
+        ],
+        "fastest_episode": {"genes": [2.0] * 7, "distance": 4.0, "fell": False},
+        "fastest_check": None,
+    }
     first, second = transfer.reported_gaits(results)
     assert first.names == ["Table I pc 0.8"] and first.run_distances == [2.0, 1.0] and first.run_falls == 1
     assert second.names == ["Table I pc 0.3", "fastest"] and second.run_distances == [4.0] and second.run_falls == 0
-    [ga] = transfer.reported_gaits({"best_genes": [3.0] * 7, "check": None,
-                                    "best_episode": {"distance": 1.5, "fell": True}})
+    [ga] = transfer.reported_gaits(
+        {"best_genes": [3.0] * 7, "check": None, "best_episode": {"distance": 1.5, "fell": True}}
+    )
     assert ga.name == "GA best" and ga.run_distances == [1.5] and ga.run_falls == 1
 
 

@@ -5,6 +5,7 @@ Settings are what decides a run's episodes (search numbers, walk time, agent mod
 in the manifest; ``--resume`` takes them from there and refuses a flag that contradicts them.
 How the run is executed (workers, servers, progress) is not a setting and may change on resume.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -75,67 +76,119 @@ def existing_run(text: str) -> RunFolder:
 def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
     """How one episode is run: ``--walk-time``, ``--start`` and ``--agent-mode`` (default None:
     resolved later, so a resumed run can tell a given flag from a default)."""
-    parser.add_argument("--walk-time", type=positive_float, default=None,
-                        help="seconds of walking per episode (eq. 9; default 15)")
-    parser.add_argument("--start", type=number, nargs=3, default=None, metavar=("X", "Y", "DEG"),
-                        help="where each walk starts: field position (m) and heading (deg, 0 = +x); the "
-                             "distance is measured along the heading from where the torso stands when the "
-                             "walk begins (default {:g} {:g} {:g})".format(*DEFAULT_START))
-    parser.add_argument("--agent-mode", choices=("inprocess", "process"), default=None,
-                        help="run the agent inside the worker or as its own process (default inprocess)")
+    parser.add_argument(
+        "--walk-time", type=positive_float, default=None, help="seconds of walking per episode (eq. 9; default 15)"
+    )
+    parser.add_argument(
+        "--start",
+        type=number,
+        nargs=3,
+        default=None,
+        metavar=("X", "Y", "DEG"),
+        help="where each walk starts: field position (m) and heading (deg, 0 = +x); the "
+        "distance is measured along the heading from where the torso stands when the "
+        "walk begins (default {:g} {:g} {:g})".format(*DEFAULT_START),
+    )
+    parser.add_argument(
+        "--agent-mode",
+        choices=("inprocess", "process"),
+        default=None,
+        help="run the agent inside the worker or as its own process (default inprocess)",
+    )
 
 
 def add_check_arguments(parser: argparse.ArgumentParser) -> None:
     """``--check-repeats`` and ``--check-jitter``: the stability check of the gaits a run finds
     (``optimizer.run.stability``)."""
-    parser.add_argument("--check-repeats", type=count, default=None, metavar="N",
-                        help="walk each gait the run reports N more times from moved starts and count the "
-                             "falls (default 10; 0: no check)")
-    parser.add_argument("--check-jitter", type=non_negative, nargs=3, default=None, metavar=("DX", "DY", "DEG"),
-                        help="how far a check moves the start: within +-DX, +-DY (m) and +-DEG (heading) "
-                             "(default 0.05 0.05 10, the real server's beam noise)")
+    parser.add_argument(
+        "--check-repeats",
+        type=count,
+        default=None,
+        metavar="N",
+        help="walk each gait the run reports N more times from moved starts and count the "
+        "falls (default 10; 0: no check)",
+    )
+    parser.add_argument(
+        "--check-jitter",
+        type=non_negative,
+        nargs=3,
+        default=None,
+        metavar=("DX", "DY", "DEG"),
+        help="how far a check moves the start: within +-DX, +-DY (m) and +-DEG (heading) "
+        "(default 0.05 0.05 10, the real server's beam noise)",
+    )
 
 
 #: Defaults of the check settings the commands store.
-CHECK_DEFAULTS: dict[str, Any] = {"check_repeats": StabilityConfig().repeats,
-                                  "check_jitter": list(StabilityConfig().jitter)}
+CHECK_DEFAULTS: dict[str, Any] = {
+    "check_repeats": StabilityConfig().repeats,
+    "check_jitter": list(StabilityConfig().jitter),
+}
 
 
 def stability_config(settings: Mapping[str, Any]) -> StabilityConfig:
     """The run's check; a run made before checks existed has none."""
-    return StabilityConfig(repeats=settings.get("check_repeats", 0),
-                           jitter=tuple(settings.get("check_jitter", StabilityConfig().jitter)))
+    return StabilityConfig(
+        repeats=settings.get("check_repeats", 0), jitter=tuple(settings.get("check_jitter", StabilityConfig().jitter))
+    )
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     """Flags of every search command: GA numbers shared by GA and GALA, the seed, the run folder
     and the workers."""
     parser.add_argument("--population", type=positive_int, default=None, help="population size (default 100)")
-    parser.add_argument("--elitism", action=argparse.BooleanOptionalAction, default=None,
-                        help="carry the best individual into the next generation (default on)")
-    parser.add_argument("--bounds", choices=sorted(BOUNDS_BY_NAME), default=None,
-                        help="the gene box searched: robot (from the NAO's joint limits, speed cap and control "
-                             "cycle; the default) or legacy (the narrower box of earlier versions)")
+    parser.add_argument(
+        "--elitism",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="carry the best individual into the next generation (default on)",
+    )
+    parser.add_argument(
+        "--bounds",
+        choices=sorted(BOUNDS_BY_NAME),
+        default=None,
+        help="the gene box searched: robot (from the NAO's joint limits, speed cap and control "
+        "cycle; the default) or legacy (the narrower box of earlier versions)",
+    )
     add_episode_arguments(parser)
     add_check_arguments(parser)
-    parser.add_argument("--seed", type=int, default=None,
-                        help="fixes every random choice of the run (default: a random seed, recorded)")
+    parser.add_argument(
+        "--seed", type=int, default=None, help="fixes every random choice of the run (default: a random seed, recorded)"
+    )
     add_server_arguments(parser)
-    parser.add_argument("--workers", type=positive_int, default=None,
-                        help="worker processes (default: one per core; one per --server)")
+    parser.add_argument(
+        "--workers", type=positive_int, default=None, help="worker processes (default: one per core; one per --server)"
+    )
     dask = parser.add_mutually_exclusive_group()
-    dask.add_argument("--scheduler", default=None, metavar="tcp://HOST:8786",
-                      help="send episodes to this Dask scheduler (needs pip install '.[dask]')")
-    dask.add_argument("--dask-local", type=positive_int, default=None, metavar="N",
-                      help="start a local Dask cluster of N workers (needs pip install '.[dask]')")
+    dask.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="tcp://HOST:8786",
+        help="send episodes to this Dask scheduler (needs pip install '.[dask]')",
+    )
+    dask.add_argument(
+        "--dask-local",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help="start a local Dask cluster of N workers (needs pip install '.[dask]')",
+    )
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--out", type=Path, default=None, help="new run folder (default runs/<command>-<time>)")
-    where.add_argument("--resume", type=existing_run, default=None, metavar="DIR",
-                       help="continue the run in DIR: finished episodes are not run again")
+    where.add_argument(
+        "--resume",
+        type=existing_run,
+        default=None,
+        metavar="DIR",
+        help="continue the run in DIR: finished episodes are not run again",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    parser.add_argument("--skip-bad-lines", action="store_true",
-                        help="with --resume: move lines of the episode log that cannot be used to "
-                             "episodes.jsonl.rejected (and say how many) instead of stopping")
+    parser.add_argument(
+        "--skip-bad-lines",
+        action="store_true",
+        help="with --resume: move lines of the episode log that cannot be used to "
+        "episodes.jsonl.rejected (and say how many) instead of stopping",
+    )
 
 
 #: The gene box a new run searches; a run folder without the setting was searched in the legacy box.
@@ -158,14 +211,25 @@ def add_server_arguments(parser: argparse.ArgumentParser, *, repeatable: bool = 
     """Where episodes run: ``--real N`` (real rcssserver3d servers started here) or ``--server``
     (servers run elsewhere); neither: the embedded stub."""
     where = parser.add_mutually_exclusive_group()
-    where.add_argument("--real", type=positive_int, default=None, metavar="N",
-                       help="start N real rcssserver3d servers (from $RCSSSERVER3D, else rcssserver3d on PATH) "
-                            "in a sync profile on free ports, one worker each, and stop them at the end"
-                       if repeatable else "start a real rcssserver3d (N must be 1) and stop it at the end")
-    where.add_argument("--server", type=server_address, action="append" if repeatable else "store", default=None,
-                       metavar="HOST:AGENT_PORT:MONITOR_PORT",
-                       help="evaluate on this running rcssserver3d instead of the embedded stub"
-                            + ("; repeat for more servers (one worker per server)" if repeatable else ""))
+    where.add_argument(
+        "--real",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help="start N real rcssserver3d servers (from $RCSSSERVER3D, else rcssserver3d on PATH) "
+        "in a sync profile on free ports, one worker each, and stop them at the end"
+        if repeatable
+        else "start a real rcssserver3d (N must be 1) and stop it at the end",
+    )
+    where.add_argument(
+        "--server",
+        type=server_address,
+        action="append" if repeatable else "store",
+        default=None,
+        metavar="HOST:AGENT_PORT:MONITOR_PORT",
+        help="evaluate on this running rcssserver3d instead of the embedded stub"
+        + ("; repeat for more servers (one worker per server)" if repeatable else ""),
+    )
 
 
 def real_server_command(parser: argparse.ArgumentParser) -> str:
@@ -195,8 +259,12 @@ def _flag(name: str, value: Any) -> str:
     return f"--{name.replace('_', '-')} {shown}"
 
 
-def resolve_settings(parser: argparse.ArgumentParser, args: argparse.Namespace,
-                     defaults: Mapping[str, Any], stored: Mapping[str, Any] | None) -> dict[str, Any]:
+def resolve_settings(
+    parser: argparse.ArgumentParser,
+    args: argparse.Namespace,
+    defaults: Mapping[str, Any],
+    stored: Mapping[str, Any] | None,
+) -> dict[str, Any]:
     """The run's settings: the stored ones on ``--resume`` (a given flag that contradicts one is
     refused), else each given flag or its default. Lists are compared and stored as lists."""
     given = {name: getattr(args, name) for name in defaults if getattr(args, name) is not None}
@@ -239,12 +307,18 @@ def pool_evaluator(setup: EvaluationSetup) -> Evaluator:
             from optimizer.evaluation.dask_cluster import DaskEvaluator
         except ImportError as exc:
             raise EvaluationError(f"Dask is not installed ({exc}); pip install '.[dask]'") from None
-        return DaskEvaluator(config, setup.seed, scheduler=setup.scheduler, local_workers=setup.dask_local,
-                             real=setup.real_command is not None)
+        return DaskEvaluator(
+            config,
+            setup.seed,
+            scheduler=setup.scheduler,
+            local_workers=setup.dask_local,
+            real=setup.real_command is not None,
+        )
     # an episode may take the runner's timeout twice (it restarts and retries once) plus a restart
     timeout = 2 * config.episode_timeout + 30.0
-    return ProcessPoolEvaluator(EpisodeRunnerFactory(config, setup.servers, setup.seed, setup.real_command),
-                                setup.workers, task_timeout=timeout)
+    return ProcessPoolEvaluator(
+        EpisodeRunnerFactory(config, setup.servers, setup.seed, setup.real_command), setup.workers, task_timeout=timeout
+    )
 
 
 EvaluatorMaker = Callable[[EvaluationSetup], Evaluator]
@@ -269,8 +343,13 @@ def apply_preset(args: argparse.Namespace, values: Mapping[str, Any]) -> None:
             setattr(args, name, value)
 
 
-def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, command: str,
-                defaults: Mapping[str, Any], argv: Sequence[str]) -> Run:
+def prepare_run(
+    parser: argparse.ArgumentParser,
+    args: argparse.Namespace,
+    command: str,
+    defaults: Mapping[str, Any],
+    argv: Sequence[str],
+) -> Run:
     """Resolve settings, seed and workers, and create or reopen the run folder. Every refusal goes
     through ``parser.error`` (exit status 2, the flag named)."""
     folder: RunFolder | None = args.resume
@@ -281,21 +360,27 @@ def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, comma
         stored = folder.manifest["settings"]
         if args.seed is not None and args.seed != folder.manifest["seed"]:
             parser.error(f"--resume: --seed {args.seed} conflicts with the run's --seed {folder.manifest['seed']}")
-    settings = resolve_settings(parser, args, {**defaults, **EPISODE_DEFAULTS, **CHECK_DEFAULTS, **BOUNDS_DEFAULTS},
-                                stored)
+    settings = resolve_settings(
+        parser, args, {**defaults, **EPISODE_DEFAULTS, **CHECK_DEFAULTS, **BOUNDS_DEFAULTS}, stored
+    )
     servers = tuple(args.server or ())
     if servers and args.workers is not None and args.workers != len(servers):
-        parser.error(f"--workers {args.workers} conflicts with {len(servers)} --server address(es): "
-                     "one worker per server")
+        parser.error(
+            f"--workers {args.workers} conflicts with {len(servers)} --server address(es): one worker per server"
+        )
     if servers and (args.scheduler or args.dask_local):
-        parser.error("--server conflicts with --scheduler/--dask-local: on Dask, name each worker's "
-                     "server in its environment (GALA_SERVER=HOST:AGENT_PORT:MONITOR_PORT)")
+        parser.error(
+            "--server conflicts with --scheduler/--dask-local: on Dask, name each worker's "
+            "server in its environment (GALA_SERVER=HOST:AGENT_PORT:MONITOR_PORT)"
+        )
     if args.real is not None:
         if args.workers is not None and args.workers != args.real:
             parser.error(f"--workers {args.workers} conflicts with --real {args.real}: one worker per server")
         if args.scheduler:
-            parser.error("--real conflicts with --scheduler: on a cluster, have each Dask worker start its own "
-                         "real server (GALA_REAL_SERVER=1 in its environment)")
+            parser.error(
+                "--real conflicts with --scheduler: on a cluster, have each Dask worker start its own "
+                "real server (GALA_REAL_SERVER=1 in its environment)"
+            )
         if args.dask_local is not None and args.dask_local != args.real:
             parser.error(f"--dask-local {args.dask_local} conflicts with --real {args.real}: one server per worker")
     real_command = real_server_command(parser) if args.real is not None else None
@@ -303,9 +388,12 @@ def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, comma
     if servers or real_command is not None:
         check_start_for_real_server(parser, start, "--real" if real_command else "--server")
     workers = args.dask_local or args.real or len(servers) or args.workers or os.cpu_count() or 1
-    runtime = {"workers": workers, "servers": [str(s) for s in servers],
-               "real": None if real_command is None else {"servers": args.real, "command": real_command},
-               "dask": args.scheduler or (f"local:{args.dask_local}" if args.dask_local else None)}
+    runtime = {
+        "workers": workers,
+        "servers": [str(s) for s in servers],
+        "real": None if real_command is None else {"servers": args.real, "command": real_command},
+        "dask": args.scheduler or (f"local:{args.dask_local}" if args.dask_local else None),
+    }
     if folder is None:
         seed = args.seed if args.seed is not None else secrets.randbits(32)
         out = args.out or new_run_path(command)
@@ -321,8 +409,17 @@ def prepare_run(parser: argparse.ArgumentParser, args: argparse.Namespace, comma
         except RunFolderError as exc:
             parser.exit(1, f"{parser.prog}: error: {exc}\n")
         folder.note_resume(argv, runtime)
-    setup = EvaluationSetup(settings["walk_time"], start, settings["agent_mode"], servers, workers, seed,
-                            args.scheduler, args.dask_local, real_command)
+    setup = EvaluationSetup(
+        settings["walk_time"],
+        start,
+        settings["agent_mode"],
+        servers,
+        workers,
+        seed,
+        args.scheduler,
+        args.dask_local,
+        real_command,
+    )
     return Run(command, folder, settings, seed, setup, resumed=stored is not None)
 
 
@@ -330,8 +427,14 @@ def _interrupt(*_: object) -> None:
     raise KeyboardInterrupt
 
 
-def run_session(run: Run, planned_episodes: int, body: Callable[[Driver], str], *,
-                make_evaluator: EvaluatorMaker = pool_evaluator, quiet: bool = False) -> int:
+def run_session(
+    run: Run,
+    planned_episodes: int,
+    body: Callable[[Driver], str],
+    *,
+    make_evaluator: EvaluatorMaker = pool_evaluator,
+    quiet: bool = False,
+) -> int:
     """Open the log and the evaluator, run ``body`` with a driver and print the summary it returns
     (after the progress bar is gone), and turn the ways a run can end into exit statuses:
     0 done, 1 cannot evaluate or cannot resume, 130 interrupted (resumable)."""
@@ -340,22 +443,27 @@ def run_session(run: Run, planned_episodes: int, body: Callable[[Driver], str], 
     for warning in log.warnings:
         print(f"warning: {warning}", file=sys.stderr)
     logged = list(log.records.values())
-    say(f"{run.command}: run folder {run.folder.path} (seed {run.seed}, {run.setup.workers} worker(s)"
-        + (f", {len(logged)} episodes already logged)" if run.resumed else ")"))
+    say(
+        f"{run.command}: run folder {run.folder.path} (seed {run.seed}, {run.setup.workers} worker(s)"
+        + (f", {len(logged)} episodes already logged)" if run.resumed else ")")
+    )
     searched = (r["fitness"] for r in logged if is_search_walk(r))
     progress = BarProgress(planned_episodes, len(logged), max(searched, default=-math.inf), quiet=quiet)
     evaluator: Evaluator | None = None
     # SIGTERM (a scheduler's or a service manager's stop) ends the run as Ctrl-C does: resumable,
     # workers and the servers they started stopped
-    previous = signal.signal(signal.SIGTERM, _interrupt) if threading.current_thread() is threading.main_thread() \
-        else None
+    previous = (
+        signal.signal(signal.SIGTERM, _interrupt) if threading.current_thread() is threading.main_thread() else None
+    )
     try:
         evaluator = make_evaluator(run.setup)
         summary = body(Driver(evaluator, log, run.seed, progress))
     except KeyboardInterrupt:
         progress.close()
-        print(f"\ninterrupted; continue with: python -m optimizer.{run.command} --resume {run.folder.path}",
-              file=sys.stderr)
+        print(
+            f"\ninterrupted; continue with: python -m optimizer.{run.command} --resume {run.folder.path}",
+            file=sys.stderr,
+        )
         return EXIT_INTERRUPTED
     except (EvaluationError, ResumeMismatch) as exc:
         progress.close()

@@ -14,6 +14,7 @@ varies by itself). With ``--json`` each walk prints one JSON object on its own l
 
 Exit status 0 when every episode ran (whatever the gait did), 1 when one could not be run.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -46,27 +47,43 @@ def gait_file(text: str) -> TFSParams:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m optimizer.episode", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--gait", type=gait_file, default=None, metavar="FILE",
-                   help=f"gait file to walk (default: the shipped gait, {DEFAULT_GAIT_PATH.name})")
+    p = argparse.ArgumentParser(
+        prog="python -m optimizer.episode", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    p.add_argument(
+        "--gait",
+        type=gait_file,
+        default=None,
+        metavar="FILE",
+        help=f"gait file to walk (default: the shipped gait, {DEFAULT_GAIT_PATH.name})",
+    )
     add_server_arguments(p, repeatable=False)
     add_episode_arguments(p)
-    p.add_argument("--repeat", type=positive_int, default=1, metavar="N",
-                   help="walk N times, a fresh agent each time (default 1)")
-    p.add_argument("--jitter", type=non_negative, nargs=3, default=(0.0, 0.0, 0.0), metavar=("DX", "DY", "DEG"),
-                   help="move each walk's start by a random amount within +-DX, +-DY (m) and +-DEG "
-                        "(heading), drawn from --seed (default 0 0 0)")
-    p.add_argument("--seed", type=int, default=0,
-                   help="seed of the embedded stub and of the --jitter draws (default 0)")
+    p.add_argument(
+        "--repeat", type=positive_int, default=1, metavar="N", help="walk N times, a fresh agent each time (default 1)"
+    )
+    p.add_argument(
+        "--jitter",
+        type=non_negative,
+        nargs=3,
+        default=(0.0, 0.0, 0.0),
+        metavar=("DX", "DY", "DEG"),
+        help="move each walk's start by a random amount within +-DX, +-DY (m) and +-DEG "
+        "(heading), drawn from --seed (default 0 0 0)",
+    )
+    p.add_argument(
+        "--seed", type=int, default=0, help="seed of the embedded stub and of the --jitter draws (default 0)"
+    )
     p.add_argument("--json", action="store_true", help="print JSON (one object per walk) instead of text")
     return p
 
 
 def _line(result: EpisodeResult) -> str:
-    return (f"distance {result.distance:.3f} m in {result.time:.2f} s walked "
-            f"({'fell' if result.fell else 'did not fall'}); fitness {result.fitness:.4f}; "
-            f"mean speed {result.mean_speed:.3f} m/s")
+    return (
+        f"distance {result.distance:.3f} m in {result.time:.2f} s walked "
+        f"({'fell' if result.fell else 'did not fall'}); fitness {result.fitness:.4f}; "
+        f"mean speed {result.mean_speed:.3f} m/s"
+    )
 
 
 def summary(results: Sequence[EpisodeResult]) -> str:
@@ -76,10 +93,12 @@ def summary(results: Sequence[EpisodeResult]) -> str:
     if spread is None:
         return f"{len(results)} walks, none could be run"
     shortest, longest, mean = spread
-    return (f"{len(ran)} walks: {sum(r.fell for r in ran)} fell; distance {shortest:.3f}-"
-            f"{longest:.3f} m, mean {mean:.3f} m; mean speed "
-            f"{sum(r.mean_speed for r in ran) / len(ran):.3f} m/s"
-            + (f"; {len(results) - len(ran)} could not be run" if len(ran) < len(results) else ""))
+    return (
+        f"{len(ran)} walks: {sum(r.fell for r in ran)} fell; distance {shortest:.3f}-"
+        f"{longest:.3f} m, mean {mean:.3f} m; mean speed "
+        f"{sum(r.mean_speed for r in ran) / len(ran):.3f} m/s"
+        + (f"; {len(results) - len(ran)} could not be run" if len(ran) < len(results) else "")
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -94,8 +113,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         server = RealServerProcess(real_server_command(parser))
     if server is not None:
         check_start_for_real_server(parser, start, "--real" if args.real else "--server")
-    base = episode_config(args.walk_time or EPISODE_DEFAULTS["walk_time"], start,
-                          args.agent_mode or EPISODE_DEFAULTS["agent_mode"])
+    base = episode_config(
+        args.walk_time or EPISODE_DEFAULTS["walk_time"], start, args.agent_mode or EPISODE_DEFAULTS["agent_mode"]
+    )
     points = jittered_starts((*base.start, base.heading), args.jitter, args.repeat, args.seed)
     if isinstance(server, RealServerProcess):
         try:  # started before the first walk, so that a server that cannot start is said once, at once
@@ -109,8 +129,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0 if all(r.status == "ok" for r in results) else 1
 
 
-def _walk(params: TFSParams, base: EpisodeConfig, server: ServerAddress | ManagedServer | None,
-          points: Sequence[Start], args: argparse.Namespace) -> list[EpisodeResult]:
+def _walk(
+    params: TFSParams,
+    base: EpisodeConfig,
+    server: ServerAddress | ManagedServer | None,
+    points: Sequence[Start],
+    args: argparse.Namespace,
+) -> list[EpisodeResult]:
     results = []
     quiet_agent_logs()  # each walk's outcome is printed here
     with EpisodeRunner(base, server, seed=args.seed) as runner:

@@ -8,6 +8,7 @@ Writes manifest.json, episodes.jsonl, results.json, ga.png (best and mean fitnes
 generation) and best_gait.json into the run folder (default runs/ga-YYYYmmdd-HHMMSS). The best
 gait is then checked as GALA's are (``--check-repeats``, ``--check-jitter``; ``optimizer.run.stability``).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -48,15 +49,21 @@ PREFIX = "ga"
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m optimizer.ga", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--preset", choices=sorted(PRESETS), default=None,
-                   help="published rates: dejong (0.6, 0.001), grefenstette (0.95, 0.01), gala (0.8, 0.07, "
-                        "the paper's Table I best; the default); --crossover/--mutation override it")
+    p = argparse.ArgumentParser(
+        prog="python -m optimizer.ga", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    p.add_argument(
+        "--preset",
+        choices=sorted(PRESETS),
+        default=None,
+        help="published rates: dejong (0.6, 0.001), grefenstette (0.95, 0.01), gala (0.8, 0.07, "
+        "the paper's Table I best; the default); --crossover/--mutation override it",
+    )
     p.add_argument("--crossover", type=probability, default=None, help="crossover rate pc")
     p.add_argument("--mutation", type=probability, default=None, help="mutation rate pm (per gene)")
-    p.add_argument("--generations", type=positive_int, default=None,
-                   help="generations, the random first one included (default 10)")
+    p.add_argument(
+        "--generations", type=positive_int, default=None, help="generations, the random first one included (default 10)"
+    )
     add_run_arguments(p)
     return p
 
@@ -64,14 +71,24 @@ def build_parser() -> argparse.ArgumentParser:
 def defaults(preset: str | None) -> dict[str, Any]:
     rates = PRESETS[preset or "gala"]
     base = GAConfig()
-    return {"preset": preset, "crossover": rates.crossover_rate, "mutation": rates.mutation_rate,
-            "population": base.population_size, "generations": base.generations, "elitism": base.elitism}
+    return {
+        "preset": preset,
+        "crossover": rates.crossover_rate,
+        "mutation": rates.mutation_rate,
+        "population": base.population_size,
+        "generations": base.generations,
+        "elitism": base.elitism,
+    }
 
 
 def ga_config(settings: dict[str, Any]) -> GAConfig:
-    return GAConfig(population_size=settings["population"], generations=settings["generations"],
-                    crossover_rate=settings["crossover"], mutation_rate=settings["mutation"],
-                    elitism=settings["elitism"])
+    return GAConfig(
+        population_size=settings["population"],
+        generations=settings["generations"],
+        crossover_rate=settings["crossover"],
+        mutation_rate=settings["mutation"],
+        elitism=settings["elitism"],
+    )
 
 
 def title(settings: dict[str, Any]) -> str:
@@ -95,13 +112,24 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         best = best_episode(driver.log.records, search.best_key(PREFIX + "/"))
         checked = check_best(driver, best, run.setup.start, stability)
         verdict = "" if checked is None else f"; {checked.summary()}"
-        write_json(folder / "results.json", {**result.to_dict(), "settings": run.settings, "best_episode": best,
-                                             "check": None if checked is None else checked.to_dict()})
+        write_json(
+            folder / "results.json",
+            {
+                **result.to_dict(),
+                "settings": run.settings,
+                "best_episode": best,
+                "check": None if checked is None else checked.to_dict(),
+            },
+        )
         plot_ga_convergence(result.history, folder / "ga.png", title(run.settings))
-        write_gait(folder / "best_gait.json", result.best_genes,
-                   f"{title(run.settings)}: fitness {result.best_fitness:.4f}{verdict} (run {folder})")
+        write_gait(
+            folder / "best_gait.json",
+            result.best_genes,
+            f"{title(run.settings)}: fitness {result.best_fitness:.4f}{verdict} (run {folder})",
+        )
         distance = "-" if best is None else f"{best['distance']:.2f} m"
         return f"best fitness {result.best_fitness:.4f} ({distance}{verdict}); results in {folder}"
 
-    return run_session(run, planned_episodes(config) + stability.repeats, body, make_evaluator=make_evaluator,
-                       quiet=args.quiet)
+    return run_session(
+        run, planned_episodes(config) + stability.repeats, body, make_evaluator=make_evaluator, quiet=args.quiet
+    )

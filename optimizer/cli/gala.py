@@ -16,6 +16,7 @@ Writes, as each row finishes: table1.csv and table1.md, gala-pc0.8.png (Fig. 6),
 fastest_gait.json (the fastest stable walk of every episode so far), results.json; and
 episodes.jsonl as each episode finishes (what ``--resume DIR`` continues from).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -97,40 +98,73 @@ def planned_episodes(config: GALAConfig, check_repeats: int = 0) -> int:
         search = config.iterations * ga_episodes(ga)
     else:
         search = ga.population_size + config.iterations * config.generations_per_iteration * (
-            ga.population_size - int(ga.elitism))
+            ga.population_size - int(ga.elitism)
+        )
     return search + ga_episodes(ga) + 2 * check_repeats
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m optimizer.gala", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--budget", choices=sorted(BUDGETS), default=None,
-                   help="paper: the full Table I protocol (default); quick: crossover 0.8, population 20, "
-                        "20 iterations, 6 final generations (2-4 minutes on 2 cores). Flags given "
-                        "override it")
-    p.add_argument("--crossover", type=probability, action="append", default=None,
-                   help="a crossover rate (one Table I row); repeat for more rows (default 0.1 ... 0.9)")
+    p = argparse.ArgumentParser(
+        prog="python -m optimizer.gala", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    p.add_argument(
+        "--budget",
+        choices=sorted(BUDGETS),
+        default=None,
+        help="paper: the full Table I protocol (default); quick: crossover 0.8, population 20, "
+        "20 iterations, 6 final generations (2-4 minutes on 2 cores). Flags given "
+        "override it",
+    )
+    p.add_argument(
+        "--crossover",
+        type=probability,
+        action="append",
+        default=None,
+        help="a crossover rate (one Table I row); repeat for more rows (default 0.1 ... 0.9)",
+    )
     p.add_argument("--iterations", type=positive_int, default=None, help="GALA iterations per row (default 100)")
-    p.add_argument("--generations", type=positive_int, default=None,
-                   help="generations of the final GA of each row (and of each iteration's GA with "
-                        "--restart-each-iteration), the first included (default 10)")
-    p.add_argument("--generations-per-iteration", type=positive_int, default=None,
-                   help="generations the continuing population runs per iteration (default 1)")
-    p.add_argument("--restart-each-iteration", action=argparse.BooleanOptionalAction, default=None,
-                   help="a fresh GA of --generations generations per iteration instead of one continuing population")
-    p.add_argument("--scheme", choices=("lrp", "lri"), default=None,
-                   help="learning scheme: lrp (L_R-P, eq. 7-8; default) or lri (L_R-I, eq. 6)")
-    p.add_argument("--baseline-window", type=positive_int, default=None, metavar="K",
-                   help="reward an iteration whose best beats the average of the last K bests "
-                        "(default: of all preceding bests, as the paper)")
+    p.add_argument(
+        "--generations",
+        type=positive_int,
+        default=None,
+        help="generations of the final GA of each row (and of each iteration's GA with "
+        "--restart-each-iteration), the first included (default 10)",
+    )
+    p.add_argument(
+        "--generations-per-iteration",
+        type=positive_int,
+        default=None,
+        help="generations the continuing population runs per iteration (default 1)",
+    )
+    p.add_argument(
+        "--restart-each-iteration",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="a fresh GA of --generations generations per iteration instead of one continuing population",
+    )
+    p.add_argument(
+        "--scheme",
+        choices=("lrp", "lri"),
+        default=None,
+        help="learning scheme: lrp (L_R-P, eq. 7-8; default) or lri (L_R-I, eq. 6)",
+    )
+    p.add_argument(
+        "--baseline-window",
+        type=positive_int,
+        default=None,
+        metavar="K",
+        help="reward an iteration whose best beats the average of the last K bests "
+        "(default: of all preceding bests, as the paper)",
+    )
     add_run_arguments(p)
     return p
 
 
 def gala_config(settings: dict[str, Any]) -> GALAConfig:
     return GALAConfig(
-        ga=GAConfig(population_size=settings["population"], generations=settings["generations"],
-                    elitism=settings["elitism"]),
+        ga=GAConfig(
+            population_size=settings["population"], generations=settings["generations"], elitism=settings["elitism"]
+        ),
         iterations=settings["iterations"],
         generations_per_iteration=settings["generations_per_iteration"],
         restart_each_iteration=settings["restart_each_iteration"],
@@ -166,14 +200,21 @@ class Row:
     def table_row(self) -> TableRow:
         best, check = self.best, self.check
         spread = None if check is None else check.spread()
-        return TableRow.from_gala(self.result, None if best is None else best["distance"],
-                                  None if best is None else best["mean_speed"],
-                                  None if check is None else len(check.repeats),
-                                  None if check is None else check.falls, spread)
+        return TableRow.from_gala(
+            self.result,
+            None if best is None else best["distance"],
+            None if best is None else best["mean_speed"],
+            None if check is None else len(check.repeats),
+            None if check is None else check.falls,
+            spread,
+        )
 
     def to_dict(self) -> dict[str, Any]:
-        return {**self.result.to_dict(), "best_episode": self.best,
-                "check": None if self.check is None else self.check.to_dict()}
+        return {
+            **self.result.to_dict(),
+            "best_episode": self.best,
+            "check": None if self.check is None else self.check.to_dict(),
+        }
 
 
 @dataclass
@@ -206,23 +247,31 @@ def write_outputs(folder: RunFolder, settings: dict[str, Any], rows: list[Row], 
     table = [row.table_row() for row in rows]
     write_table_csv(table, path / "table1.csv")
     write_table_markdown(table, path / "table1.md")
-    write_json(path / "results.json", {
-        "settings": settings,
-        "rows": [row.to_dict() for row in rows],
-        "fastest_episode": None if fastest is None else fastest.walk,
-        "fastest_check": None if fastest is None or fastest.check is None else fastest.check.to_dict(),
-    })
+    write_json(
+        path / "results.json",
+        {
+            "settings": settings,
+            "rows": [row.to_dict() for row in rows],
+            "fastest_episode": None if fastest is None else fastest.walk,
+            "fastest_check": None if fastest is None or fastest.check is None else fastest.check.to_dict(),
+        },
+    )
     if fastest is not None:
         write_gait(path / "fastest_gait.json", np.array(fastest.walk["genes"]), f"GALA run: {fastest.describe()}")
     latest = rows[-1]
     result, best = latest.result, latest.best
     tag = f"pc{result.crossover:g}"
     plot_gala_convergence(result, path / f"gala-{tag}.png")
-    plot_ga_convergence(result.final_ga_history, path / f"ga-{tag}.png",
-                        f"Final GA: crossover {result.crossover:g}, mutation {result.optimal_mutation:g}")
-    notes = (f"GALA row pc={result.crossover:g}, pm={result.optimal_mutation:g}: fitness {result.best_fitness:.4f}"
-             + ("" if best is None else f", {best['distance']:.2f} m in {best['time']:.1f} s")
-             + ("" if latest.check is None else f"; {latest.check.summary()}"))
+    plot_ga_convergence(
+        result.final_ga_history,
+        path / f"ga-{tag}.png",
+        f"Final GA: crossover {result.crossover:g}, mutation {result.optimal_mutation:g}",
+    )
+    notes = (
+        f"GALA row pc={result.crossover:g}, pm={result.optimal_mutation:g}: fitness {result.best_fitness:.4f}"
+        + ("" if best is None else f", {best['distance']:.2f} m in {best['time']:.1f} s")
+        + ("" if latest.check is None else f"; {latest.check.summary()}")
+    )
     write_gait(path / f"best_gait-{tag}.json", result.best_genes, notes)
     top = max(range(len(rows)), key=lambda k: rows[k].result.best_fitness)
     if top == len(rows) - 1:
@@ -248,8 +297,9 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         fastest: Fastest | None = None
         for pc in rates:
             tag = f"pc{pc:g}"
-            search = GALA(bounds, config, pc, stable_seed(run.seed, tag), scheme=scheme(run.settings, config),
-                          repair=repair)
+            search = GALA(
+                bounds, config, pc, stable_seed(run.seed, tag), scheme=scheme(run.settings, config), repair=repair
+            )
             result: GALAResult = driver.run(search)
             best = best_episode(driver.log.records, search.best_key(f"{tag}/final/"))
             rows.append(Row(result, best, check_best(driver, best, run.setup.start, stability)))
@@ -258,5 +308,10 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         found = "" if fastest is None else f"{fastest.describe()}; in fastest_gait.json\n"
         return (run.folder.path / "table1.md").read_text() + found + f"results in {run.folder.path}"
 
-    return run_session(run, len(rates) * planned_episodes(config, stability.repeats), body,
-                       make_evaluator=make_evaluator, quiet=args.quiet)
+    return run_session(
+        run,
+        len(rates) * planned_episodes(config, stability.repeats),
+        body,
+        make_evaluator=make_evaluator,
+        quiet=args.quiet,
+    )

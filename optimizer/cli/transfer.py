@@ -14,6 +14,7 @@ falls, shortest, mean and longest distance), ``transfer.md`` (the same as a tabl
 ``transfer.png`` (the run's distance against the new one, each with its spread) and
 ``transfer.json`` (every walk). The run itself is not changed.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -83,8 +84,9 @@ def reported_gaits(results: Mapping[str, Any]) -> list[ReportedGait]:
     found: list[tuple[str, Sequence[float], Mapping[str, Any] | None, Mapping[str, Any] | None]] = []
     if "rows" in results:  # GALA
         for row in results["rows"]:
-            found.append((f"Table I pc {row['crossover']:g}", row["best_genes"], row.get("check"),
-                          row.get("best_episode")))
+            found.append(
+                (f"Table I pc {row['crossover']:g}", row["best_genes"], row.get("check"), row.get("best_episode"))
+            )
         fastest = results.get("fastest_episode")
         if fastest is not None:
             found.append(("fastest", fastest["genes"], results.get("fastest_check"), fastest))
@@ -110,18 +112,41 @@ def run_server_kind(folder: RunFolder) -> str:
     return "real server" if runtime.get("real") or runtime.get("servers") else "stand-in"
 
 
-COLUMNS = ("gait", "run_walks", "run_falls", "run_min_m", "run_mean_m", "run_max_m", "walks", "falls", "min_m",
-           "mean_m", "max_m", "mean_ratio") + tuple(f"gene_{n}" for n in GENE_NAMES)
+COLUMNS = (
+    "gait",
+    "run_walks",
+    "run_falls",
+    "run_min_m",
+    "run_mean_m",
+    "run_max_m",
+    "walks",
+    "falls",
+    "min_m",
+    "mean_m",
+    "max_m",
+    "mean_ratio",
+) + tuple(f"gene_{n}" for n in GENE_NAMES)
 
 
 def _row(gait: ReportedGait) -> dict[str, Any]:
     run = distance_spread(gait.run_distances) or (None, None, None)
     new = distance_spread(gait.new_distances()) or (None, None, None)
     ratio = None if new[2] is None or not run[2] else new[2] / run[2]
-    return {"gait": gait.name, "run_walks": len(gait.run_distances), "run_falls": gait.run_falls,
-            "run_min_m": run[0], "run_mean_m": run[2], "run_max_m": run[1], "walks": len(gait.new_distances()),
-            "falls": gait.new_falls(), "min_m": new[0], "mean_m": new[2], "max_m": new[1], "mean_ratio": ratio,
-            **{f"gene_{n}": g for n, g in zip(GENE_NAMES, gait.genes)}}
+    return {
+        "gait": gait.name,
+        "run_walks": len(gait.run_distances),
+        "run_falls": gait.run_falls,
+        "run_min_m": run[0],
+        "run_mean_m": run[2],
+        "run_max_m": run[1],
+        "walks": len(gait.new_distances()),
+        "falls": gait.new_falls(),
+        "min_m": new[0],
+        "mean_m": new[2],
+        "max_m": new[1],
+        "mean_ratio": ratio,
+        **{f"gene_{n}": g for n, g in zip(GENE_NAMES, gait.genes)},
+    }
 
 
 def write_csv(gaits: Sequence[ReportedGait], path: Path) -> None:
@@ -136,15 +161,19 @@ def write_markdown(gaits: Sequence[ReportedGait], path: Path, run_kind: str, tar
     def metres(value: float | None) -> str:
         return "-" if value is None else f"{value:.2f}"
 
-    lines = [f"| gait | run ({run_kind}): falls | run: distance (m) | transfer ({target}): falls "
-             "| transfer: distance (m) | mean ratio |", "|---|---:|---:|---:|---:|---:|"]
+    lines = [
+        f"| gait | run ({run_kind}): falls | run: distance (m) | transfer ({target}): falls "
+        "| transfer: distance (m) | mean ratio |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
     for gait in gaits:
         row = _row(gait)
         lines.append(
             f"| {gait.name} | {row['run_falls']}/{row['run_walks']} | {metres(row['run_mean_m'])} "
             f"({metres(row['run_min_m'])}-{metres(row['run_max_m'])}) | {row['falls']}/{row['walks']} | "
             f"{metres(row['mean_m'])} ({metres(row['min_m'])}-{metres(row['max_m'])}) | "
-            f"{'-' if row['mean_ratio'] is None else format(row['mean_ratio'], '.2f')} |")
+            f"{'-' if row['mean_ratio'] is None else format(row['mean_ratio'], '.2f')} |"
+        )
     path.write_text("\n".join(lines) + "\n\nDistances: mean (shortest-longest) over the walks; a fall ends a walk.\n")
 
 
@@ -160,9 +189,15 @@ def plot(gaits: Sequence[ReportedGait], path: Path, run_kind: str, target: str) 
             continue
         x, y = row["run_mean_m"], row["mean_m"]
         # max(0, ...): a mean of equal distances can land a rounding error outside them
-        ax.errorbar([x], [y], xerr=[[max(0.0, x - row["run_min_m"])], [max(0.0, row["run_max_m"] - x)]],
-                    yerr=[[max(0.0, y - row["min_m"])], [max(0.0, row["max_m"] - y)]], fmt="o", capsize=3,
-                    color="tab:red" if row["falls"] else "tab:blue")
+        ax.errorbar(
+            [x],
+            [y],
+            xerr=[[max(0.0, x - row["run_min_m"])], [max(0.0, row["run_max_m"] - x)]],
+            yerr=[[max(0.0, y - row["min_m"])], [max(0.0, row["max_m"] - y)]],
+            fmt="o",
+            capsize=3,
+            color="tab:red" if row["falls"] else "tab:blue",
+        )
         ax.annotate(gait.name, (x, y), textcoords="offset points", xytext=(5, 5), fontsize="small")
         top = max(top, row["run_max_m"], row["max_m"])
     ax.plot([0, top * 1.05], [0, top * 1.05], linestyle="--", color="grey", label="same distance")
@@ -175,17 +210,34 @@ def plot(gaits: Sequence[ReportedGait], path: Path, run_kind: str, target: str) 
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m optimizer.transfer", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("run", type=existing_run, metavar="RUN_DIR",
-                   help="a run folder of optimizer.gala, optimizer.ga or optimizer.compare")
+    p = argparse.ArgumentParser(
+        prog="python -m optimizer.transfer", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    p.add_argument(
+        "run",
+        type=existing_run,
+        metavar="RUN_DIR",
+        help="a run folder of optimizer.gala, optimizer.ga or optimizer.compare",
+    )
     add_server_arguments(p)
     p.add_argument("--repeats", type=positive_int, default=10, metavar="R", help="walks per gait (default 10)")
-    p.add_argument("--jitter", type=non_negative, nargs=3, default=None, metavar=("DX", "DY", "DEG"),
-                   help="how far each walk's start is moved (default: the run's check jitter)")
-    p.add_argument("--start", type=number, nargs=3, default=None, metavar=("X", "Y", "DEG"),
-                   help="where the walks start (default: the run's start, or {:g} {:g} {:g} where a real "
-                        "server's referee would move a robot from it)".format(*DEFAULT_START))
+    p.add_argument(
+        "--jitter",
+        type=non_negative,
+        nargs=3,
+        default=None,
+        metavar=("DX", "DY", "DEG"),
+        help="how far each walk's start is moved (default: the run's check jitter)",
+    )
+    p.add_argument(
+        "--start",
+        type=number,
+        nargs=3,
+        default=None,
+        metavar=("X", "Y", "DEG"),
+        help="where the walks start (default: the run's start, or {:g} {:g} {:g} where a real "
+        "server's referee would move a robot from it)".format(*DEFAULT_START),
+    )
     p.add_argument("--seed", type=int, default=None, help="seed of the moved starts (default: the run's)")
     return p
 
@@ -222,8 +274,9 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     servers = tuple(args.server or ())
     real_command = real_server_command(parser) if args.real else None
     workers = args.real or len(servers) or 1
-    setup = EvaluationSetup(settings["walk_time"], start, settings["agent_mode"], servers, workers, seed,
-                            real_command=real_command)
+    setup = EvaluationSetup(
+        settings["walk_time"], start, settings["agent_mode"], servers, workers, seed, real_command=real_command
+    )
     target = "real server" if real else "stand-in"
     tasks = {}
     for number_, gait in enumerate(gaits):
@@ -231,8 +284,9 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         for j, point in enumerate(starts):
             key = f"transfer/g{number_}/r{j:02d}"
             tasks[key] = (gait, EpisodeTask(key, gait.genes, stable_seed(seed, key), point))
-    print(f"transfer: {len(gaits)} gait(s) x {args.repeats} walks on the {target} ({workers} worker(s))",
-          file=sys.stderr)
+    print(
+        f"transfer: {len(gaits)} gait(s) x {args.repeats} walks on the {target} ({workers} worker(s))", file=sys.stderr
+    )
     evaluator = None
     try:
         evaluator = make_evaluator(setup)
@@ -253,9 +307,19 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     write_csv(gaits, folder.path / "transfer.csv")
     write_markdown(gaits, folder.path / "transfer.md", run_kind, target)
     plot(gaits, folder.path / "transfer.png", run_kind, target)
-    write_json(folder.path / "transfer.json", {
-        "target": target, "run_server": run_kind, "start": list(start), "jitter": list(jitter), "seed": seed,
-        "repeats": args.repeats, "real_command": real_command, "servers": [str(s) for s in servers],
-        "gaits": [{**_row(g), "genes": list(g.genes), "walks": g.walks} for g in gaits]})
+    write_json(
+        folder.path / "transfer.json",
+        {
+            "target": target,
+            "run_server": run_kind,
+            "start": list(start),
+            "jitter": list(jitter),
+            "seed": seed,
+            "repeats": args.repeats,
+            "real_command": real_command,
+            "servers": [str(s) for s in servers],
+            "gaits": [{**_row(g), "genes": list(g.genes), "walks": g.walks} for g in gaits],
+        },
+    )
     print((folder.path / "transfer.md").read_text() + f"written to {folder.path}/transfer.{{csv,md,png,json}}")
     return 0

@@ -16,6 +16,7 @@ counted apart). Writes into the run folder: runs.csv (every method x seed), summ
 results.json (its ``reported`` gaits work with ``python -m optimizer.transfer``), and
 episodes.jsonl as each episode finishes (what ``--resume`` continues from).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -68,8 +69,9 @@ def method_list(text: str) -> list[str]:
     known = discover()
     unknown = [n for n in names if n not in known]
     if unknown or not names:
-        raise argparse.ArgumentTypeError(f"unknown method(s) {', '.join(unknown) or '(none given)'}; "
-                                         f"known: {', '.join(known)}")
+        raise argparse.ArgumentTypeError(
+            f"unknown method(s) {', '.join(unknown) or '(none given)'}; known: {', '.join(known)}"
+        )
     if len(set(names)) != len(names):
         raise argparse.ArgumentTypeError(f"a method is named twice in {text!r}")
     return names
@@ -77,31 +79,62 @@ def method_list(text: str) -> list[str]:
 
 def build_parser() -> argparse.ArgumentParser:
     known = discover()
-    p = argparse.ArgumentParser(prog="python -m optimizer.compare", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--preset", choices=sorted(PRESETS), default=None,
-                   help="quick: 3 seeds x 100 episodes, population 10, 5 check walks (minutes); flags given "
-                        "override it")
-    p.add_argument("--methods", type=method_list, default=None, metavar="A,B,...",
-                   help=f"methods to compare (default all: {', '.join(known)})")
+    p = argparse.ArgumentParser(
+        prog="python -m optimizer.compare", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    p.add_argument(
+        "--preset",
+        choices=sorted(PRESETS),
+        default=None,
+        help="quick: 3 seeds x 100 episodes, population 10, 5 check walks (minutes); flags given override it",
+    )
+    p.add_argument(
+        "--methods",
+        type=method_list,
+        default=None,
+        metavar="A,B,...",
+        help=f"methods to compare (default all: {', '.join(known)})",
+    )
     p.add_argument("--seeds", type=positive_int, default=None, help="runs per method (default 10)")
-    p.add_argument("--budget", type=positive_int, default=None, metavar="EPISODES",
-                   help="search episodes per run, the same for every method (default 800); with --robust K "
-                        "each gait costs K of them")
-    p.add_argument("--robust", dest="robust_walks", type=count, default=None, metavar="K",
-                   help="score each gait over K walks from starts moved within the check jitter (default 0: "
-                        "one walk from the run's start)")
-    p.add_argument("--robust-quantile", type=probability, default=None, metavar="Q",
-                   help="with --robust: score by this quantile of the K walks instead of their mean")
-    p.add_argument("--success-distance", type=non_negative, default=None, metavar="M",
-                   help="a run succeeds when its best walks at least M metres without a fall in its check "
-                        "(default 4.95, the paper's)")
+    p.add_argument(
+        "--budget",
+        type=positive_int,
+        default=None,
+        metavar="EPISODES",
+        help="search episodes per run, the same for every method (default 800); with --robust K "
+        "each gait costs K of them",
+    )
+    p.add_argument(
+        "--robust",
+        dest="robust_walks",
+        type=count,
+        default=None,
+        metavar="K",
+        help="score each gait over K walks from starts moved within the check jitter (default 0: "
+        "one walk from the run's start)",
+    )
+    p.add_argument(
+        "--robust-quantile",
+        type=probability,
+        default=None,
+        metavar="Q",
+        help="with --robust: score by this quantile of the K walks instead of their mean",
+    )
+    p.add_argument(
+        "--success-distance",
+        type=non_negative,
+        default=None,
+        metavar="M",
+        help="a run succeeds when its best walks at least M metres without a fall in its check "
+        "(default 4.95, the paper's)",
+    )
     add_run_arguments(p)
     return p
 
 
-def _outcome(method: Method, index: int, scored: Sequence[Scored], best: Scored, check_report: Any,
-             success_distance: float) -> RunOutcome:
+def _outcome(
+    method: Method, index: int, scored: Sequence[Scored], best: Scored, check_report: Any, success_distance: float
+) -> RunOutcome:
     curve: list[float] = []
     so_far = float("-inf")
     for candidate in scored:
@@ -109,11 +142,19 @@ def _outcome(method: Method, index: int, scored: Sequence[Scored], best: Scored,
         curve.extend([so_far] * len(candidate.records))  # each episode the candidate took
     spread = None if check_report is None else check_report.spread()
     stable = check_report is None or check_report.stable
-    return RunOutcome(method.name, index, best.key, best.genes, best.fitness / 10.0,
-                      0 if check_report is None else len(check_report.repeats),
-                      0 if check_report is None else check_report.falls,
-                      None if spread is None else spread[2], stable and best.fitness / 10.0 >= success_distance,
-                      tuple(curve), None if check_report is None else check_report.to_dict())
+    return RunOutcome(
+        method.name,
+        index,
+        best.key,
+        best.genes,
+        best.fitness / 10.0,
+        0 if check_report is None else len(check_report.repeats),
+        0 if check_report is None else check_report.falls,
+        None if spread is None else spread[2],
+        stable and best.fitness / 10.0 >= success_distance,
+        tuple(curve),
+        None if check_report is None else check_report.to_dict(),
+    )
 
 
 def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = pool_evaluator) -> int:
@@ -128,8 +169,11 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     methods = [discover()[name] for name in settings["methods"] or discover()]
     bounds, repair = search_box(settings)
     stability = stability_config(settings)
-    robust = (RobustScore(settings["robust_walks"], stability.jitter, settings["robust_quantile"])
-              if settings["robust_walks"] else None)
+    robust = (
+        RobustScore(settings["robust_walks"], stability.jitter, settings["robust_quantile"])
+        if settings["robust_walks"]
+        else None
+    )
     per_candidate = robust.walks if robust else 1
     budget = settings["budget"] // per_candidate  # candidates, so that every run spends the same episodes
     if budget < 1:
@@ -141,8 +185,9 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         for method in methods:
             for index in range(seeds):
                 prefix = f"{method.name}/s{index:02d}"
-                problem = Problem(bounds, repair, stable_seed(run.seed, prefix), budget, settings["population"],
-                                  settings["elitism"])
+                problem = Problem(
+                    bounds, repair, stable_seed(run.seed, prefix), budget, settings["population"], settings["elitism"]
+                )
                 scored = drive(driver, method.program(problem), budget, prefix, run.setup.start, robust)
                 best = max(scored, key=lambda s: s.fitness)  # the first of equals: the earliest found
                 walk = {"key": best.key, "genes": list(best.genes), "fitness": best.fitness}
@@ -163,14 +208,24 @@ def _write(folder: Any, runs: Sequence[RunOutcome], settings: dict[str, Any], ep
     pairs = pairwise(distances) if all(len(d) > 0 for d in distances.values()) else []
     write_tables(runs, summaries, pairs, folder, settings["success_distance"], episodes)
     plot_convergence(runs, folder / "convergence.png")
-    write_json(folder / "results.json", {
-        "settings": settings,
-        "summaries": [s.__dict__ for s in summaries],
-        "pairs": [p.__dict__ for p in pairs],
-        "runs": [{**r.row(), "best_genes": list(r.best_genes), "curve": list(r.curve)} for r in runs],
-        "reported": [{"name": f"{r.method} s{r.seed_index:02d}", "genes": list(r.best_genes), "check": r.check,
-                      "walk": {"distance": r.best_distance, "fell": False}} for r in runs],
-    })
+    write_json(
+        folder / "results.json",
+        {
+            "settings": settings,
+            "summaries": [s.__dict__ for s in summaries],
+            "pairs": [p.__dict__ for p in pairs],
+            "runs": [{**r.row(), "best_genes": list(r.best_genes), "curve": list(r.curve)} for r in runs],
+            "reported": [
+                {
+                    "name": f"{r.method} s{r.seed_index:02d}",
+                    "genes": list(r.best_genes),
+                    "check": r.check,
+                    "walk": {"distance": r.best_distance, "fell": False},
+                }
+                for r in runs
+            ],
+        },
+    )
 
 
 if __name__ == "__main__":

@@ -7,6 +7,7 @@ be. A candidate is scored by one walk from the run's start (eq. 9), or, with a `
 ``k`` walks from starts moved within the real server's beam noise, as their mean or a low
 quantile: a search then cannot win by a gait that only walks from one exact start.
 """
+
 from __future__ import annotations
 
 from collections.abc import Generator, Mapping, Sequence
@@ -77,16 +78,18 @@ class Scored:
     records: tuple[Mapping[str, Any], ...]
 
 
-def _tasks(driver: Driver, key: str, genes: Sequence[float], base: Start,
-           robust: RobustScore | None) -> list[EpisodeTask]:
+def _tasks(
+    driver: Driver, key: str, genes: Sequence[float], base: Start, robust: RobustScore | None
+) -> list[EpisodeTask]:
     if robust is None:
         return [driver.task(key, genes)]
     starts = jittered_starts(base, robust.jitter, robust.walks, stable_seed(driver.run_seed, "robust/" + key))
     return [driver.task(f"{key}/k{j}", genes, start) for j, start in enumerate(starts)]
 
 
-def drive(driver: Driver, program: SearchProgram, budget: int, prefix: str, base: Start,
-          robust: RobustScore | None = None) -> list[Scored]:
+def drive(
+    driver: Driver, program: SearchProgram, budget: int, prefix: str, base: Start, robust: RobustScore | None = None
+) -> list[Scored]:
     """Run ``program`` for ``budget`` candidates keyed under ``prefix``, every batch's episodes
     evaluated together (answered from the log on a resumed run); the candidates in order."""
     scored: list[Scored] = []

@@ -1,6 +1,7 @@
 """The comparison's files: per-seed runs, per-method summaries and pairwise tests as CSV and
 Markdown, and the convergence plot (best distance so far against episodes, median and quartile
 band per method)."""
+
 from __future__ import annotations
 
 import csv
@@ -45,23 +46,41 @@ def _write_csv(rows: Sequence[Mapping[str, Any]], path: Path) -> None:
         writer.writerows({k: ("" if v is None else v) for k, v in row.items()} for row in rows)
 
 
-def write_tables(runs: Sequence[RunOutcome], summaries: Sequence[MethodSummary], pairs: Sequence[PairTest],
-                 folder: Path, success_distance: float, budget_episodes: int) -> None:
+def write_tables(
+    runs: Sequence[RunOutcome],
+    summaries: Sequence[MethodSummary],
+    pairs: Sequence[PairTest],
+    folder: Path,
+    success_distance: float,
+    budget_episodes: int,
+) -> None:
     """runs.csv, summary.csv, pairs.csv and comparison.md."""
     _write_csv([r.row() for r in runs], folder / "runs.csv")
     _write_csv([asdict(s) for s in summaries], folder / "summary.csv")
     _write_csv([{**asdict(p), "significant": p.significant()} for p in pairs], folder / "pairs.csv")
-    lines = [f"Final best distance (m) in 15 s over seeds, {budget_episodes} search episodes per run; success: "
-             f"the best walks >= {success_distance:g} m and did not fall in its stability check.", "",
-             "| method | seeds | median | IQR | best | success |", "|---|---:|---:|---:|---:|---:|"]
+    lines = [
+        f"Final best distance (m) in 15 s over seeds, {budget_episodes} search episodes per run; success: "
+        f"the best walks >= {success_distance:g} m and did not fall in its stability check.",
+        "",
+        "| method | seeds | median | IQR | best | success |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
     for s in sorted(summaries, key=lambda s: -s.median):
-        lines.append(f"| {s.method} | {s.seeds} | {s.median:.2f} | {s.q1:.2f}-{s.q3:.2f} | {s.best:.2f} | "
-                     f"{s.success:.0%} |")
-    lines += ["", "Pairwise two-sided Mann-Whitney U, Holm-corrected; effect: rank-biserial r (> 0: the first "
-              "walks farther).", "", "| a | b | U | p | p (Holm) | r | |", "|---|---|---:|---:|---:|---:|---|"]
+        lines.append(
+            f"| {s.method} | {s.seeds} | {s.median:.2f} | {s.q1:.2f}-{s.q3:.2f} | {s.best:.2f} | {s.success:.0%} |"
+        )
+    lines += [
+        "",
+        "Pairwise two-sided Mann-Whitney U, Holm-corrected; effect: rank-biserial r (> 0: the first walks farther).",
+        "",
+        "| a | b | U | p | p (Holm) | r | |",
+        "|---|---|---:|---:|---:|---:|---|",
+    ]
     for p in pairs:
-        lines.append(f"| {p.a} | {p.b} | {p.u:g} | {p.p:.3g} | {p.p_holm:.3g} | {p.effect:+.2f} | "
-                     f"{'significant' if p.significant() else ''} |")
+        lines.append(
+            f"| {p.a} | {p.b} | {p.u:g} | {p.p:.3g} | {p.p_holm:.3g} | {p.effect:+.2f} | "
+            f"{'significant' if p.significant() else ''} |"
+        )
     (folder / "comparison.md").write_text("\n".join(lines) + "\n")
 
 
@@ -76,7 +95,7 @@ def plot_convergence(runs: Sequence[RunOutcome], path: Path) -> None:
         values = np.array([c[:length] for c in curves])
         q1, median, q3 = np.percentile(values, [25, 50, 75], axis=0)
         episodes = np.arange(1, length + 1)
-        line, = ax.plot(episodes, median, label=f"{method} ({len(curves)} seeds)")
+        (line,) = ax.plot(episodes, median, label=f"{method} ({len(curves)} seeds)")
         ax.fill_between(episodes, q1, q3, color=line.get_color(), alpha=0.2)
     ax.set_xlabel("episodes")
     ax.set_ylabel("best distance so far (m in 15 s)")

@@ -5,6 +5,7 @@ a search's best are skewed and bounded below); Holm's step-down correction for t
 pairwise tests; the effect size is the rank-biserial correlation r = 2 U / (n1 n2) - 1 (the
 probability that the first method beats the second, minus the reverse), in -1 ... 1.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -33,8 +34,15 @@ class MethodSummary:
 def summarise(method: str, distances: Sequence[float], successes: Sequence[bool]) -> MethodSummary:
     values = np.asarray(distances, dtype=float)
     q1, median, q3 = np.percentile(values, [25, 50, 75])
-    return MethodSummary(method, len(values), float(median), float(q1), float(q3), float(values.max()),
-                         float(np.mean(successes)) if len(successes) else 0.0)
+    return MethodSummary(
+        method,
+        len(values),
+        float(median),
+        float(q1),
+        float(q3),
+        float(values.max()),
+        float(np.mean(successes)) if len(successes) else 0.0,
+    )
 
 
 @dataclass(frozen=True)

@@ -5,16 +5,26 @@ stand-in measured against the real server (``fidelity``).
 
 ``python -m optimizer.episode`` walks one gait from the command line (``optimizer.cli.episode``).
 """
+
 from optimizer.episode.config import (
-           DEFAULT_START,
-           EpisodeConfig,
-           EpisodeResult,
-           Start,
-           start_problem_on_real_server,
+    DEFAULT_START,
+    EpisodeConfig,
+    EpisodeResult,
+    Start,
+    start_problem_on_real_server,
 )
 from optimizer.episode.runner import EpisodeRunner
 from optimizer.episode.scoring import Judge, TracePoint
 from optimizer.episode.servers import ServerAddress
 
-__all__ = ["DEFAULT_START", "EpisodeConfig", "EpisodeResult", "EpisodeRunner", "Judge", "ServerAddress", "Start",
-           "TracePoint", "start_problem_on_real_server"]
+__all__ = [
+    "DEFAULT_START",
+    "EpisodeConfig",
+    "EpisodeResult",
+    "EpisodeRunner",
+    "Judge",
+    "ServerAddress",
+    "Start",
+    "TracePoint",
+    "start_problem_on_real_server",
+]

@@ -1,5 +1,6 @@
 """What an episode is: where it starts, how long it walks, when the robot counts as fallen, and
 what it gives back."""
+
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
@@ -25,9 +26,11 @@ def start_problem_on_real_server(start: Start) -> str | None:
     """Why a real server would not leave a robot beamed to ``start`` where it was put (None when
     it would): its referee clears the opponent half before kick-off."""
     if start[0] > -_REFEREE_MARGIN:
-        return (f"x = {start[0]:g} m: a real server's referee moves a left-team robot within "
-                f"{_REFEREE_MARGIN:g} m of the centre line (or past it) 2.5 m back before kick-off, so the walk "
-                f"would not start there; start at x <= {-_REFEREE_MARGIN:g} (default {DEFAULT_START[0]:g})")
+        return (
+            f"x = {start[0]:g} m: a real server's referee moves a left-team robot within "
+            f"{_REFEREE_MARGIN:g} m of the centre line (or past it) 2.5 m back before kick-off, so the walk "
+            f"would not start there; start at x <= {-_REFEREE_MARGIN:g} (default {DEFAULT_START[0]:g})"
+        )
     return None
 
 

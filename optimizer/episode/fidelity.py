@@ -16,6 +16,7 @@ fall, and how far the heading changes are apart (a factor, with a few degrees of
 straight walks compare as equal). ``bench/bench_fidelity.py`` is the command; the gait sets live in
 ``bench/fidelity_gaits/`` (made by ``bench/make_fidelity_gaits.py``).
 """
+
 from __future__ import annotations
 
 import csv
@@ -54,6 +55,7 @@ FAST_REAL: tuple[float, ...] = (14.95, 16.83, 37.56, 24.10, 69.99, 0.2346, 22.44
 
 # ----- gait sets -----
 
+
 @dataclass(frozen=True)
 class FidelityGait:
     """One gait of a set: its name, the family it was drawn from (line, neighbour, random, found,
@@ -71,16 +73,22 @@ class FidelityGait:
         return TFSParams.from_array(np.asarray(self.genes))
 
     def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "family": self.family, "how": self.how,
-                "params": dict(zip(GENE_NAMES, self.genes)), "screen": dict(self.screen)}
+        return {
+            "name": self.name,
+            "family": self.family,
+            "how": self.how,
+            "params": dict(zip(GENE_NAMES, self.genes)),
+            "screen": dict(self.screen),
+        }
 
     @classmethod
     def from_dict(cls, item: Mapping[str, Any]) -> FidelityGait:
         params = item["params"]
         genes = tuple(float(params[name]) for name in GENE_NAMES)
         TFSParams(*genes)  # a set holding a gait that breaks eq. 5 is refused on load
-        return cls(str(item["name"]), str(item["family"]), genes, str(item.get("how", "")),
-                   dict(item.get("screen", {})))
+        return cls(
+            str(item["name"]), str(item["family"]), genes, str(item.get("how", "")), dict(item.get("screen", {}))
+        )
 
 
 def load_gait_set(path: Path) -> list[FidelityGait]:
@@ -120,7 +128,7 @@ def heading_change(track: Sequence[TracePoint], upright_up_z: float = UPRIGHT_UP
     upright = [i for i, p in enumerate(track) if p.up_z >= upright_up_z]
     if len(track) < 2 or not upright:
         return 0.0
-    headings = np.unwrap(np.radians([p.heading for p in track[:upright[-1] + 1]]))
+    headings = np.unwrap(np.radians([p.heading for p in track[: upright[-1] + 1]]))
     return float(math.degrees(headings[-1] - headings[0]))
 
 
@@ -151,22 +159,30 @@ class Walk:
         return self.time if self.fell else None
 
     @classmethod
-    def from_episode(cls, distance: float, fell: bool, time: float, status: str,
-                     track: Sequence[TracePoint], heading_deg: float) -> Walk:
-        return cls(distance, fell, time, sideways_drift(track, heading_deg), heading_change(track), status,
-                   tuple(track))
+    def from_episode(
+        cls, distance: float, fell: bool, time: float, status: str, track: Sequence[TracePoint], heading_deg: float
+    ) -> Walk:
+        return cls(
+            distance, fell, time, sideways_drift(track, heading_deg), heading_change(track), status, tuple(track)
+        )
 
     def to_dict(self, with_track: bool = True) -> dict[str, Any]:
-        out: dict[str, Any] = {"distance": self.distance, "fell": self.fell, "time": self.time, "drift": self.drift,
-                               "heading_change": self.heading_change, "status": self.status}
+        out: dict[str, Any] = {
+            "distance": self.distance,
+            "fell": self.fell,
+            "time": self.time,
+            "drift": self.drift,
+            "heading_change": self.heading_change,
+            "status": self.status,
+        }
         if with_track:
             # (game_time, x, y, z, up_z, heading): 4 decimals keep a 15-s track to ~20 kB
-            out["track"] = [[round(v, 4) for v in (p.game_time, p.x, p.y, p.z, p.up_z, p.heading)]
-                            for p in self.track]
+            out["track"] = [[round(v, 4) for v in (p.game_time, p.x, p.y, p.z, p.up_z, p.heading)] for p in self.track]
         return out
 
 
 # ----- statistics (pure: the tests check them on data with known answers) -----
+
 
 def spearman(xs: Sequence[float], ys: Sequence[float]) -> float:
     """Spearman rank correlation; NaN where it is undefined (fewer than 3 pairs, or one side constant)."""
@@ -207,6 +223,7 @@ def fell_in_majority(falls: int, walks: int) -> bool:
 
 
 # ----- one gait on both servers -----
+
 
 @dataclass(frozen=True)
 class FidelityTargets:
@@ -264,11 +281,15 @@ class GaitComparison:
         real_fall_times = [w.time for w in ran if w.fell]
         ratio = self.ratio()
         out: dict[str, Any] = {
-            "gait": self.gait.name, "family": self.gait.family,
-            "stand_distance_m": self.stand_in.distance, "stand_fell": self.stand_in.fell,
-            "stand_fall_time_s": self.stand_in.fall_time, "stand_drift_m": self.stand_in.drift,
+            "gait": self.gait.name,
+            "family": self.gait.family,
+            "stand_distance_m": self.stand_in.distance,
+            "stand_fell": self.stand_in.fell,
+            "stand_fall_time_s": self.stand_in.fall_time,
+            "stand_drift_m": self.stand_in.drift,
             "stand_heading_change_deg": self.stand_in.heading_change,
-            "real_walks": len(ran), "real_falls": self.real_falls,
+            "real_walks": len(ran),
+            "real_falls": self.real_falls,
             "real_fell": self.real_fell if ran else None,
             "real_min_m": min((w.distance for w in ran), default=None),
             "real_mean_m": self.real_mean("distance") if ran else None,
@@ -276,23 +297,45 @@ class GaitComparison:
             "real_fall_time_s": statistics.fmean(real_fall_times) if real_fall_times else None,
             "real_drift_m": self.real_mean("drift") if ran else None,
             "real_heading_change_deg": self.real_mean("heading_change") if ran else None,
-            "ratio": ratio, "ratio_error": None if ratio is None else abs(1.0 - ratio),
+            "ratio": ratio,
+            "ratio_error": None if ratio is None else abs(1.0 - ratio),
             "walks_on_real": self.walks_on_real(targets),
-            "turn_factor": (turn_factor(self.stand_in.heading_change, self.real_mean("heading_change"),
-                                        targets.turn_slack) if self.comparable else None),
+            "turn_factor": (
+                turn_factor(self.stand_in.heading_change, self.real_mean("heading_change"), targets.turn_slack)
+                if self.comparable
+                else None
+            ),
         }
         out.update({f"gene_{n}": g for n, g in zip(GENE_NAMES, self.gait.genes)})
         return out
 
 
 CSV_COLUMNS: tuple[str, ...] = (
-    "gait", "family", "stand_distance_m", "stand_fell", "stand_fall_time_s", "stand_drift_m",
-    "stand_heading_change_deg", "real_walks", "real_falls", "real_fell", "real_min_m", "real_mean_m", "real_max_m",
-    "real_fall_time_s", "real_drift_m", "real_heading_change_deg", "ratio", "ratio_error", "walks_on_real",
-    "turn_factor") + tuple(f"gene_{n}" for n in GENE_NAMES)
+    "gait",
+    "family",
+    "stand_distance_m",
+    "stand_fell",
+    "stand_fall_time_s",
+    "stand_drift_m",
+    "stand_heading_change_deg",
+    "real_walks",
+    "real_falls",
+    "real_fell",
+    "real_min_m",
+    "real_mean_m",
+    "real_max_m",
+    "real_fall_time_s",
+    "real_drift_m",
+    "real_heading_change_deg",
+    "ratio",
+    "ratio_error",
+    "walks_on_real",
+    "turn_factor",
+) + tuple(f"gene_{n}" for n in GENE_NAMES)
 
 
 # ----- over a set -----
+
 
 @dataclass(frozen=True)
 class FidelitySummary:
@@ -336,8 +379,7 @@ def summarize(comparisons: Sequence[GaitComparison], targets: FidelityTargets = 
     rows = [c for c in comparisons if c.comparable]
     walking = [c for c in rows if c.walks_on_real(targets)]
     errors = [ratio_error(c.stand_in.distance, c.real_mean("distance")) for c in walking]
-    turns = [turn_factor(c.stand_in.heading_change, c.real_mean("heading_change"), targets.turn_slack)
-             for c in walking]
+    turns = [turn_factor(c.stand_in.heading_change, c.real_mean("heading_change"), targets.turn_slack) for c in walking]
     real_walks = sum(len(c.real_ran) for c in rows)
     return FidelitySummary(
         gaits=len(rows),
@@ -353,6 +395,7 @@ def summarize(comparisons: Sequence[GaitComparison], targets: FidelityTargets = 
 
 
 # ----- running -----
+
 
 def real_server_or_none() -> str | None:
     """The real server's command (``RCSSSERVER3D``, then PATH), or None after saying on stderr
@@ -387,8 +430,13 @@ class FidelityConfig:
 Progress = Callable[[str, FidelityGait, int, Walk], None]
 
 
-def walk_gaits(runner: EpisodeRunner, gaits: Sequence[FidelityGait], repeats: int,
-               progress: Progress | None = None, label: str = "") -> list[list[Walk]]:
+def walk_gaits(
+    runner: EpisodeRunner,
+    gaits: Sequence[FidelityGait],
+    repeats: int,
+    progress: Progress | None = None,
+    label: str = "",
+) -> list[list[Walk]]:
     """Walk each gait ``repeats`` times on one runner (made with ``trace=True``), from its config's start."""
     if not runner.trace:
         raise ValueError("walk_gaits needs an EpisodeRunner made with trace=True")
@@ -397,8 +445,9 @@ def walk_gaits(runner: EpisodeRunner, gaits: Sequence[FidelityGait], repeats: in
         walks = []
         for repeat in range(repeats):
             result = runner.evaluate(gait.params)
-            walk = Walk.from_episode(result.distance, result.fell, result.time, result.status,
-                                     runner.last_trace or (), runner.config.heading)
+            walk = Walk.from_episode(
+                result.distance, result.fell, result.time, result.status, runner.last_trace or (), runner.config.heading
+            )
             walks.append(walk)
             if progress is not None:
                 progress(label, gait, repeat, walk)
@@ -406,8 +455,12 @@ def walk_gaits(runner: EpisodeRunner, gaits: Sequence[FidelityGait], repeats: in
     return out
 
 
-def compare(gaits: Sequence[FidelityGait], real_command: str, config: FidelityConfig = FidelityConfig(),
-            progress: Progress | None = None) -> list[GaitComparison]:
+def compare(
+    gaits: Sequence[FidelityGait],
+    real_command: str,
+    config: FidelityConfig = FidelityConfig(),
+    progress: Progress | None = None,
+) -> list[GaitComparison]:
     """Walk ``gaits`` once each on the embedded stand-in, then ``config.real_repeats`` times each on
     a real server started here from ``real_command`` (stopped with ``(killsim)``, then SIGKILL).
     One server is alive at a time, so neither slows the other's walks."""
@@ -423,6 +476,7 @@ def compare(gaits: Sequence[FidelityGait], real_command: str, config: FidelityCo
 
 # ----- output -----
 
+
 def _fmt(value: Any, digits: int = 3) -> str:
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return "-"
@@ -437,15 +491,36 @@ def write_csv(comparisons: Sequence[GaitComparison], path: Path, targets: Fideli
             writer.writerow({k: ("" if v is None else v) for k, v in c.row(targets).items()})
 
 
-def write_tracks(comparisons: Sequence[GaitComparison], summary: FidelitySummary, config: FidelityConfig,
-                 path: Path, about: Mapping[str, Any]) -> None:
+def write_tracks(
+    comparisons: Sequence[GaitComparison],
+    summary: FidelitySummary,
+    config: FidelityConfig,
+    path: Path,
+    about: Mapping[str, Any],
+) -> None:
     """Everything: the settings, the figures, and per gait every walk with its torso track."""
-    write_json(Path(path), {
-        "format": "fidelity-run/1", **about, "real_repeats": config.real_repeats, "walk_time": config.walk_time,
-        "start": list(config.start), "targets": config.targets.__dict__, "summary": summary.to_dict(),
-        "track_columns": ["game_time", "x", "y", "z", "up_z", "heading"],
-        "gaits": [{**c.gait.to_dict(), "row": c.row(config.targets), "stand_in": c.stand_in.to_dict(),
-                   "real": [w.to_dict() for w in c.real]} for c in comparisons]})
+    write_json(
+        Path(path),
+        {
+            "format": "fidelity-run/1",
+            **about,
+            "real_repeats": config.real_repeats,
+            "walk_time": config.walk_time,
+            "start": list(config.start),
+            "targets": config.targets.__dict__,
+            "summary": summary.to_dict(),
+            "track_columns": ["game_time", "x", "y", "z", "up_z", "heading"],
+            "gaits": [
+                {
+                    **c.gait.to_dict(),
+                    "row": c.row(config.targets),
+                    "stand_in": c.stand_in.to_dict(),
+                    "real": [w.to_dict() for w in c.real],
+                }
+                for c in comparisons
+            ],
+        },
+    )
 
 
 def read_run(path: Path) -> tuple[list[GaitComparison], dict[str, Any]]:
@@ -457,13 +532,17 @@ def read_run(path: Path) -> tuple[list[GaitComparison], dict[str, Any]]:
     def walk(item: Mapping[str, Any]) -> Walk:
         track = [TracePoint(*point) for point in item.get("track", [])]
         if not track:
-            return Walk(item["distance"], item["fell"], item["time"], item["drift"], item["heading_change"],
-                        item["status"])
-        return Walk.from_episode(item["distance"], item["fell"], item["time"], item["status"], track,
-                                 float(document["start"][2]))
+            return Walk(
+                item["distance"], item["fell"], item["time"], item["drift"], item["heading_change"], item["status"]
+            )
+        return Walk.from_episode(
+            item["distance"], item["fell"], item["time"], item["status"], track, float(document["start"][2])
+        )
 
-    return [GaitComparison(FidelityGait.from_dict(g), walk(g["stand_in"]), tuple(walk(w) for w in g["real"]))
-            for g in document["gaits"]], document
+    return [
+        GaitComparison(FidelityGait.from_dict(g), walk(g["stand_in"]), tuple(walk(w) for w in g["real"]))
+        for g in document["gaits"]
+    ], document
 
 
 def plot(comparisons: Sequence[GaitComparison], path: Path, summary: FidelitySummary) -> None:
@@ -471,8 +550,12 @@ def plot(comparisons: Sequence[GaitComparison], path: Path, summary: FidelitySum
     colour by who fell, so a fall disagreement shows at a glance."""
     fig = Figure(figsize=(7.0, 6.0), layout="constrained")
     ax = fig.add_subplot()
-    styles = {(False, False): ("tab:blue", "neither fell"), (True, True): ("tab:grey", "both fell"),
-              (True, False): ("tab:red", "only the stand-in fell"), (False, True): ("tab:orange", "only real fell")}
+    styles = {
+        (False, False): ("tab:blue", "neither fell"),
+        (True, True): ("tab:grey", "both fell"),
+        (True, False): ("tab:red", "only the stand-in fell"),
+        (False, True): ("tab:orange", "only real fell"),
+    }
     labelled: set[tuple[bool, bool]] = set()
     top = 1.0
     for c in (c for c in comparisons if c.comparable):
@@ -480,25 +563,37 @@ def plot(comparisons: Sequence[GaitComparison], path: Path, summary: FidelitySum
         x, y = c.stand_in.distance, c.real_mean("distance")
         key = (c.stand_in.fell, c.real_fell)
         colour, label = styles[key]
-        ax.errorbar([x], [y], yerr=[[max(0.0, y - min(distances))], [max(0.0, max(distances) - y)]], fmt="o",
-                    capsize=3, color=colour, label=None if key in labelled else label)
+        ax.errorbar(
+            [x],
+            [y],
+            yerr=[[max(0.0, y - min(distances))], [max(0.0, max(distances) - y)]],
+            fmt="o",
+            capsize=3,
+            color=colour,
+            label=None if key in labelled else label,
+        )
         labelled.add(key)
         top = max(top, x, max(distances))
     ax.plot([0, top * 1.05], [0, top * 1.05], linestyle="--", color="grey", label="same distance")
     ax.set_xlabel("stand-in: distance in 15 s (m)")
     ax.set_ylabel("real rcssserver3d: distance (m), mean and range of its walks")
-    ax.set_title(f"Fidelity: Spearman {_fmt(summary.spearman, 2)}, fall agreement "
-                 f"{_fmt(summary.fall_agreement, 2)}, {summary.gaits} gaits")
+    ax.set_title(
+        f"Fidelity: Spearman {_fmt(summary.spearman, 2)}, fall agreement "
+        f"{_fmt(summary.fall_agreement, 2)}, {summary.gaits} gaits"
+    )
     ax.grid(alpha=0.3)
     ax.legend(loc="upper left", fontsize="small")
     fig.savefig(path, dpi=110)
 
 
-def report(comparisons: Sequence[GaitComparison], summary: FidelitySummary,
-           targets: FidelityTargets = FidelityTargets()) -> str:
+def report(
+    comparisons: Sequence[GaitComparison], summary: FidelitySummary, targets: FidelityTargets = FidelityTargets()
+) -> str:
     """The per-gait table and the figures, as printed by the benchmark."""
-    lines = [f"{'gait':<22} {'stand-in m':>10} {'fell@s':>7} {'real mean m':>11} {'range':>13} {'falls':>6} "
-             f"{'ratio':>6} {'turn s/r deg':>14} {'drift s/r m':>13}"]
+    lines = [
+        f"{'gait':<22} {'stand-in m':>10} {'fell@s':>7} {'real mean m':>11} {'range':>13} {'falls':>6} "
+        f"{'ratio':>6} {'turn s/r deg':>14} {'drift s/r m':>13}"
+    ]
     for c in comparisons:
         r = c.row(targets)
         rng = f"{_fmt(r['real_min_m'], 2)}-{_fmt(r['real_max_m'], 2)}"
@@ -507,7 +602,8 @@ def report(comparisons: Sequence[GaitComparison], summary: FidelitySummary,
             f"{_fmt(r['real_mean_m'], 2):>11} {rng:>13} {r['real_falls']}/{r['real_walks']:<4} "
             f"{_fmt(r['ratio'], 2):>6} "
             f"{_fmt(r['stand_heading_change_deg'], 0):>6}/{_fmt(r['real_heading_change_deg'], 0):<7} "
-            f"{_fmt(r['stand_drift_m'], 2):>6}/{_fmt(r['real_drift_m'], 2):<6}")
+            f"{_fmt(r['stand_drift_m'], 2):>6}/{_fmt(r['real_drift_m'], 2):<6}"
+        )
     s = summary
     lines += [
         "",
@@ -530,5 +626,9 @@ def print_progress(label: str, gait: FidelityGait, repeat: int, walk: Walk) -> N
     what = f"fell at {walk.time:.2f} s" if walk.fell else "stood"
     if walk.status != "ok":
         what = f"could not be run ({walk.status})"
-    print(f"  {label:<8} {gait.name:<22} #{repeat + 1}: {walk.distance:6.2f} m, {what}, turned "
-          f"{walk.heading_change:+.0f} deg", file=sys.stderr, flush=True)
+    print(
+        f"  {label:<8} {gait.name:<22} #{repeat + 1}: {walk.distance:6.2f} m, {what}, turned "
+        f"{walk.heading_change:+.0f} deg",
+        file=sys.stderr,
+        flush=True,
+    )

@@ -1,4 +1,5 @@
 """A trainer's link to a server's monitor port: commands out, monitor states in."""
+
 from __future__ import annotations
 
 import select

@@ -11,6 +11,7 @@ SIGKILL. It runs in a process group of its own (a Ctrl-C at the terminal does no
 owner stops it), and on Linux the kernel kills it when the process that started it dies, however
 that process died.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -53,7 +54,8 @@ def find_rcssserver3d(environ: dict[str, str] | None = None) -> str:
     if found is None:
         raise RealServerError(
             f"no real rcssserver3d found: set {RCSSSERVER3D_ENV} to the server binary or to a wrapper such as "
-            f"rcss-sync, or put {RCSSSERVER3D_NAME} on PATH")
+            f"rcss-sync, or put {RCSSSERVER3D_NAME} on PATH"
+        )
     return found
 
 
@@ -111,8 +113,10 @@ def write_sync_profile(share: Path, home: Path) -> Path:
         for setting in (s for s in SYNC_PROFILE if s.file == name):
             text, count = re.subn(setting.pattern, setting.replacement, text, flags=re.MULTILINE)
             if count == 0:
-                raise RealServerError(f"cannot make the sync profile: {share / installed} has no line "
-                                      f"matching {setting.pattern!r} (another rcssserver3d version?)")
+                raise RealServerError(
+                    f"cannot make the sync profile: {share / installed} has no line "
+                    f"matching {setting.pattern!r} (another rcssserver3d version?)"
+                )
         path = target / name
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(text)
@@ -197,20 +201,30 @@ class RealServerProcess(ServerProcess):
         try:
             self._process = subprocess.Popen(
                 [self.command, "--agent-port", str(address.agent_port), "--server-port", str(address.monitor_port)],
-                cwd=home, env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
-                process_group=0, preexec_fn=_die_with_parent())
+                cwd=home,
+                env=env,
+                stdin=subprocess.DEVNULL,
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                process_group=0,
+                preexec_fn=_die_with_parent(),
+            )
         finally:
             log.close()
         self.address = address
         deadline = time.monotonic() + self.start_timeout
         while not _listening(address):
             if self._process.poll() is not None:
-                raise RealServerError(f"{self.command} exited with code {self._process.returncode} before "
-                                      f"opening ports {address.agent_port}/{address.monitor_port}: "
-                                      f"{_tail(home / 'server.log')}")
+                raise RealServerError(
+                    f"{self.command} exited with code {self._process.returncode} before "
+                    f"opening ports {address.agent_port}/{address.monitor_port}: "
+                    f"{_tail(home / 'server.log')}"
+                )
             if time.monotonic() > deadline:
-                raise RealServerError(f"{self.command} did not open ports {address.agent_port}/"
-                                      f"{address.monitor_port} within {self.start_timeout:g} s")
+                raise RealServerError(
+                    f"{self.command} did not open ports {address.agent_port}/"
+                    f"{address.monitor_port} within {self.start_timeout:g} s"
+                )
             time.sleep(0.1)
 
     def stop(self) -> None:

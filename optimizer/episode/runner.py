@@ -13,6 +13,7 @@ ever ending, so thousands of episodes run on one server.
 
 ``python -m optimizer.episode`` evaluates one gait from the command line.
 """
+
 from __future__ import annotations
 
 import logging
@@ -68,8 +69,13 @@ class EpisodeRunner:
     same either way.
     """
 
-    def __init__(self, config: EpisodeConfig = EpisodeConfig(),
-                 server: ServerAddress | ManagedServer | None = None, seed: int = 0, trace: bool = False) -> None:
+    def __init__(
+        self,
+        config: EpisodeConfig = EpisodeConfig(),
+        server: ServerAddress | ManagedServer | None = None,
+        seed: int = 0,
+        trace: bool = False,
+    ) -> None:
         self.config = config
         self.trace = trace
         #: the torso track of the last episode evaluated (empty if it failed), when ``trace`` is on
@@ -84,8 +90,9 @@ class EpisodeRunner:
         self._tmp = tempfile.TemporaryDirectory(prefix="gala_episode_")
 
     # ----- public -----
-    def evaluate(self, genes: Sequence[float] | TFSParams, seed: int | None = None,
-                 start: Start | None = None) -> EpisodeResult:
+    def evaluate(
+        self, genes: Sequence[float] | TFSParams, seed: int | None = None, start: Start | None = None
+    ) -> EpisodeResult:
         """Walk ``genes`` once, from ``start`` (x, y, heading) if given, else from the config's.
         ``seed`` is accepted for the evaluator's bookkeeping; no outcome depends on it: the
         physics is deterministic and the walking agent uses no vision, the only noisy sensor."""
@@ -141,8 +148,11 @@ class EpisodeRunner:
     def _prepare(self, link: MonitorLink, config: EpisodeConfig) -> None:
         """Reset what a long-running server carries over from the previous episode."""
         sx, sy = config.start
-        link.send(trainer.play_mode("BeforeKickOff"), trainer.set_time(0.0),
-                  trainer.ball((sx, sy + 5.0, 0.042), (0.0, 0.0, 0.0)))
+        link.send(
+            trainer.play_mode("BeforeKickOff"),
+            trainer.set_time(0.0),
+            trainer.ball((sx, sy + 5.0, 0.042), (0.0, 0.0, 0.0)),
+        )
         link.poll()
 
     def _agent_config(self, address: ServerAddress, config: EpisodeConfig) -> AgentConfig:
@@ -150,10 +160,18 @@ class EpisodeRunner:
         # our own stub answers scene at once; a (syn) nudge racing its first perception would let
         # it step once more before init and make episodes depend on timing
         nudge = None if isinstance(self._owned, StubProcess) else AgentConfig.syn_nudge_interval
-        return AgentConfig(host=address.host, port=address.agent_port, team=config.team,
-                           unum=config.unum, beam=(sx, sy, config.heading), sync=True,
-                           duration=None, start_now=True, timeout=config.episode_timeout,
-                           syn_nudge_interval=nudge)
+        return AgentConfig(
+            host=address.host,
+            port=address.agent_port,
+            team=config.team,
+            unum=config.unum,
+            beam=(sx, sy, config.heading),
+            sync=True,
+            duration=None,
+            start_now=True,
+            timeout=config.episode_timeout,
+            syn_nudge_interval=nudge,
+        )
 
     def _episode(self, params: TFSParams, config: EpisodeConfig) -> EpisodeResult:
         address = self._address()
@@ -169,8 +187,9 @@ class EpisodeRunner:
         self.last_trace = judge.trace
         return judge.result
 
-    def _run_inprocess(self, params: TFSParams, address: ServerAddress, link: MonitorLink,
-                       judge: Judge, deadline: float) -> None:
+    def _run_inprocess(
+        self, params: TFSParams, address: ServerAddress, link: MonitorLink, judge: Judge, deadline: float
+    ) -> None:
         config = self._agent_config(address, judge.config)
         agent = NaoAgent(config, gait=params)
         agent.connect()
@@ -192,17 +211,38 @@ class EpisodeRunner:
             agent.close()
         self._await_robot_gone(link, deadline)
 
-    def _run_process(self, params: TFSParams, address: ServerAddress, link: MonitorLink,
-                     judge: Judge, deadline: float) -> None:
+    def _run_process(
+        self, params: TFSParams, address: ServerAddress, link: MonitorLink, judge: Judge, deadline: float
+    ) -> None:
         gait_file = save_gait(params, Path(self._tmp.name) / "gait.json")
         config = judge.config
         sx, sy = config.start
-        command = [sys.executable, "-m", "agent", "--host", address.host, "--port", str(address.agent_port),
-                   "--team", config.team, "--unum", str(config.unum), "--gait", str(gait_file),
-                   "--beam", str(sx), str(sy), str(config.heading), "--sync", "--start-now",
-                   "--timeout", str(config.episode_timeout)]
-        process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                                   env=dict(os.environ))
+        command = [
+            sys.executable,
+            "-m",
+            "agent",
+            "--host",
+            address.host,
+            "--port",
+            str(address.agent_port),
+            "--team",
+            config.team,
+            "--unum",
+            str(config.unum),
+            "--gait",
+            str(gait_file),
+            "--beam",
+            str(sx),
+            str(sy),
+            str(config.heading),
+            "--sync",
+            "--start-now",
+            "--timeout",
+            str(config.episode_timeout),
+        ]
+        process = subprocess.Popen(
+            command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=dict(os.environ)
+        )
         try:
             # an agent process walks by its own count after settling; PlayOn starts the game clock
             # once the robot has its team (init done) and has stood for the settling time, counted
@@ -220,8 +260,10 @@ class EpisodeRunner:
                             play_on_sent = True
                     judge.feed(state)
                 if process.poll() is not None:
-                    raise EpisodeFailure(f"agent process exited early ({process.returncode}): "
-                                         f"{(process.stderr.read() if process.stderr else '').strip()}")
+                    raise EpisodeFailure(
+                        f"agent process exited early ({process.returncode}): "
+                        f"{(process.stderr.read() if process.stderr else '').strip()}"
+                    )
                 if time.monotonic() > deadline:
                     raise EpisodeFailure(f"no result within {judge.config.episode_timeout:g} s")
             link.send(trainer.kill(config.unum, "Left"))

@@ -6,6 +6,7 @@ community's run-benchmark rule) or when ``walk_time`` seconds of game time have 
 ``Judge`` is fed the monitor states in order and decides from their content alone, so the outcome
 does not depend on when the states happen to be read.
 """
+
 from __future__ import annotations
 
 import math

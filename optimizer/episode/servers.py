@@ -5,6 +5,7 @@ The optimizer talks to servers only through their public interfaces: it starts t
 process (``python -m server_stub``) on free ports and reads the ports it prints; a server run
 elsewhere is just an address.
 """
+
 from __future__ import annotations
 
 import os
@@ -103,10 +104,27 @@ class StubProcess(ServerProcess):
         # episodes, so an episode's walk would depend on how many ran before it on that worker
         # (and a resumed or Dask run would differ); a stability check moves the start itself,
         # from a seed of its own key, which works on any server
-        command = [sys.executable, "-m", "server_stub", "--sync", "--no-realtime", "--no-beam-noise", "--agent-port",
-                   "0", "--monitor-port", "0", "--seed", str(self.seed), "--exit-with-parent"]
+        command = [
+            sys.executable,
+            "-m",
+            "server_stub",
+            "--sync",
+            "--no-realtime",
+            "--no-beam-noise",
+            "--agent-port",
+            "0",
+            "--monitor-port",
+            "0",
+            "--seed",
+            str(self.seed),
+            "--exit-with-parent",
+        ]
         self._process = subprocess.Popen(
-            command, stdout=subprocess.PIPE, stderr=None, text=True, env=dict(os.environ),
+            command,
+            stdout=subprocess.PIPE,
+            stderr=None,
+            text=True,
+            env=dict(os.environ),
         )
         assert self._process.stdout is not None
         ready, _, _ = select.select([self._process.stdout], [], [], self.start_timeout)
@@ -115,7 +133,7 @@ class StubProcess(ServerProcess):
             code = self._process.poll()
             self.stop()
             raise ServerStartError(f"server_stub did not start (exit code {code}, said {line.strip()!r})")
-        ports = line[len(_LISTENING):].split(", monitor port ")
+        ports = line[len(_LISTENING) :].split(", monitor port ")
         self.address = ServerAddress("127.0.0.1", int(ports[0]), int(ports[1]))
 
     def stop(self) -> None:

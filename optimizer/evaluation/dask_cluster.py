@@ -11,6 +11,7 @@ tables, plots and ``--resume`` are the driver's business and work as in local mo
 
 Requires the optional extra: ``pip install ".[dask]"``.
 """
+
 from __future__ import annotations
 
 import os
@@ -74,16 +75,24 @@ class DaskEvaluator:
     """The ``Evaluator`` of ``optimizer.evaluation.pool`` on a Dask cluster: an existing scheduler, or a
     ``LocalCluster`` of ``local_workers`` single-threaded worker processes started here."""
 
-    def __init__(self, config: EpisodeConfig, seed: int, *, scheduler: str | None = None,
-                 local_workers: int | None = None, servers: Mapping[str, str] | None = None,
-                 real: bool = False) -> None:
+    def __init__(
+        self,
+        config: EpisodeConfig,
+        seed: int,
+        *,
+        scheduler: str | None = None,
+        local_workers: int | None = None,
+        servers: Mapping[str, str] | None = None,
+        real: bool = False,
+    ) -> None:
         if (scheduler is None) == (local_workers is None):
             raise ValueError("give exactly one of scheduler and local_workers")
         self._cluster = None
         if local_workers is not None:
             # one thread per worker: a runner drives one robot at a time
-            self._cluster = LocalCluster(n_workers=local_workers, threads_per_worker=1, processes=True,
-                                         dashboard_address=None)
+            self._cluster = LocalCluster(
+                n_workers=local_workers, threads_per_worker=1, processes=True, dashboard_address=None
+            )
             self._client = Client(self._cluster)
         else:
             self._client = Client(scheduler)

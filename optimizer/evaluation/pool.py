@@ -14,6 +14,7 @@ server, an agent process) can be killed with it: a worker that dies or hangs is 
 restarted, and its episode retried once; a second loss records the episode as failed, with the
 reason, and the search goes on.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -60,8 +61,16 @@ class EpisodeTask:
 def failed_result(reason: str, wall: float) -> dict[str, Any]:
     """The result of an episode that could not be run, shaped like ``EpisodeResult.to_dict()``
     with the runner's own convention for a failure (status "failed", fitness 0)."""
-    return {"distance": 0.0, "fell": False, "time": 0.0, "fitness": 0.0, "mean_speed": 0.0,
-            "status": "failed", "reason": reason, "wall": wall}
+    return {
+        "distance": 0.0,
+        "fell": False,
+        "time": 0.0,
+        "fitness": 0.0,
+        "mean_speed": 0.0,
+        "status": "failed",
+        "reason": reason,
+        "wall": wall,
+    }
 
 
 @dataclass(frozen=True)
@@ -81,8 +90,14 @@ class EpisodeOutcome:
         """The episode log's line: key, genes, seed, start (when the task moved it), worker and
         every field of the result."""
         start = {} if self.task.start is None else {"start": list(self.task.start)}
-        return {"key": self.task.key, "genes": list(self.task.genes), "seed": self.task.seed, **start,
-                "worker": self.worker, **self.result}
+        return {
+            "key": self.task.key,
+            "genes": list(self.task.genes),
+            "seed": self.task.seed,
+            **start,
+            "worker": self.worker,
+            **self.result,
+        }
 
 
 class Evaluator(Protocol):
@@ -185,8 +200,15 @@ class ProcessPoolEvaluator:
     consecutive failed starts of one worker mean the runner cannot be made: ``EvaluationError``.
     """
 
-    def __init__(self, factory: RunnerFactory, workers: int, *, task_timeout: float,
-                 start_timeout: float = 120.0, start_failures: int = 3) -> None:
+    def __init__(
+        self,
+        factory: RunnerFactory,
+        workers: int,
+        *,
+        task_timeout: float,
+        start_timeout: float = 120.0,
+        start_failures: int = 3,
+    ) -> None:
         if workers < 1:
             raise ValueError(f"workers must be >= 1, got {workers}")
         self._factory = factory
@@ -204,8 +226,9 @@ class ProcessPoolEvaluator:
 
     def _start(self, index: int) -> _Worker:
         parent, child = self._context.Pipe()
-        process = self._context.Process(target=_worker_main, args=(self._factory, index, child),
-                                        name=f"episode-worker-{index}")
+        process = self._context.Process(
+            target=_worker_main, args=(self._factory, index, child), name=f"episode-worker-{index}"
+        )
         process.start()
         child.close()
         return _Worker(index, process, parent, deadline=time.monotonic() + self._start_timeout)
@@ -253,8 +276,7 @@ class ProcessPoolEvaluator:
                     if worker.task is not None:
                         self._replace(worker)
 
-    def _service(self, worker: _Worker, queue: deque[EpisodeTask],
-                 lost: dict[str, str]) -> Iterator[EpisodeOutcome]:
+    def _service(self, worker: _Worker, queue: deque[EpisodeTask], lost: dict[str, str]) -> Iterator[EpisodeOutcome]:
         """Read what ``worker`` said, then see whether it died or overran its deadline."""
         try:
             while worker.conn.poll():
@@ -266,8 +288,11 @@ class ProcessPoolEvaluator:
         if worker.process.is_alive() and time.monotonic() < worker.deadline:
             return
         if worker.process.is_alive():
-            what = f"timed out after {self._task_timeout:g} s" if worker.ready else (
-                f"did not start within {self._start_timeout:g} s")
+            what = (
+                f"timed out after {self._task_timeout:g} s"
+                if worker.ready
+                else (f"did not start within {self._start_timeout:g} s")
+            )
         else:
             what = f"died (exit code {worker.process.exitcode})"
         if not worker.ready:
@@ -301,8 +326,13 @@ class ProcessPoolEvaluator:
             raise EvaluationError(f"worker {worker.index} answered {message[1]!r}, which it was not given")
         if kind == "done":
             return EpisodeOutcome(task, worker.index, message[2])
-        return EpisodeOutcome(task, worker.index, failed_result(
-            f"the runner raised: {message[2].strip().splitlines()[-1]}", time.monotonic() - worker.dispatched))
+        return EpisodeOutcome(
+            task,
+            worker.index,
+            failed_result(
+                f"the runner raised: {message[2].strip().splitlines()[-1]}", time.monotonic() - worker.dispatched
+            ),
+        )
 
     def close(self) -> None:
         """Stop every worker: those without an episode are asked (their runners close their

@@ -5,6 +5,7 @@ candidate whose key is already in the log is answered from it, the rest are eval
 Because the search is a deterministic function of its seed and its answers, the replay reaches
 exactly the state of an uninterrupted run, and no episode is ever run twice.
 """
+
 from __future__ import annotations
 
 import math
@@ -43,8 +44,7 @@ class Driver:
     """Runs searches against one evaluator and one episode log (a run may drive several searches,
     e.g. one GALA per crossover rate, through the same driver: keys never collide)."""
 
-    def __init__(self, evaluator: Evaluator, log: EpisodeLog, run_seed: int,
-                 progress: Progress | None = None) -> None:
+    def __init__(self, evaluator: Evaluator, log: EpisodeLog, run_seed: int, progress: Progress | None = None) -> None:
         self.evaluator = evaluator
         self.log = log
         self.run_seed = run_seed
@@ -105,8 +105,7 @@ class BarProgress:
     def __init__(self, total: int, done: int = 0, best: float = -math.inf, *, quiet: bool = False) -> None:
         self.best = best
         self.failed = 0
-        self._bar = tqdm(total=total, initial=done, unit="ep", dynamic_ncols=True, disable=quiet,
-                         smoothing=0.05)
+        self._bar = tqdm(total=total, initial=done, unit="ep", dynamic_ncols=True, disable=quiet, smoothing=0.05)
         self._batch = ""
 
     def batch(self, prefix: str) -> None:

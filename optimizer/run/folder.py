@@ -13,6 +13,7 @@ Layout (``runs/gala-20250101-120000/``)::
 The episode log is what makes a run resumable: a search replayed with the same seed asks the same
 keys in the same order, and every key found in the log is answered from it instead of being run.
 """
+
 from __future__ import annotations
 
 import json
@@ -70,8 +71,9 @@ def _package_version() -> str | None:
 
 def _git_commit() -> str | None:
     try:
-        out = subprocess.run(["git", "-C", str(_REPO), "rev-parse", "HEAD"], capture_output=True,
-                             text=True, timeout=5, check=True)
+        out = subprocess.run(
+            ["git", "-C", str(_REPO), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5, check=True
+        )
     except (OSError, subprocess.SubprocessError):
         return None
     return out.stdout.strip() or None
@@ -107,8 +109,15 @@ class RunFolder:
         self.manifest = manifest
 
     @classmethod
-    def create(cls, path: Path, command: str, settings: Mapping[str, Any], seed: int,
-               argv: Sequence[str], runtime: Mapping[str, Any] | None = None) -> RunFolder:
+    def create(
+        cls,
+        path: Path,
+        command: str,
+        settings: Mapping[str, Any],
+        seed: int,
+        argv: Sequence[str],
+        runtime: Mapping[str, Any] | None = None,
+    ) -> RunFolder:
         """A new run in ``path`` (created; it may exist only if empty)."""
         path = Path(path)
         if (path / MANIFEST).exists():
@@ -143,7 +152,7 @@ class RunFolder:
         except (OSError, json.JSONDecodeError) as exc:
             raise RunFolderError(f"{path / MANIFEST} cannot be read: {exc}") from None
         if not isinstance(manifest, dict) or manifest.get("format") != MANIFEST_FORMAT:
-            raise RunFolderError(f"{path / MANIFEST}: expected \"format\": \"{MANIFEST_FORMAT}\"")
+            raise RunFolderError(f'{path / MANIFEST}: expected "format": "{MANIFEST_FORMAT}"')
         return cls(path, manifest)
 
     def note_resume(self, argv: Sequence[str], runtime: Mapping[str, Any]) -> None:
@@ -167,8 +176,10 @@ class RunFolder:
         if skip_bad_lines:
             moved = repair_episode_log(self.episodes_path)
             if moved:
-                return [f"{self.episodes_path}: moved {moved} bad line(s) to "
-                        f"{self.episodes_path.name}{REJECTED_SUFFIX}; the run goes on without them"]
+                return [
+                    f"{self.episodes_path}: moved {moved} bad line(s) to "
+                    f"{self.episodes_path.name}{REJECTED_SUFFIX}; the run goes on without them"
+                ]
         read_episode_log(self.episodes_path)
         return []
 
@@ -200,9 +211,11 @@ def record_problem(record: Any) -> str | None:
     start = record.get("start")
     if start is not None and not (isinstance(start, list) and len(start) == 3 and all(map(_is_number, start))):
         return f'"start" must be 3 numbers, found {_shown(start)}'
-    for name, wanted, check in (("status", "a string", lambda v: isinstance(v, str)),
-                                ("fell", "true or false", lambda v: isinstance(v, bool)),
-                                ("distance", "a finite number", _is_number)):
+    for name, wanted, check in (
+        ("status", "a string", lambda v: isinstance(v, str)),
+        ("fell", "true or false", lambda v: isinstance(v, bool)),
+        ("distance", "a finite number", _is_number),
+    ):
         if name in record and not check(record[name]):
             return f'"{name}" must be {wanted}, found {_shown(record[name])}'
     return None
@@ -268,8 +281,10 @@ def read_episode_log(path: Path) -> tuple[dict[str, dict[str, Any]], list[str], 
     if bad:
         number, problem = bad[0]
         more = f" (and {len(bad) - 1} more bad line(s))" if len(bad) > 1 else ""
-        raise RunFolderError(f"{path}, line {number}: {problem}{more}; to resume without the bad lines, add "
-                             f"{SKIP_FLAG} (they move to {Path(path).name}{REJECTED_SUFFIX})")
+        raise RunFolderError(
+            f"{path}, line {number}: {problem}{more}; to resume without the bad lines, add "
+            f"{SKIP_FLAG} (they move to {Path(path).name}{REJECTED_SUFFIX})"
+        )
     return records, warnings, complete
 
 

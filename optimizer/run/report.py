@@ -5,6 +5,7 @@ only when the robot did not fall): this module turns numbers into files and know
 Plots are drawn on a bare ``matplotlib.figure.Figure`` (Agg canvas), never through pyplot, so
 no display and no global backend state are involved, even when called from worker processes.
 """
+
 from __future__ import annotations
 
 import csv
@@ -39,19 +40,44 @@ class TableRow:
     repeat_max_distance_m: float | None = None
 
     @classmethod
-    def from_gala(cls, result: GALAResult, distance_m: float | None = None, speed_mps: float | None = None,
-                  repeats: int | None = None, repeat_falls: int | None = None,
-                  spread: tuple[float, float, float] | None = None) -> TableRow:
+    def from_gala(
+        cls,
+        result: GALAResult,
+        distance_m: float | None = None,
+        speed_mps: float | None = None,
+        repeats: int | None = None,
+        repeat_falls: int | None = None,
+        spread: tuple[float, float, float] | None = None,
+    ) -> TableRow:
         """``spread``: the check's (shortest, longest, mean) distance."""
         shortest, longest, mean = spread or (None, None, None)
-        return cls(result.crossover, result.optimal_mutation, result.best_fitness, distance_m, speed_mps,
-                   repeats, repeat_falls, shortest, mean, longest)
+        return cls(
+            result.crossover,
+            result.optimal_mutation,
+            result.best_fitness,
+            distance_m,
+            speed_mps,
+            repeats,
+            repeat_falls,
+            shortest,
+            mean,
+            longest,
+        )
 
 
 COLUMNS = tuple(f.name for f in fields(TableRow))
 _COUNTS = frozenset({"repeats", "repeat_falls"})
-_HEADINGS = ("Crossover rate", "Optimal mutation rate", "Best fitness", "Distance (m)", "Speed (m/s)",
-             "Falls in repeats", "Shortest repeat (m)", "Mean repeat (m)", "Longest repeat (m)")
+_HEADINGS = (
+    "Crossover rate",
+    "Optimal mutation rate",
+    "Best fitness",
+    "Distance (m)",
+    "Speed (m/s)",
+    "Falls in repeats",
+    "Shortest repeat (m)",
+    "Mean repeat (m)",
+    "Longest repeat (m)",
+)
 
 
 def _cell(name: str, value: float | None) -> str:
@@ -90,10 +116,17 @@ def _markdown_cells(row: TableRow) -> list[str]:
         return "-" if value is None else fmt.format(value)
 
     falls = "-" if row.repeats is None or row.repeat_falls is None else f"{row.repeat_falls}/{row.repeats}"
-    return [number("{:.2f}", row.crossover_rate), number("{:.2f}", row.optimal_mutation_rate),
-            number("{:.4f}", row.best_fitness), number("{:.2f}", row.distance_m), number("{:.3f}", row.speed_mps),
-            falls, number("{:.2f}", row.repeat_min_distance_m), number("{:.2f}", row.repeat_mean_distance_m),
-            number("{:.2f}", row.repeat_max_distance_m)]
+    return [
+        number("{:.2f}", row.crossover_rate),
+        number("{:.2f}", row.optimal_mutation_rate),
+        number("{:.4f}", row.best_fitness),
+        number("{:.2f}", row.distance_m),
+        number("{:.3f}", row.speed_mps),
+        falls,
+        number("{:.2f}", row.repeat_min_distance_m),
+        number("{:.2f}", row.repeat_mean_distance_m),
+        number("{:.2f}", row.repeat_max_distance_m),
+    ]
 
 
 def write_table_markdown(rows: Sequence[TableRow], path: Path) -> None:
@@ -127,8 +160,12 @@ def plot_gala_convergence(result: GALAResult, path: Path, title: str | None = No
     log = result.iteration_log
     iterations = [r.iteration for r in log]
     top.plot(iterations, [r.best_fitness for r in log], marker=".", label="best of iteration")
-    top.plot(iterations, [math.nan if r.baseline is None else r.baseline for r in log],
-             linestyle="--", label="average of preceding bests")
+    top.plot(
+        iterations,
+        [math.nan if r.baseline is None else r.baseline for r in log],
+        linestyle="--",
+        label="average of preceding bests",
+    )
     top.set_ylabel("fitness")
     top.grid(alpha=0.3)
     top.legend()

@@ -11,6 +11,7 @@ Check walks are episodes of the run like any other: keyed ``check/<checked key>/
 their start, and answered from the log on ``--resume``. Their starts come from a seed of the run
 and the checked key, so a resumed run asks the same walks.
 """
+
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
@@ -83,11 +84,17 @@ class StabilityReport:
     def to_dict(self) -> dict[str, Any]:
         shortest, longest, mean = self.spread() or (None, None, None)
         ran = [float(r["distance"]) for r in self.repeats if r["status"] == "ok"]
-        return {"key": self.walk["key"], "repeats": len(self.repeats), "falls": self.falls, "failed": self.failed,
-                "min_distance": shortest, "max_distance": longest, "mean_distance": mean,
-                "std_distance": float(np.std(ran, ddof=1)) if len(ran) > 1 else None,
-                "walks": [{k: r[k] for k in ("key", "start", "distance", "fell", "time", "status")}
-                          for r in self.repeats]}
+        return {
+            "key": self.walk["key"],
+            "repeats": len(self.repeats),
+            "falls": self.falls,
+            "failed": self.failed,
+            "min_distance": shortest,
+            "max_distance": longest,
+            "mean_distance": mean,
+            "std_distance": float(np.std(ran, ddof=1)) if len(ran) > 1 else None,
+            "walks": [{k: r[k] for k in ("key", "start", "distance", "fell", "time", "status")} for r in self.repeats],
+        }
 
 
 def check(driver: Driver, walk: Mapping[str, Any], base: Start, config: StabilityConfig) -> StabilityReport:
@@ -99,15 +106,17 @@ def check(driver: Driver, walk: Mapping[str, Any], base: Start, config: Stabilit
     return StabilityReport(dict(walk), [records[task.key] for task in tasks])
 
 
-def check_best(driver: Driver, best: Mapping[str, Any] | None, base: Start,
-               config: StabilityConfig) -> StabilityReport | None:
+def check_best(
+    driver: Driver, best: Mapping[str, Any] | None, base: Start, config: StabilityConfig
+) -> StabilityReport | None:
     """The check of a search's best walk; None when the search has none (every episode failed)
     or checks are off (``repeats`` 0)."""
     return None if best is None or config.repeats == 0 else check(driver, best, base, config)
 
 
-def fastest_stable(driver: Driver, records: Mapping[str, Mapping[str, Any]], base: Start,
-                   config: StabilityConfig) -> StabilityReport | None:
+def fastest_stable(
+    driver: Driver, records: Mapping[str, Mapping[str, Any]], base: Start, config: StabilityConfig
+) -> StabilityReport | None:
     """The fastest stable gait of the search so far: of its walks that did not fall, fastest
     first (one per gait), the first of ``config.candidates`` whose check has no fall; when none
     passes, the one that fell least (the faster on a tie). None when every walk fell."""

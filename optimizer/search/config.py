@@ -5,6 +5,7 @@ resumed run can check it is replaying the same search. Behaviour (selection, cro
 the learning scheme, a constraint repair) is passed as objects to the constructors in ``ga``,
 ``la`` and ``gala`` instead: a new scheme is then one new function or class, never an edit here.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -89,9 +90,7 @@ class GALAConfig:
         if self.iterations < 1:
             raise ValueError(f"GALAConfig.iterations must be >= 1, got {self.iterations}")
         if self.generations_per_iteration < 1:
-            raise ValueError(
-                f"GALAConfig.generations_per_iteration must be >= 1, got {self.generations_per_iteration}"
-            )
+            raise ValueError(f"GALAConfig.generations_per_iteration must be >= 1, got {self.generations_per_iteration}")
         if self.baseline_window is not None and self.baseline_window < 1:
             raise ValueError(f"GALAConfig.baseline_window must be >= 1 or None, got {self.baseline_window}")
         if any(not 0.0 <= rate <= 1.0 for rate in self.crossover_rates):

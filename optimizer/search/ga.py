@@ -10,6 +10,7 @@ is one new function or class handed to ``GAOperators``, with no registry to edit
 ``GARun`` and ``KeyedSearch`` put stable string keys on every individual (``ga/g03/i012``) so that
 an evaluation log can be replayed; ``run_sync`` drives any keyed search with a plain function.
 """
+
 from __future__ import annotations
 
 import math
@@ -33,17 +34,13 @@ class Selection(Protocol):
 class Crossover(Protocol):
     """Recombine two parents into two children (the GA decides *whether*, with probability pc)."""
 
-    def __call__(
-        self, a: np.ndarray, b: np.ndarray, rng: np.random.Generator
-    ) -> tuple[np.ndarray, np.ndarray]: ...
+    def __call__(self, a: np.ndarray, b: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]: ...
 
 
 class Mutation(Protocol):
     """Mutate each gene of ``genes`` (shape (m, n)) with probability ``rate``; stay within ``bounds``."""
 
-    def __call__(
-        self, genes: np.ndarray, rate: float, bounds: np.ndarray, rng: np.random.Generator
-    ) -> np.ndarray: ...
+    def __call__(self, genes: np.ndarray, rate: float, bounds: np.ndarray, rng: np.random.Generator) -> np.ndarray: ...
 
 
 def roulette_weights(fitness: np.ndarray) -> np.ndarray:
@@ -68,9 +65,7 @@ def roulette_selection(fitness: np.ndarray, count: int, rng: np.random.Generator
     return rng.choice(len(fitness), size=count, replace=True, p=roulette_weights(fitness))
 
 
-def one_point_crossover(
-    a: np.ndarray, b: np.ndarray, rng: np.random.Generator
-) -> tuple[np.ndarray, np.ndarray]:
+def one_point_crossover(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """Swap the tails of two chromosomes after a random cut (Goldberg's classic operator, the
     paper's reference [16]). It makes no new gene values, which leaves exploring values to mutation:
     the rate GALA tunes matters the way the paper's comparisons assume."""
@@ -87,9 +82,7 @@ class BlendCrossover:
 
     alpha: float = 0.5
 
-    def __call__(
-        self, a: np.ndarray, b: np.ndarray, rng: np.random.Generator
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(self, a: np.ndarray, b: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         low, high = np.minimum(a, b), np.maximum(a, b)
         margin = self.alpha * (high - low)
         draw = rng.uniform(size=(2, a.size))
@@ -108,18 +101,14 @@ class GaussianMutation:
 
     sigma_fraction: float = 0.1
 
-    def __call__(
-        self, genes: np.ndarray, rate: float, bounds: np.ndarray, rng: np.random.Generator
-    ) -> np.ndarray:
+    def __call__(self, genes: np.ndarray, rate: float, bounds: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         span = bounds[:, 1] - bounds[:, 0]
         hit = rng.random(genes.shape) < rate
         noise = rng.normal(0.0, 1.0, genes.shape) * (self.sigma_fraction * span)
         return np.clip(np.where(hit, genes + noise, genes), bounds[:, 0], bounds[:, 1])
 
 
-def uniform_reset_mutation(
-    genes: np.ndarray, rate: float, bounds: np.ndarray, rng: np.random.Generator
-) -> np.ndarray:
+def uniform_reset_mutation(genes: np.ndarray, rate: float, bounds: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """Redraw each gene with probability ``rate`` uniformly within its bounds (random resetting)."""
     hit = rng.random(genes.shape) < rate
     fresh = rng.uniform(bounds[:, 0], bounds[:, 1], size=genes.shape)

@@ -21,6 +21,7 @@ Random streams: the automaton, the search GA(s) and the final GA each get their 
 from the seed, so the same seed and the same fitness answers give the same asks in the same order;
 that is what a resumed run relies on when it replays the episode log from the start.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
@@ -82,9 +83,7 @@ class GALAResult:
             "best_genes": self.best_genes.tolist(),
             "probabilities": list(self.probabilities),
             "mutation_rates": list(self.mutation_rates),
-            "iteration_log": [
-                {**vars(r), "probabilities": list(r.probabilities)} for r in self.iteration_log
-            ],
+            "iteration_log": [{**vars(r), "probabilities": list(r.probabilities)} for r in self.iteration_log],
             "final_ga_history": [s._asdict() for s in self.final_ga_history],
         }
 
@@ -150,15 +149,16 @@ class GALA(KeyedSearch):
                 ga, generations = population, config.generations_per_iteration
                 ga.mutation_rate = mutation
             best = yield from evolve(ga, generations, f"{tag}/it{k:03d}")
-            preceding = bests[-config.baseline_window:] if config.baseline_window else bests
+            preceding = bests[-config.baseline_window :] if config.baseline_window else bests
             baseline = float(np.mean(preceding)) if preceding else None
             rewarded = None if baseline is None else best > baseline
             if rewarded is not None:
                 automaton.update(action, rewarded)
             bests.append(best)
             self.iteration_log.append(
-                IterationRecord(k, action, mutation, best, baseline, rewarded,
-                                tuple(float(p) for p in automaton.probabilities))
+                IterationRecord(
+                    k, action, mutation, best, baseline, rewarded, tuple(float(p) for p in automaton.probabilities)
+                )
             )
         optimal = automaton.actions[automaton.best_action()]
         final = self._new_ga(optimal, self._final_rng)

@@ -5,6 +5,7 @@ the probabilities on a reward (beta = 0) or a penalty (beta = 1). How it moves t
 scheme: a class with one ``update(p, i, rewarded) -> new p`` method, so a new scheme is one new
 class. L_R-P (eq. 7-8) is what GALA uses; L_R-I (eq. 6) is the option.
 """
+
 from __future__ import annotations
 
 from collections.abc import Sequence

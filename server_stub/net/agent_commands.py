@@ -4,6 +4,7 @@ Most messages are a run of flat ``(name value)`` pairs, read with one regular ex
 else (``scene``, ``init``, ``say``...) goes through the general S-expression reader, which reports
 malformed input with its position.
 """
+
 from __future__ import annotations
 
 import re

@@ -5,6 +5,7 @@ cap. An agent over its cap is disconnected (it stopped reading); a monitor over 
 misses updates and gets a full scene once it drains, so a trainer that never reads the stream
 costs neither time nor memory.
 """
+
 from __future__ import annotations
 
 import logging
@@ -33,8 +34,15 @@ class Client:
     (``getpeername``) fails once the peer has reset the connection, which a client may do before
     the server gets to it."""
 
-    def __init__(self, sock: socket.socket, kind: str, max_frame: int, out_cap: int,
-                 peer: tuple | None = None, config: ServerConfig = ServerConfig()) -> None:
+    def __init__(
+        self,
+        sock: socket.socket,
+        kind: str,
+        max_frame: int,
+        out_cap: int,
+        peer: tuple | None = None,
+        config: ServerConfig = ServerConfig(),
+    ) -> None:
         self.sock = sock
         if peer is None:
             peer = sock.getpeername()
@@ -57,7 +65,7 @@ class Client:
         (``ServerConfig.warning_quote``). A repeated problem is logged once, and past
         ``warning_burst`` lines at most one line per ``warning_interval`` is written, saying how
         many warnings were held back: a client decides what it sends, never how much is logged."""
-        key = (key or problem)[:self._config.warning_quote]
+        key = (key or problem)[: self._config.warning_quote]
         if key in self._warned:
             return
         if len(self._warned) < _MAX_REMEMBERED:
@@ -78,8 +86,9 @@ class Client:
         (``bad_input_burst`` refusals beyond ``bad_input_rate`` per second) and should go."""
         now = time.monotonic()
         cfg = self._config
-        self._allowance = min(float(cfg.bad_input_burst),
-                              self._allowance + (now - self._allowance_at) * cfg.bad_input_rate)
+        self._allowance = min(
+            float(cfg.bad_input_burst), self._allowance + (now - self._allowance_at) * cfg.bad_input_rate
+        )
         self._allowance_at = now
         self._allowance -= 1.0
         return self._allowance < 0.0

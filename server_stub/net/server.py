@@ -15,6 +15,7 @@ the server overlap instead of taking turns.
 Sync mode starts a cycle once every agent that was sent a perception has answered with ``(syn)``
 (or ``sync_grace`` seconds passed, as the real server's waits do); real-time mode every 20 ms.
 """
+
 from __future__ import annotations
 
 import logging
@@ -149,8 +150,11 @@ class StubServer:
     def _refuse(self, client: Client) -> None:
         """One message of ``client`` refused whole; a client that keeps sending such is dropped."""
         if client.refused():
-            self._drop(client, f"keeps sending input that is refused (over {self.config.bad_input_burst} "
-                               f"messages, more than {self.config.bad_input_rate:g} a second)")
+            self._drop(
+                client,
+                f"keeps sending input that is refused (over {self.config.bad_input_burst} "
+                f"messages, more than {self.config.bad_input_rate:g} a second)",
+            )
 
     def _drop(self, client: Client, problem: str | None) -> None:
         if client.closed and client not in self._agents and client not in self._monitors:
@@ -234,8 +238,12 @@ class StubServer:
         for client in list(self._agents) + list(self._monitors):
             if client.closed:
                 self._drop(client, "write failed")
-            elif self.config.sync and client in self._agents and self._agents[client].awaiting_syn \
-                    and now - client.last_heard > self.config.agent_timeout:
+            elif (
+                self.config.sync
+                and client in self._agents
+                and self._agents[client].awaiting_syn
+                and now - client.last_heard > self.config.agent_timeout
+            ):
                 self._drop(client, f"silent for more than {self.config.agent_timeout:g} s")
             elif len(client.out) > client.out_cap and client in self._agents:
                 self._drop(client, "stopped reading its perceptions")

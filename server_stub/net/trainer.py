@@ -9,6 +9,7 @@ Grammar read here (team names capitalised on this port, ``Left`` / ``Right``)::
     (repos (unum <n>) (team <side>))   (kill (unum <n>) (team <side>))
     (select ...)   (reqfullstate)   (killsim)
 """
+
 from __future__ import annotations
 
 import math

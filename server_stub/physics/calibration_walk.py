@@ -7,6 +7,7 @@ and its commands taking effect with the server's latency, is how the stub's phys
 judged. Kept apart from ``gait/`` on purpose: this is a fixed measuring stick, not the project's
 gait, and ``server_stub`` may not import ``gait``.
 """
+
 from __future__ import annotations
 
 import math
@@ -55,16 +56,16 @@ def targets(t: float) -> dict[str, float]:
     goal["lae1"] = goal["rae1"] = -90.0
     goal["lle3"], goal["lle4"], goal["lle5"] = _leg(t)
     goal["rle3"], goal["rle4"], goal["rle5"] = _leg(t + PERIOD / 2)
-    return {j.effector: min(j.max_deg - LIMIT_MARGIN, max(j.min_deg + LIMIT_MARGIN, goal[j.effector]))
-            for j in JOINTS}
+    return {j.effector: min(j.max_deg - LIMIT_MARGIN, max(j.min_deg + LIMIT_MARGIN, goal[j.effector])) for j in JOINTS}
 
 
 def velocities(t: float, perceived: dict[str, float]) -> dict[str, float]:
     """The README's controller: rad/s per effector from perceived angles (degrees, by perceptor)."""
     goal = targets(t + 2 * CYCLE)
-    return {j.effector: max(-SPEED_CAP, min(SPEED_CAP,
-                            math.radians(GAIN * (goal[j.effector] - perceived[j.perceptor]))))
-            for j in JOINTS}
+    return {
+        j.effector: max(-SPEED_CAP, min(SPEED_CAP, math.radians(GAIN * (goal[j.effector] - perceived[j.perceptor]))))
+        for j in JOINTS
+    }
 
 
 def _perceive(robot: Robot) -> dict[str, float]:
@@ -88,9 +89,15 @@ class WalkResult:
     feet: list[frozenset[str]] = field(default_factory=list)  # FRP keys present per walk cycle
 
 
-def run(world: World, robot_type: int = 0, *, beam: tuple[float, float, float] = BEAM,
-        rebeam_cycle: int | None = REBEAM_CYCLE, beam_delay: int = 0,
-        cycles_before_beam: int = CYCLES_BEFORE_BEAM) -> WalkResult:
+def run(
+    world: World,
+    robot_type: int = 0,
+    *,
+    beam: tuple[float, float, float] = BEAM,
+    rebeam_cycle: int | None = REBEAM_CYCLE,
+    beam_delay: int = 0,
+    cycles_before_beam: int = CYCLES_BEFORE_BEAM,
+) -> WalkResult:
     """One episode of the README on ``world``: new robot, beam, hold, 15 s walk.
 
     The keywords perturb the start the way real runs differ: ``beam`` = (x, y, heading deg);

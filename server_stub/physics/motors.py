@@ -6,6 +6,7 @@ hit their torque limit in the last step. Written with numpy these were a dozen c
 arrays, about 30 us a cycle in numpy's per-call cost alone; here they are one compiled loop.
 ``server_stub.physics.robot`` owns the state and calls this once per step.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -13,8 +14,22 @@ from numba import njit
 
 
 @njit(cache=True)
-def motor_step(angles, rates, torques, lower, upper, due, motor, last_target, last_force,
-               torque_limit, stop_erp, stop_bounce, cycle, stop_force):
+def motor_step(
+    angles,
+    rates,
+    torques,
+    lower,
+    upper,
+    due,
+    motor,
+    last_target,
+    last_force,
+    torque_limit,
+    stop_erp,
+    stop_bounce,
+    cycle,
+    stop_force,
+):
     """This step's (target velocities, forces, yielding, load, changed).
 
     ``due`` holds the commands that act now (NaN: none for that joint); a command reaches the
@@ -64,5 +79,19 @@ def motor_step(angles, rates, torques, lower, upper, due, motor, last_target, la
 def warm_up() -> None:
     """Compile (or load from numba's disk cache) before the first step needs it."""
     one = np.zeros(1)
-    motor_step(one, one, one, np.full(1, -1.0), np.ones(1), np.full(1, np.nan), np.zeros(1),
-               np.zeros(0), np.zeros(0), 10.0, 0.8, 1.0, 0.02, 1e4)
+    motor_step(
+        one,
+        one,
+        one,
+        np.full(1, -1.0),
+        np.ones(1),
+        np.full(1, np.nan),
+        np.zeros(1),
+        np.zeros(0),
+        np.zeros(0),
+        10.0,
+        0.8,
+        1.0,
+        0.02,
+        1e4,
+    )

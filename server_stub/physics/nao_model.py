@@ -5,6 +5,7 @@ limits come from ``protocol.nao`` so those numbers exist once. Every table cites
 ``docs/robot_and_server.md`` it was read from. All positions are in the robot (model) frame of the facts
 sheet -- x = robot's right, y = forward, z = up -- relative to the torso centre, in the zero pose.
 """
+
 from __future__ import annotations
 
 import math
@@ -141,13 +142,9 @@ def body_parts(robot_type: int = 0) -> tuple[Part, ...]:
     """Every part of the robot of ``robot_type``: centre parts, then right, then left parts."""
     rtype = _robot_type(robot_type)
     right = tuple(
-        Part(p.name, p.shape, p.size, p.mass, _add(p.centre, _shift(p.name, rtype)), p.collides)
-        for p in _RIGHT_PARTS
+        Part(p.name, p.shape, p.size, p.mass, _add(p.centre, _shift(p.name, rtype)), p.collides) for p in _RIGHT_PARTS
     )
-    left = tuple(
-        Part(_mirror_name(p.name), p.shape, p.size, p.mass, _mirror(p.centre), p.collides)
-        for p in right
-    )
+    left = tuple(Part(_mirror_name(p.name), p.shape, p.size, p.mass, _mirror(p.centre), p.collides) for p in right)
     return _CENTRE_PARTS + right + left
 
 
@@ -174,8 +171,12 @@ def hinges(robot_type: int = 0) -> tuple[Hinge, ...]:
 def speed_caps(robot_type: int = 0) -> tuple[float, ...]:
     """Per-joint speed cap (rad/s) in JOINTS order; type 2 has its own ankle speeds (section 3)."""
     rtype = _robot_type(robot_type)
-    special = {"rle5": rtype.ankle_pitch_speed, "lle5": rtype.ankle_pitch_speed,
-               "rle6": rtype.ankle_roll_speed, "lle6": rtype.ankle_roll_speed}
+    special = {
+        "rle5": rtype.ankle_pitch_speed,
+        "lle5": rtype.ankle_pitch_speed,
+        "rle6": rtype.ankle_roll_speed,
+        "lle6": rtype.ankle_roll_speed,
+    }
     return tuple(special.get(j.effector, SPEED_CAP) for j in JOINTS)
 
 
@@ -198,11 +199,12 @@ def inertia_diagonal(part: Part) -> Vec3:
     if part.shape == "capsule":
         r, length = part.size
         v_cyl = math.pi * r * r * length
-        v_caps = 4.0 / 3.0 * math.pi * r ** 3
+        v_caps = 4.0 / 3.0 * math.pi * r**3
         m_cyl = m * v_cyl / (v_cyl + v_caps)
         m_caps = m - m_cyl
-        across = (m_cyl * (length * length / 12 + r * r / 4)
-                  + m_caps * (0.4 * r * r + length * length / 4 + 3 * length * r / 8))
+        across = m_cyl * (length * length / 12 + r * r / 4) + m_caps * (
+            0.4 * r * r + length * length / 4 + 3 * length * r / 8
+        )
         along = 0.5 * m_cyl * r * r + 0.4 * m_caps * r * r
         return (across, across, along)
     raise ValueError(f"unknown shape {part.shape!r}")
@@ -239,12 +241,17 @@ def _link(part: Part, frame_origin: Vec3, inertia_floor: float) -> str:
     torso), axis-aligned with the robot frame; mass, shape and collision at the part centre."""
     ixx, iyy, izz = (max(i, inertia_floor) for i in inertia_diagonal(part))
     offset = _xyz(_sub(part.centre, frame_origin))
-    collision = (f'<collision><origin xyz="{offset}"/><geometry>{_geometry(part)}</geometry>'
-                 f'</collision>') if part.collides else ""
-    return (f'<link name="{part.name}"><inertial><origin xyz="{offset}"/>'
-            f'<mass value="{_num(part.mass)}"/>'
-            f'<inertia ixx="{_num(ixx)}" iyy="{_num(iyy)}" izz="{_num(izz)}" ixy="0" ixz="0" iyz="0"/>'
-            f'</inertial>{collision}</link>')
+    collision = (
+        (f'<collision><origin xyz="{offset}"/><geometry>{_geometry(part)}</geometry></collision>')
+        if part.collides
+        else ""
+    )
+    return (
+        f'<link name="{part.name}"><inertial><origin xyz="{offset}"/>'
+        f'<mass value="{_num(part.mass)}"/>'
+        f'<inertia ixx="{_num(ixx)}" iyy="{_num(iyy)}" izz="{_num(izz)}" ixy="0" ixz="0" iyz="0"/>'
+        f"</inertial>{collision}</link>"
+    )
 
 
 def urdf(robot_type: int = 0, inertia_floor: float = 0.0) -> str:
@@ -258,19 +265,18 @@ def urdf(robot_type: int = 0, inertia_floor: float = 0.0) -> str:
     joints = hinges(robot_type)
     frame_origin = {"torso": (0.0, 0.0, 0.0)}
     frame_origin.update({h.child: h.anchor for h in joints})
-    text = ['<?xml version="1.0"?><robot name="nao">',
-            _link(parts["torso"], frame_origin["torso"], inertia_floor)]
+    text = ['<?xml version="1.0"?><robot name="nao">', _link(parts["torso"], frame_origin["torso"], inertia_floor)]
     for h in joints:
         text.append(_link(parts[h.child], frame_origin[h.child], inertia_floor))
         text.append(
             f'<joint name="{h.effector}" type="continuous"><parent link="{h.parent}"/>'
             f'<child link="{h.child}"/>'
             f'<origin xyz="{_xyz(_sub(h.anchor, frame_origin[h.parent]))}"/>'
-            f'<axis xyz="{_xyz(_unit(h.axis))}"/></joint>')
+            f'<axis xyz="{_xyz(_unit(h.axis))}"/></joint>'
+        )
     text.append("</robot>")
     return "".join(text)
 
 
 def total_mass(robot_type: int = 0) -> float:
     return sum(p.mass for p in body_parts(robot_type))
-

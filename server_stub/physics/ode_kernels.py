@@ -5,6 +5,7 @@ Generalised velocity u = (torso centre velocity (3), torso spin (3), hinge rates
 world frame. Bodies: 0 is the torso, k = j + 1 the child of hinge j. Every kernel is written from
 the equations in ``ode_step``'s docstring, as plain loops (numba).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -47,8 +48,23 @@ def _point_jacobian(point, k, com0, chains, anchors, axes, out):
 
 
 @njit(cache=True)
-def dynamics(masses, principal, chains, parents, joint_of, local_axes, coms, quats, anchors,
-             v0, w0, qd, gravity, drag_linear, drag_angular):
+def dynamics(
+    masses,
+    principal,
+    chains,
+    parents,
+    joint_of,
+    local_axes,
+    coms,
+    quats,
+    anchors,
+    v0,
+    w0,
+    qd,
+    gravity,
+    drag_linear,
+    drag_angular,
+):
     """Mass matrix M (dof x dof), generalised force of gravity, spin, velocity products and every
     body's drag (force -drag_linear v at its centre, torque -drag_angular w, as SimSpark's
     DragController applies before each step) Q (so that M du/dt = Q + applied), and the world
@@ -135,10 +151,13 @@ def dynamics(masses, principal, chains, parents, joint_of, local_axes, coms, qua
                 col = cols[ci]
                 vk += jv[a, col] * (v0[col] if col < 3 else (w0[col - 3] if col < 6 else qd[col - 6]))
             f[a] -= drag_linear * vk
-        iwk = np.array([
-            inertia[k, 0, 0] * spin[k, 0] + inertia[k, 0, 1] * spin[k, 1] + inertia[k, 0, 2] * spin[k, 2],
-            inertia[k, 1, 0] * spin[k, 0] + inertia[k, 1, 1] * spin[k, 1] + inertia[k, 1, 2] * spin[k, 2],
-            inertia[k, 2, 0] * spin[k, 0] + inertia[k, 2, 1] * spin[k, 1] + inertia[k, 2, 2] * spin[k, 2]])
+        iwk = np.array(
+            [
+                inertia[k, 0, 0] * spin[k, 0] + inertia[k, 0, 1] * spin[k, 1] + inertia[k, 0, 2] * spin[k, 2],
+                inertia[k, 1, 0] * spin[k, 0] + inertia[k, 1, 1] * spin[k, 1] + inertia[k, 1, 2] * spin[k, 2],
+                inertia[k, 2, 0] * spin[k, 0] + inertia[k, 2, 1] * spin[k, 1] + inertia[k, 2, 2] * spin[k, 2],
+            ]
+        )
         tq = -_cross(spin[k], iwk) - drag_angular * spin[k]
         for a in range(3):
             tq[a] -= inertia[k, a, 0] * dspin[k, 0] + inertia[k, a, 1] * dspin[k, 1] + inertia[k, a, 2] * dspin[k, 2]
@@ -289,10 +308,38 @@ def _plane_space(n):
 
 
 @njit(cache=True)
-def step(masses, principal, chains, parents, joint_of, local_axes, coms, quats, anchors,
-         v0, w0, qd, gravity, drag_linear, drag_angular, contact_body, contact_point, contact_normal, contact_depth,
-         motor_target, motor_lo, motor_hi, joint_torque, motor_state, h, erp, normal_cfm, slip, surface_layer,
-         motor_cfm):
+def step(
+    masses,
+    principal,
+    chains,
+    parents,
+    joint_of,
+    local_axes,
+    coms,
+    quats,
+    anchors,
+    v0,
+    w0,
+    qd,
+    gravity,
+    drag_linear,
+    drag_angular,
+    contact_body,
+    contact_point,
+    contact_normal,
+    contact_depth,
+    motor_target,
+    motor_lo,
+    motor_hi,
+    joint_torque,
+    motor_state,
+    h,
+    erp,
+    normal_cfm,
+    slip,
+    surface_layer,
+    motor_cfm,
+):
     """One ODE-like step of one robot: the new generalised velocity u (dof), the contact forces
     (points x 3: normal, along t1, along t2), the tangents (points x 2 x 3), the motor torques
     (hinges) and the solver's iterations. Hinge j's row drives its rate to ``motor_target[j]``
@@ -301,8 +348,23 @@ def step(masses, principal, chains, parents, joint_of, local_axes, coms, quats, 
     guess, updated in place."""
     nj = local_axes.shape[0]
     nu = 6 + nj
-    m, q, axes = dynamics(masses, principal, chains, parents, joint_of, local_axes, coms, quats,
-                          anchors, v0, w0, qd, gravity, drag_linear, drag_angular)
+    m, q, axes = dynamics(
+        masses,
+        principal,
+        chains,
+        parents,
+        joint_of,
+        local_axes,
+        coms,
+        quats,
+        anchors,
+        v0,
+        w0,
+        qd,
+        gravity,
+        drag_linear,
+        drag_angular,
+    )
     u = np.empty(nu)
     u[0:3] = v0
     u[3:6] = w0
@@ -381,7 +443,7 @@ def step(masses, principal, chains, parents, joint_of, local_axes, coms, quats, 
         forces[i, 0] = lam[3 * i]
         forces[i, 1] = lam[3 * i + 1]
         forces[i, 2] = lam[3 * i + 2]
-    torques = lam[3 * nc:].copy()
+    torques = lam[3 * nc :].copy()
     return new_u, forces, tangents, torques, iterations
 
 
@@ -395,10 +457,14 @@ def integrate_orientation(quat, w, h):
     s = np.sin(angle / 2)
     dx, dy, dz, dw = axis[0] * s, axis[1] * s, axis[2] * s, np.cos(angle / 2)
     x, y, z, qw = quat[0], quat[1], quat[2], quat[3]
-    out = np.array([dw * x + dx * qw + dy * z - dz * y,
-                    dw * y - dx * z + dy * qw + dz * x,
-                    dw * z + dx * y - dy * x + dz * qw,
-                    dw * qw - dx * x - dy * y - dz * z])
+    out = np.array(
+        [
+            dw * x + dx * qw + dy * z - dz * y,
+            dw * y - dx * z + dy * qw + dz * x,
+            dw * z + dx * y - dy * x + dz * qw,
+            dw * qw - dx * x - dy * y - dz * z,
+        ]
+    )
     return out / np.sqrt(np.sum(out * out))
 
 
@@ -551,9 +617,13 @@ def joint_drift(parents, joint_of, local_axes, coms, quats, anchors, w0, qd, h):
         j = joint_of[k]
         r = rotation_matrix(quats[k])
         la = local_axes[j]
-        axis = np.array([r[0, 0] * la[0] + r[0, 1] * la[1] + r[0, 2] * la[2],
-                         r[1, 0] * la[0] + r[1, 1] * la[1] + r[1, 2] * la[2],
-                         r[2, 0] * la[0] + r[2, 1] * la[1] + r[2, 2] * la[2]])
+        axis = np.array(
+            [
+                r[0, 0] * la[0] + r[0, 1] * la[1] + r[0, 2] * la[2],
+                r[1, 0] * la[0] + r[1, 1] * la[1] + r[1, 2] * la[2],
+                r[2, 0] * la[0] + r[2, 1] * la[1] + r[2, 2] * la[2],
+            ]
+        )
         spin[k] = spin[p] + qd[j] * axis
         rc = anchors[j] - coms[k]
         rp = anchors[j] - coms[p]

@@ -42,6 +42,7 @@ Bullet's step, the robots are not pushed back by it); ODE's joint-row softness a
 coordinates (the hinges are exact here; ODE integrates each body on its own and pulls the joints
 back together with ERP 0.2).
 """
+
 from __future__ import annotations
 
 from typing import NamedTuple
@@ -144,10 +145,12 @@ def solve(robot, ground: int, config) -> Solved:
     anchors = np.array([link[4] for link in links], dtype=float)
     placed, turned = coms, quats
     if config.ode_joint_drift:
-        placed, turned = ode_kernels.drifted_poses(static.parents, static.joint_of, coms, quats, anchors,
-                                                   static.gap, static.turn)
-    parts, points, depths = ode_kernels.ground_contacts(static.shape_body, static.shape_kind, static.shape_size,
-                                                        placed, turned, config.ode_box_points)
+        placed, turned = ode_kernels.drifted_poses(
+            static.parents, static.joint_of, coms, quats, anchors, static.gap, static.turn
+        )
+    parts, points, depths = ode_kernels.ground_contacts(
+        static.shape_body, static.shape_kind, static.shape_size, placed, turned, config.ode_box_points
+    )
     nc = parts.shape[0]
     normals = np.zeros((nc, 3))
     normals[:, 2] = 1.0
@@ -156,19 +159,46 @@ def solve(robot, ground: int, config) -> Solved:
     if target.shape[0] != nj:
         target = np.zeros(nj)
         force = np.full(nj, config.motor_torque)
-    lo, hi, push = _motor_rows(angles, np.asarray(force, dtype=float), robot._motor, config.motor_torque,
-                               config.ode_limits)
+    lo, hi, push = _motor_rows(
+        angles, np.asarray(force, dtype=float), robot._motor, config.motor_torque, config.ode_limits
+    )
     u, forces, tangents, torques, iterations = ode_kernels.step(
-        static.masses, static.principal, static.chains, static.parents, static.joint_of,
-        static.local_axes, coms, quats, anchors, np.array(v0, dtype=float), np.array(w0, dtype=float),
-        rates, np.array([0.0, 0.0, config.gravity]), config.linear_damping, config.angular_damping,
-        parts, points, normals, depths,
-        np.asarray(target, dtype=float), lo, hi, push, static.motor_state, h,
-        config.contact_erp, config.contact_cfm, config.slip, config.contact_slop, MOTOR_CFM)
+        static.masses,
+        static.principal,
+        static.chains,
+        static.parents,
+        static.joint_of,
+        static.local_axes,
+        coms,
+        quats,
+        anchors,
+        np.array(v0, dtype=float),
+        np.array(w0, dtype=float),
+        rates,
+        np.array([0.0, 0.0, config.gravity]),
+        config.linear_damping,
+        config.angular_damping,
+        parts,
+        points,
+        normals,
+        depths,
+        np.asarray(target, dtype=float),
+        lo,
+        hi,
+        push,
+        static.motor_state,
+        h,
+        config.contact_erp,
+        config.contact_cfm,
+        config.slip,
+        config.contact_slop,
+        MOTOR_CFM,
+    )
     v, w, qd = u[0:3], u[3:6], u[6:]
     if config.ode_joint_drift:
-        gap, turn = ode_kernels.joint_drift(static.parents, static.joint_of, static.local_axes, coms, quats,
-                                            anchors, w, qd, h)
+        gap, turn = ode_kernels.joint_drift(
+            static.parents, static.joint_of, static.local_axes, coms, quats, anchors, w, qd, h
+        )
         static.gap *= 1.0 - JOINT_ERP
         static.gap += gap
         static.turn *= 1.0 - JOINT_ERP
@@ -177,13 +207,35 @@ def solve(robot, ground: int, config) -> Solved:
     new_orientation = ode_kernels.integrate_orientation(np.array(orientation, dtype=float), w, h)
     new_angles = angles + h * qd
     contacts = tuple(
-        (0, body, ground, k - 1, -1, p, (p[0], p[1], 0.0), (0.0, 0.0, 1.0), -d, f[0], f[1], tuple(t[0]),
-         f[2], tuple(t[1]))
-        for k, p, d, f, t in zip(parts.tolist(), points.tolist(), depths.tolist(), forces.tolist(),
-                                 tangents.tolist()))
-    return Solved(new_position.tolist(), new_orientation.tolist(), v.tolist(), w.tolist(),
-                  [[a] for a in new_angles.tolist()], [[r] for r in qd.tolist()], contacts, torques,
-                  iterations)
+        (
+            0,
+            body,
+            ground,
+            k - 1,
+            -1,
+            p,
+            (p[0], p[1], 0.0),
+            (0.0, 0.0, 1.0),
+            -d,
+            f[0],
+            f[1],
+            tuple(t[0]),
+            f[2],
+            tuple(t[1]),
+        )
+        for k, p, d, f, t in zip(parts.tolist(), points.tolist(), depths.tolist(), forces.tolist(), tangents.tolist())
+    )
+    return Solved(
+        new_position.tolist(),
+        new_orientation.tolist(),
+        v.tolist(),
+        w.tolist(),
+        [[a] for a in new_angles.tolist()],
+        [[r] for r in qd.tolist()],
+        contacts,
+        torques,
+        iterations,
+    )
 
 
 def _motor_rows(angles, force, sticky, torque_limit, ode_limits):
@@ -215,8 +267,9 @@ def apply(robot, solved: Solved) -> None:
     client, body = robot._client, robot._body
     pb.resetBasePositionAndOrientation(body, solved.position, solved.orientation, physicsClientId=client)
     pb.resetBaseVelocity(body, solved.velocity, solved.spin, physicsClientId=client)
-    pb.resetJointStatesMultiDof(body, robot._ode_static.indices, solved.angles,
-                                targetVelocities=solved.rates, physicsClientId=client)
+    pb.resetJointStatesMultiDof(
+        body, robot._ode_static.indices, solved.angles, targetVelocities=solved.rates, physicsClientId=client
+    )
     robot._after_substep()
     robot._contact_points = solved.contacts
     robot._ode_torques = solved.torques
@@ -227,24 +280,60 @@ def warm_up() -> None:
     masses = np.ones(2)
     principal = np.full((2, 3), 0.01)
     chains = np.array([[False], [True]])
-    ode_kernels.step(masses, principal, chains, np.array([0, 0], dtype=np.int64), np.array([0, 0], dtype=np.int64),
-                     np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 0.3], [0.0, 0.0, 0.05]]),
-                     np.tile([0.0, 0.0, 0.0, 1.0], (2, 1)), np.array([[0.0, 0.0, 0.1]]), np.zeros(3), np.zeros(3),
-                     np.zeros(1), np.array([0.0, 0.0, -9.81]), 0.01, 0.01, np.array([1], dtype=np.int64),
-                     np.array([[0.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 1.0]]), np.array([0.002]),
-                     np.zeros(1), np.full(1, -10.0), np.full(1, 10.0), np.zeros(1), np.zeros(1, dtype=np.int64),
-                     0.02, 0.4, 1e-4, 0.005,
-                     0.001, MOTOR_CFM)
+    ode_kernels.step(
+        masses,
+        principal,
+        chains,
+        np.array([0, 0], dtype=np.int64),
+        np.array([0, 0], dtype=np.int64),
+        np.array([[1.0, 0.0, 0.0]]),
+        np.array([[0.0, 0.0, 0.3], [0.0, 0.0, 0.05]]),
+        np.tile([0.0, 0.0, 0.0, 1.0], (2, 1)),
+        np.array([[0.0, 0.0, 0.1]]),
+        np.zeros(3),
+        np.zeros(3),
+        np.zeros(1),
+        np.array([0.0, 0.0, -9.81]),
+        0.01,
+        0.01,
+        np.array([1], dtype=np.int64),
+        np.array([[0.0, 0.0, 0.0]]),
+        np.array([[0.0, 0.0, 1.0]]),
+        np.array([0.002]),
+        np.zeros(1),
+        np.full(1, -10.0),
+        np.full(1, 10.0),
+        np.zeros(1),
+        np.zeros(1, dtype=np.int64),
+        0.02,
+        0.4,
+        1e-4,
+        0.005,
+        0.001,
+        MOTOR_CFM,
+    )
     ode_kernels.integrate_orientation(np.array([0.0, 0.0, 0.0, 1.0]), np.array([0.0, 0.0, 1.0]), 0.02)
     two = (np.array([0, 0], dtype=np.int64), np.array([0, 0], dtype=np.int64))
     centres, quats = np.array([[0.0, 0.0, 0.3], [0.0, 0.0, 0.05]]), np.tile([0.0, 0.0, 0.0, 1.0], (2, 1))
-    ode_kernels.joint_drift(*two, np.array([[1.0, 0.0, 0.0]]), centres, quats, np.array([[0.0, 0.0, 0.1]]),
-                            np.zeros(3), np.ones(1), 0.02)
-    ode_kernels.drifted_poses(*two, centres, quats, np.array([[0.0, 0.0, 0.1]]), np.full((1, 3), 1e-3),
-                              np.full((1, 3), 1e-3))
-    ode_kernels.ground_contacts(np.array([0, 0, 0], dtype=np.int64), np.array([BOX, SPHERE, CAPSULE], dtype=np.int64),
-                                np.array([[0.1, 0.1, 0.1], [0.1, 0.1, 0.1], [0.1, 0.02, 0.0]]),
-                                np.array([[0.0, 0.0, 0.05]]), np.array([[0.0, 0.0, 0.0, 1.0]]), MAX_POINTS)
-    ode_kernels.ground_contacts(np.array([0], dtype=np.int64), np.array([BOX], dtype=np.int64),
-                                np.array([[0.1, 0.1, 0.1]]), np.array([[0.0, 0.0, 0.05]]),
-                                np.array([[0.0, 0.0, 0.0, 1.0]]), 3)
+    ode_kernels.joint_drift(
+        *two, np.array([[1.0, 0.0, 0.0]]), centres, quats, np.array([[0.0, 0.0, 0.1]]), np.zeros(3), np.ones(1), 0.02
+    )
+    ode_kernels.drifted_poses(
+        *two, centres, quats, np.array([[0.0, 0.0, 0.1]]), np.full((1, 3), 1e-3), np.full((1, 3), 1e-3)
+    )
+    ode_kernels.ground_contacts(
+        np.array([0, 0, 0], dtype=np.int64),
+        np.array([BOX, SPHERE, CAPSULE], dtype=np.int64),
+        np.array([[0.1, 0.1, 0.1], [0.1, 0.1, 0.1], [0.1, 0.02, 0.0]]),
+        np.array([[0.0, 0.0, 0.05]]),
+        np.array([[0.0, 0.0, 0.0, 1.0]]),
+        MAX_POINTS,
+    )
+    ode_kernels.ground_contacts(
+        np.array([0], dtype=np.int64),
+        np.array([BOX], dtype=np.int64),
+        np.array([[0.1, 0.1, 0.1]]),
+        np.array([[0.0, 0.0, 0.05]]),
+        np.array([[0.0, 0.0, 0.0, 1.0]]),
+        3,
+    )

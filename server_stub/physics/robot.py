@@ -7,6 +7,7 @@ the stop (ERP 0.8, bounce 1) instead of being held at the limit, as ODE's limit 
 per-joint rule is compiled in ``server_stub.physics.motors``). Sensors (section 5) are read lazily and
 cached until the next step, so a caller pays only for what it asks.
 """
+
 from __future__ import annotations
 
 import math
@@ -33,7 +34,6 @@ BEAM_HEIGHT = 0.4
 _STOP_FORCE = 1e4
 
 
-
 def _yaw_quaternion(heading_deg: float) -> tuple[float, float, float, float]:
     """Upright orientation facing world heading ``heading_deg`` (0 = +x). The model is built
     facing +y (heading 90), so the body turns by heading - 90 about z."""
@@ -44,8 +44,9 @@ def _yaw_quaternion(heading_deg: float) -> tuple[float, float, float, float]:
 class Robot:
     """A NAO body in a pybullet world. Created by ``World.add_robot``; ``World.step`` drives it."""
 
-    def __init__(self, client: int, body: int, robot_type: int, config: PhysicsConfig,
-                 command_delay_steps: int = 1) -> None:
+    def __init__(
+        self, client: int, body: int, robot_type: int, config: PhysicsConfig, command_delay_steps: int = 1
+    ) -> None:
         self.robot_type = robot_type
         #: 1: a command acts in the step after the next (the real server's latency, for callers
         #: that step right after commanding); 0: in the next step, for a server that produces the
@@ -109,12 +110,30 @@ class Robot:
         cfg = self._config
         last_target, last_force = self._sent
         target, force, self._yielding, self._motor_load, changed = motors.motor_step(
-            angles, rates, torques, _MIN, _MAX, due, self._motor, last_target, last_force,
-            cfg.motor_torque, cfg.stop_erp, cfg.stop_bounce, cfg.cycle, _STOP_FORCE)
+            angles,
+            rates,
+            torques,
+            _MIN,
+            _MAX,
+            due,
+            self._motor,
+            last_target,
+            last_force,
+            cfg.motor_torque,
+            cfg.stop_erp,
+            cfg.stop_bounce,
+            cfg.cycle,
+            _STOP_FORCE,
+        )
         if changed:
-            pb.setJointMotorControlArray(self._body, self._indices, pb.VELOCITY_CONTROL,
-                                         targetVelocities=target.tolist(), forces=force.tolist(),
-                                         physicsClientId=self._client)
+            pb.setJointMotorControlArray(
+                self._body,
+                self._indices,
+                pb.VELOCITY_CONTROL,
+                targetVelocities=target.tolist(),
+                forces=force.tolist(),
+                physicsClientId=self._client,
+            )
             self._sent = (target, force)
 
     def _before_substep(self) -> None:
@@ -127,9 +146,17 @@ class Robot:
         if not touching or cfg.slip <= 0.0:
             return
         forces, self._slip_torque = slip.contact_forces(
-            self._skeleton, self._state_for_slip(), np.array([c[3] + 1 for c in touching]),
-            np.array([c[5] for c in touching]), np.array([c[7] for c in touching]),
-            self._motor_load, self._yielding, self._slip_torque, cfg.slip, cfg.cycle / cfg.sub_steps)
+            self._skeleton,
+            self._state_for_slip(),
+            np.array([c[3] + 1 for c in touching]),
+            np.array([c[5] for c in touching]),
+            np.array([c[7] for c in touching]),
+            self._motor_load,
+            self._yielding,
+            self._slip_torque,
+            cfg.slip,
+            cfg.cycle / cfg.sub_steps,
+        )
         for c, force in zip(touching, forces.tolist()):
             pb.applyExternalForce(self._body, c[3], force, c[5], pb.WORLD_FRAME, physicsClientId=self._client)
             total = self._slip_force.setdefault(c[3], [0.0, 0.0, 0.0])
@@ -154,8 +181,13 @@ class Robot:
         for link, info in zip(self._indices, infos):
             chains[link + 1] = chains[info[16] + 1]
             chains[link + 1, link] = True
-        return slip.Skeleton(np.array([d[0] for d in dynamics]), np.array([d[2] for d in dynamics]),
-                             np.array([info[13] for info in infos]), chains, self._config.motor_torque)
+        return slip.Skeleton(
+            np.array([d[0] for d in dynamics]),
+            np.array([d[2] for d in dynamics]),
+            np.array([info[13] for info in infos]),
+            chains,
+            self._config.motor_torque,
+        )
 
     def _after_substep(self) -> None:
         self._new = False
@@ -196,8 +228,9 @@ class Robot:
         angles = self._joint_state()[0]
         pb.resetBasePositionAndOrientation(self._body, (x, y, z), orientation, physicsClientId=client)
         pb.resetBaseVelocity(self._body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=client)
-        pb.resetJointStatesMultiDof(self._body, self._indices, [[a] for a in angles],
-                                    targetVelocities=[[0.0]] * _N, physicsClientId=client)
+        pb.resetJointStatesMultiDof(
+            self._body, self._indices, [[a] for a in angles], targetVelocities=[[0.0]] * _N, physicsClientId=client
+        )
         self._invalidate()
 
     # ----- sensors -----
@@ -205,16 +238,24 @@ class Robot:
         """(angles, rates, motor torques of the last step), cached until the next step."""
         if self._joints is None:
             states = pb.getJointStates(self._body, self._indices, physicsClientId=self._client)
-            self._joints = (np.array([s[0] for s in states]), np.array([s[1] for s in states]),
-                            np.array([s[3] for s in states]))
+            self._joints = (
+                np.array([s[0] for s in states]),
+                np.array([s[1] for s in states]),
+                np.array([s[3] for s in states]),
+            )
         return self._joints
 
     def _link_states(self) -> list[tuple]:
         """pybullet's state of every link (pose and velocity), cached until the next step: the
         cameras, the monitor and the next step's slip model all read the same state."""
         if self._links is None:
-            self._links = pb.getLinkStates(self._body, self._indices, computeLinkVelocity=1,
-                                           computeForwardKinematics=1, physicsClientId=self._client)
+            self._links = pb.getLinkStates(
+                self._body,
+                self._indices,
+                computeLinkVelocity=1,
+                computeForwardKinematics=1,
+                physicsClientId=self._client,
+            )
         return self._links
 
     def _link_table(self) -> np.ndarray:
@@ -228,15 +269,15 @@ class Robot:
     def _contacts(self) -> tuple:
         """Every contact point of this robot after the last sub-step (pybullet's tuples)."""
         if self._contact_points is None:
-            self._contact_points = () if self._new else pb.getContactPoints(
-                bodyA=self._body, physicsClientId=self._client)
+            self._contact_points = (
+                () if self._new else pb.getContactPoints(bodyA=self._body, physicsClientId=self._client)
+            )
         return self._contact_points
 
     def _base_pose(self) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
         """(position, rotation as 9 floats row-major, quaternion), cached until the next step."""
         if self._pose is None:
-            position, orientation = pb.getBasePositionAndOrientation(
-                self._body, physicsClientId=self._client)
+            position, orientation = pb.getBasePositionAndOrientation(self._body, physicsClientId=self._client)
             self._pose = (position, pb.getMatrixFromQuaternion(orientation), orientation)
         return self._pose
 
@@ -362,5 +403,4 @@ class Robot:
 def _to_local(r: tuple[float, ...], v) -> tuple[float, float, float]:
     """R^T v for a row-major 3x3 rotation ``r``: a world vector in the body's frame."""
     x, y, z = v
-    return (r[0] * x + r[3] * y + r[6] * z, r[1] * x + r[4] * y + r[7] * z,
-            r[2] * x + r[5] * y + r[8] * z)
+    return (r[0] * x + r[3] * y + r[6] * z, r[1] * x + r[4] * y + r[7] * z, r[2] * x + r[5] * y + r[8] * z)

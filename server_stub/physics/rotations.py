@@ -1,5 +1,6 @@
 """Quaternions to rotation matrices, compiled: the stub turns every body part's orientation into a
 matrix every cycle (the slip model) and every other cycle (the monitor's body-part poses)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -11,9 +12,13 @@ def rotation_matrix(q: np.ndarray) -> np.ndarray:
     """The 3x3 rotation of a unit quaternion (x, y, z, w), pybullet's order: columns are the
     turned x, y and z axes."""
     x, y, z, w = q[0], q[1], q[2], q[3]
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 @njit(cache=True)

@@ -23,6 +23,7 @@ This runs for every robot every cycle, on a handful of points, where numpy's per
 dominated (about 40 calls, 0.2 ms a cycle); the kernels are compiled with numba (cached on disk
 after the first run) and written as plain loops.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -51,9 +52,13 @@ def _mm(a, b):
 
 @njit(cache=True)
 def _mv(a, v):
-    return np.array([a[0, 0] * v[0] + a[0, 1] * v[1] + a[0, 2] * v[2],
-                     a[1, 0] * v[0] + a[1, 1] * v[1] + a[1, 2] * v[2],
-                     a[2, 0] * v[0] + a[2, 1] * v[1] + a[2, 2] * v[2]])
+    return np.array(
+        [
+            a[0, 0] * v[0] + a[0, 1] * v[1] + a[0, 2] * v[2],
+            a[1, 0] * v[0] + a[1, 1] * v[1] + a[1, 2] * v[2],
+            a[2, 0] * v[0] + a[2, 1] * v[1] + a[2, 2] * v[2],
+        ]
+    )
 
 
 @njit(cache=True)
@@ -226,9 +231,18 @@ class Pose:
     anchors: np.ndarray  # (hinges, 3)
 
 
-def contact_forces(skeleton: Skeleton, pose: Pose, parts: np.ndarray, points: np.ndarray,
-                   normals: np.ndarray, motor_load: np.ndarray, yielding: np.ndarray,
-                   last_torque: np.ndarray, slip: float, h: float) -> tuple[np.ndarray, np.ndarray]:
+def contact_forces(
+    skeleton: Skeleton,
+    pose: Pose,
+    parts: np.ndarray,
+    points: np.ndarray,
+    normals: np.ndarray,
+    motor_load: np.ndarray,
+    yielding: np.ndarray,
+    last_torque: np.ndarray,
+    slip: float,
+    h: float,
+) -> tuple[np.ndarray, np.ndarray]:
     """Slip force at each contact point (on part ``parts[k]``), and the torque these put on every
     hinge (pass it back as ``last_torque`` next step).
 
@@ -239,18 +253,49 @@ def contact_forces(skeleton: Skeleton, pose: Pose, parts: np.ndarray, points: np
     solved again once.
     """
     c = np.ascontiguousarray  # one memory layout, so numba compiles (and caches) one version
-    return _contact_forces(c(skeleton.masses, float), c(skeleton.principal_moments, float),
-                           c(skeleton.local_axes, float), c(skeleton.chains, bool),
-                           float(skeleton.torque_limit), c(pose.centres, float), c(pose.orientations, float),
-                           c(pose.velocities, float), c(pose.spins, float), c(pose.anchors, float),
-                           c(parts, np.int64), c(points, float), c(normals, float), c(motor_load, float),
-                           c(yielding, bool), c(last_torque, float), float(slip), float(h))
+    return _contact_forces(
+        c(skeleton.masses, float),
+        c(skeleton.principal_moments, float),
+        c(skeleton.local_axes, float),
+        c(skeleton.chains, bool),
+        float(skeleton.torque_limit),
+        c(pose.centres, float),
+        c(pose.orientations, float),
+        c(pose.velocities, float),
+        c(pose.spins, float),
+        c(pose.anchors, float),
+        c(parts, np.int64),
+        c(points, float),
+        c(normals, float),
+        c(motor_load, float),
+        c(yielding, bool),
+        c(last_torque, float),
+        float(slip),
+        float(h),
+    )
 
 
 @njit(cache=True)
-def _contact_forces(masses, principal_moments, local_axes, all_chains, torque_limit, centres,
-                    orientations, part_velocities, spins, anchors, parts, points, normals,
-                    motor_load, yielding, last_torque, slip, h):
+def _contact_forces(
+    masses,
+    principal_moments,
+    local_axes,
+    all_chains,
+    torque_limit,
+    centres,
+    orientations,
+    part_velocities,
+    spins,
+    anchors,
+    parts,
+    points,
+    normals,
+    motor_load,
+    yielding,
+    last_torque,
+    slip,
+    h,
+):
     n = points.shape[0]
     rotations = np.empty((centres.shape[0], 3, 3))
     for i in range(centres.shape[0]):
@@ -292,7 +337,7 @@ def _contact_forces(masses, principal_moments, local_axes, all_chains, torque_li
                 if not held[i] and parts[i] == parts[k]:
                     count += 1
             share = np.array([masses[parts[k]] / count])
-            forces[k] = loose_slip_forces(normals[k:k + 1], velocities[k:k + 1], share, slip, h)[0]
+            forces[k] = loose_slip_forces(normals[k : k + 1], velocities[k : k + 1], share, slip, h)[0]
     capped = at_most_stopping(forces, normals, velocities, slip)
     return capped, hinge_torques(points, capped, chains, anchors, axes)
 
@@ -301,9 +346,25 @@ def warm_up() -> None:
     """Compile (or load from numba's disk cache) every kernel now, on a one-point problem, so the
     first physics step of a process does not pay for it (a cold compile takes ~13 s, a cached
     load ~0.3 s). Cheap after the first call."""
-    skeleton = Skeleton(np.ones(2), np.full((2, 3), 0.01), np.array([[1.0, 0.0, 0.0]]),
-                        np.array([[False], [True]]), 10.0)
-    pose = Pose(np.array([[0.0, 0.0, 0.3], [0.0, 0.0, 0.05]]), np.tile([0.0, 0.0, 0.0, 1.0], (2, 1)),
-                np.zeros((2, 3)), np.zeros((2, 3)), np.array([[0.0, 0.0, 0.1]]))
-    contact_forces(skeleton, pose, np.array([1]), np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]),
-                   np.zeros(1), np.zeros(1, dtype=bool), np.zeros(1), 0.005, 0.02)
+    skeleton = Skeleton(
+        np.ones(2), np.full((2, 3), 0.01), np.array([[1.0, 0.0, 0.0]]), np.array([[False], [True]]), 10.0
+    )
+    pose = Pose(
+        np.array([[0.0, 0.0, 0.3], [0.0, 0.0, 0.05]]),
+        np.tile([0.0, 0.0, 0.0, 1.0], (2, 1)),
+        np.zeros((2, 3)),
+        np.zeros((2, 3)),
+        np.array([[0.0, 0.0, 0.1]]),
+    )
+    contact_forces(
+        skeleton,
+        pose,
+        np.array([1]),
+        np.zeros((1, 3)),
+        np.array([[0.0, 0.0, 1.0]]),
+        np.zeros(1),
+        np.zeros(1, dtype=bool),
+        np.zeros(1),
+        0.005,
+        0.02,
+    )

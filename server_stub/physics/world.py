@@ -4,6 +4,7 @@ One ``step`` is one 0.02 s server cycle for everything in it (docs/robot_and_ser
 The server built on top of this reads sensors from each ``Robot`` and forwards effector commands
 to ``Robot.command``; nothing here knows about sockets or message text.
 """
+
 from __future__ import annotations
 
 import tempfile
@@ -112,19 +113,25 @@ class World:
         # The ground is a thick box, not a plane: Bullet's box-box collider gives all 4 corners
         # of a flat foot at once, as ODE's box-plane collider does, while its convex-plane one
         # adds one point per step, so with one step per cycle a standing robot rocked on 2.
-        ground = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[_GROUND_HALF, _GROUND_HALF, 1.0],
-                                         physicsClientId=c)
+        ground = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[_GROUND_HALF, _GROUND_HALF, 1.0], physicsClientId=c)
         self._ground = pb.createMultiBody(0.0, ground, basePosition=(0.0, 0.0, -1.0), physicsClientId=c)
         boxes = _static_boxes()
         shapes = pb.createCollisionShapeArray(
-            [pb.GEOM_BOX] * len(boxes), halfExtents=[b[0] for b in boxes],
-            collisionFramePositions=[b[1] for b in boxes], physicsClientId=c)
+            [pb.GEOM_BOX] * len(boxes),
+            halfExtents=[b[0] for b in boxes],
+            collisionFramePositions=[b[1] for b in boxes],
+            physicsClientId=c,
+        )
         self._static = pb.createMultiBody(0.0, shapes, physicsClientId=c)
         ball_shape = pb.createCollisionShape(pb.GEOM_SPHERE, radius=BALL_RADIUS, physicsClientId=c)
-        self._ball = pb.createMultiBody(BALL_MASS, ball_shape, basePosition=(0.0, 0.0, BALL_RADIUS),
-                                        physicsClientId=c)
-        pb.changeDynamics(self._ball, -1, linearDamping=self.config.linear_damping,
-                          angularDamping=self.config.angular_damping, physicsClientId=c)
+        self._ball = pb.createMultiBody(BALL_MASS, ball_shape, basePosition=(0.0, 0.0, BALL_RADIUS), physicsClientId=c)
+        pb.changeDynamics(
+            self._ball,
+            -1,
+            linearDamping=self.config.linear_damping,
+            angularDamping=self.config.angular_damping,
+            physicsClientId=c,
+        )
 
     # ----- robots -----
     def add_robot(self, robot_type: int = 0) -> Robot:
@@ -147,12 +154,16 @@ class World:
     def _load(self, robot_type: int) -> int:
         cfg = self.config
         c = self._client
-        body = pb.loadURDF(self._urdf_file(robot_type), basePosition=SPAWN_POSITION,
-                           flags=pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_MAINTAIN_LINK_ORDER,
-                           physicsClientId=c)
+        body = pb.loadURDF(
+            self._urdf_file(robot_type),
+            basePosition=SPAWN_POSITION,
+            flags=pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_MAINTAIN_LINK_ORDER,
+            physicsClientId=c,
+        )
         for link in range(-1, pb.getNumJoints(body, physicsClientId=c)):
             pb.changeDynamics(
-                body, link,
+                body,
+                link,
                 lateralFriction=cfg.lateral_friction,
                 rollingFriction=cfg.rolling_friction,
                 spinningFriction=cfg.spinning_friction,
@@ -175,8 +186,9 @@ class World:
         pb.resetBasePositionAndOrientation(body, SPAWN_POSITION, (0.0, 0.0, 0.0, 1.0), physicsClientId=c)
         pb.resetBaseVelocity(body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=c)
         joints = list(range(pb.getNumJoints(body, physicsClientId=c)))
-        pb.resetJointStatesMultiDof(body, joints, [[0.0]] * len(joints), targetVelocities=[[0.0]] * len(joints),
-                                    physicsClientId=c)
+        pb.resetJointStatesMultiDof(
+            body, joints, [[0.0]] * len(joints), targetVelocities=[[0.0]] * len(joints), physicsClientId=c
+        )
 
     def _urdf_file(self, robot_type: int) -> str:
         if robot_type not in self._urdf:

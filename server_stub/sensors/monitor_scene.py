@@ -23,6 +23,7 @@ whose grandchild is the mesh ``models/naobody<type>.obj`` (the child holds a fix
 rotation). A full scene is needed whenever the robot set or a robot's team/number/type changes
 (materials change); ``needs_full`` tells, ``delta`` refuses otherwise.
 """
+
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -91,6 +92,7 @@ class RobotView:
 # ---------------------------------------------------------------------------------------------
 # Fixed nodes: each rendered once, full and stripped.
 
+
 @dataclass(frozen=True)
 class _Node:
     full: str
@@ -112,27 +114,34 @@ def _translation(x: float, y: float, z: float) -> str:
 
 
 def _trf(slt: str, *children: _Node) -> _Node:
-    return _Node(f"(nd TRF {slt}{''.join(c.full for c in children)})",
-                 f"(nd{''.join(c.delta for c in children)})")
+    return _Node(f"(nd TRF {slt}{''.join(c.full for c in children)})", f"(nd{''.join(c.delta for c in children)})")
 
 
 def _mesh(model: str, scale: Vec3 | float, materials: Sequence[str], transparent: bool = False) -> _Node:
     extra = " (setTransparent)" if transparent else ""
     sx, sy, sz = scale if isinstance(scale, tuple) else (scale, scale, scale)
-    return _Node(f"(nd StaticMesh (setVisible 1){extra} (load {model}) (sSc {sx:g} {sy:g} {sz:g})"
-                 f"(resetMaterials {' '.join(materials)}))", "(nd StaticMesh)")
+    return _Node(
+        f"(nd StaticMesh (setVisible 1){extra} (load {model}) (sSc {sx:g} {sy:g} {sz:g})"
+        f"(resetMaterials {' '.join(materials)}))",
+        "(nd StaticMesh)",
+    )
 
 
 def _smn(load: str, scale: Vec3, material: str, visible: bool = True, transparent: bool = False) -> _Node:
     extra = " (setTransparent)" if transparent else ""
     sx, sy, sz = scale
-    return _Node(f"(nd SMN (setVisible {int(visible)}){extra} (load {load}) (sSc {sx:g} {sy:g} {sz:g})"
-                 f" (sMat {material}))", "(nd SMN)")
+    return _Node(
+        f"(nd SMN (setVisible {int(visible)}){extra} (load {load}) (sSc {sx:g} {sy:g} {sz:g}) (sMat {material}))",
+        "(nd SMN)",
+    )
 
 
 def _light(ambient: float) -> _Node:
-    return _Node(f"(nd Light (setDiffuse 1 1 1 1) (setAmbient {ambient:g} {ambient:g} {ambient:g} 1)"
-                 " (setSpecular 0.1 0.1 0.1 1))", "(nd)")
+    return _Node(
+        f"(nd Light (setDiffuse 1 1 1 1) (setAmbient {ambient:g} {ambient:g} {ambient:g} 1)"
+        " (setSpecular 0.1 0.1 0.1 1))",
+        "(nd)",
+    )
 
 
 def _static_scene() -> _Node:
@@ -143,10 +152,14 @@ def _static_scene() -> _Node:
         _trf(_translation(-10, 10, 10), _light(0.8)),
         _trf(_translation(10, -10, 10), _light(0)),
         _trf(field_rot, _mesh("models/naosoccerfield.obj", (2.5, 1, 2.5), ["None_rcs-naofield.png"])),
-        _trf(_translation(-15.3, 0, 0.4),
-             _trf(goal_rot, _mesh("models/leftsoccergoal.obj", (2.18, 0.88, 0.68), ["naogoalnet", "yellow"], True))),
-        _trf(_slt((-1, -8.74228e-08, -0.0, -0.0, 8.74228e-08, -1, 0, 0, 0, 0, 1, 0, 15.3, 0, 0.4, 1)),
-             _trf(goal_rot, _mesh("models/rightsoccergoal.obj", (2.18, 0.88, 0.68), ["naogoalnet", "sky-blue"], True))),
+        _trf(
+            _translation(-15.3, 0, 0.4),
+            _trf(goal_rot, _mesh("models/leftsoccergoal.obj", (2.18, 0.88, 0.68), ["naogoalnet", "yellow"], True)),
+        ),
+        _trf(
+            _slt((-1, -8.74228e-08, -0.0, -0.0, 8.74228e-08, -1, 0, 0, 0, 0, 1, 0, 15.3, 0, 0.4, 1)),
+            _trf(goal_rot, _mesh("models/rightsoccergoal.obj", (2.18, 0.88, 0.68), ["naogoalnet", "sky-blue"], True)),
+        ),
     ]
     nodes += [_trf(_translation(x, y, 0)) for x, y in ((-15, 10), (-15, -10), (15, 10), (15, -10))]
     return _Node("".join(n.full for n in nodes), "".join(n.delta for n in nodes))
@@ -187,6 +200,7 @@ def _part_children(part: str, team: str | None, unum: int | None, robot_type: in
 # ---------------------------------------------------------------------------------------------
 # Moving transforms: a group of TRFs whose SLT is resent only when it moved.
 
+
 @dataclass
 class _Movers:
     """Transforms with fixed children; remembers what each last sent (column-major rows)."""
@@ -208,8 +222,10 @@ class _Movers:
             return self._still
         self.sent[moved] = poses[moved]
         numbers = iter(g_rows(poses[moved]))
-        return "".join(f"(nd (SLT {next(numbers)}){c.delta})" if m else f"(nd{c.delta})"
-                       for m, c in zip(moved.tolist(), self.children))
+        return "".join(
+            f"(nd (SLT {next(numbers)}){c.delta})" if m else f"(nd{c.delta})"
+            for m, c in zip(moved.tolist(), self.children)
+        )
 
 
 def _column_major(poses: np.ndarray) -> np.ndarray:
@@ -228,18 +244,26 @@ class MonitorScene:
     def __init__(self, config: MonitorConfig = MonitorConfig()) -> None:
         self._cfg = config
         c = config
-        fixed = (("FieldLength", c.field_length), ("FieldWidth", c.field_width),
-                 ("FieldHeight", c.field_height), ("GoalWidth", c.goal_width),
-                 ("GoalDepth", c.goal_depth), ("GoalHeight", c.goal_height),
-                 ("BorderSize", c.border_size), ("FreeKickDistance", c.free_kick_distance),
-                 ("WaitBeforeKickOff", c.wait_before_kick_off), ("AgentRadius", c.agent_radius),
-                 ("BallRadius", c.ball_radius), ("BallMass", c.ball_mass),
-                 ("RuleGoalPauseTime", c.rule_goal_pause_time),
-                 ("RuleKickInPauseTime", c.rule_kick_in_pause_time), ("RuleHalfTime", c.rule_half_time),
-                 ("PassModeMinOppBallDist", c.pass_mode_min_opp_ball_dist),
-                 ("PassModeDuration", c.pass_mode_duration))
-        self._fixed_header = ("".join(f"({k} {v:g})" for k, v in fixed)
-                              + f"(play_modes {' '.join(PLAY_MODES)})")
+        fixed = (
+            ("FieldLength", c.field_length),
+            ("FieldWidth", c.field_width),
+            ("FieldHeight", c.field_height),
+            ("GoalWidth", c.goal_width),
+            ("GoalDepth", c.goal_depth),
+            ("GoalHeight", c.goal_height),
+            ("BorderSize", c.border_size),
+            ("FreeKickDistance", c.free_kick_distance),
+            ("WaitBeforeKickOff", c.wait_before_kick_off),
+            ("AgentRadius", c.agent_radius),
+            ("BallRadius", c.ball_radius),
+            ("BallMass", c.ball_mass),
+            ("RuleGoalPauseTime", c.rule_goal_pause_time),
+            ("RuleKickInPauseTime", c.rule_kick_in_pause_time),
+            ("RuleHalfTime", c.rule_half_time),
+            ("PassModeMinOppBallDist", c.pass_mode_min_opp_ball_dist),
+            ("PassModeDuration", c.pass_mode_duration),
+        )
+        self._fixed_header = "".join(f"({k} {v:g})" for k, v in fixed) + f"(play_modes {' '.join(PLAY_MODES)})"
         self._sent_header: dict[str, object] = {}
         self._ball = _Movers([_BALL_CHILD], c.slt_threshold)
         self._robots: list[_Movers] = []
@@ -254,22 +278,30 @@ class MonitorScene:
         return [self._key(r) for r in robots] != self._keys
 
     def _header_values(self, header: GameHeader) -> dict[str, object]:
-        return {"team_left": header.team_left, "team_right": header.team_right, "half": header.half,
-                "score_left": header.score_left, "score_right": header.score_right,
-                "play_mode": PLAY_MODES.index(header.play_mode)}
+        return {
+            "team_left": header.team_left,
+            "team_right": header.team_right,
+            "half": header.half,
+            "score_left": header.score_left,
+            "score_right": header.score_right,
+            "play_mode": PLAY_MODES.index(header.play_mode),
+        }
 
     def full(self, header: GameHeader, robots: Sequence[RobotView], ball: Vec3) -> str:
         """Full header, ``(RSG 0 1)``, the whole scene; resets what deltas compare against."""
         values = self._header_values(header)
         self._sent_header = values
         items = "".join(f"({k} {v})" for k, v in values.items() if v is not None)
-        self._robots = [_Movers([_part_children(name, r.team, r.unum, r.robot_type) for name in r.part_names],
-                                self._cfg.slt_threshold) for r in robots]
+        self._robots = [
+            _Movers(
+                [_part_children(name, r.team, r.unum, r.robot_type) for name in r.part_names], self._cfg.slt_threshold
+            )
+            for r in robots
+        ]
         self._keys = [self._key(r) for r in robots]
         scene = [_STATIC.full, self._ball.full(_ball_pose(ball))]
         for movers, robot in zip(self._robots, robots):
-            scene.append(f"(nd TRF {_slt(_IDENTITY.T.ravel())}"
-                         f"{movers.full(_column_major(robot.poses))})")
+            scene.append(f"(nd TRF {_slt(_IDENTITY.T.ravel())}{movers.full(_column_major(robot.poses))})")
         return f"({self._fixed_header}(time {header.time:g}){items})(RSG 0 1)({''.join(scene)})"
 
     def delta(self, header: GameHeader, robots: Sequence[RobotView], ball: Vec3) -> str:
@@ -278,8 +310,7 @@ class MonitorScene:
         if self.needs_full(robots):
             raise ValueError("the robots changed since the last full scene; send MonitorScene.full")
         values = self._header_values(header)
-        changed = "".join(f"({k} {v})" for k, v in values.items()
-                          if v is not None and v != self._sent_header.get(k))
+        changed = "".join(f"({k} {v})" for k, v in values.items() if v is not None and v != self._sent_header.get(k))
         self._sent_header = values
         scene = [_STATIC.delta, self._ball.delta(_ball_pose(ball))]
         for movers, robot in zip(self._robots, robots):

@@ -11,6 +11,7 @@ rounding can only differ when the scaled value lies within that of a rounding bo
 a number that close to one (or not finite, or outside about 1e-17 ... 1e27, where the powers of
 ten stop being exact) are printed by Python instead.
 """
+
 from __future__ import annotations
 
 import math
@@ -18,7 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
-_POW10 = np.array([10.0 ** k for k in range(23)])
+_POW10 = np.array([10.0**k for k in range(23)])
 #: scaled values this close to a rounding boundary go to Python (the kernel's error is ~1e-10)
 _MARGIN = 1e-7
 _MAX_CHARS = 13  # "-1.23457e-17" and a separator

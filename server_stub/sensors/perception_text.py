@@ -15,6 +15,7 @@ The order is the server's scene-graph order: perceptors are collected walking th
 tree, so the head's ``See`` sits between the neck/head joints and the arms, and each foot's
 ``FRP`` just before the ankle-roll joint of that leg.
 """
+
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
@@ -45,8 +46,9 @@ def _hj_template(names: Sequence[str]) -> str:
 
 
 # the message's layout: protocol.nao's blocks of joint perceptors, with See and FRP between them
-_HEAD_T = ("(time (now %.2f))%s(GYR (n torso) (rt %.2f %.2f %.2f))(ACC (n torso) (a %.2f %.2f %.2f))"
-           + _hj_template(HJ_BEFORE_SEE))
+_HEAD_T = "(time (now %.2f))%s(GYR (n torso) (rt %.2f %.2f %.2f))(ACC (n torso) (a %.2f %.2f %.2f))" + _hj_template(
+    HJ_BEFORE_SEE
+)
 _BEFORE_FRP_RF_T = _hj_template(HJ_BEFORE_FRP_RF)
 _BEFORE_FRP_LF_T = _hj_template(HJ_BEFORE_FRP_LF)
 _LAST_T = _hj_template(HJ_LAST)
@@ -75,17 +77,34 @@ def _frp(key: str, contact: FootContact) -> str:
     return _FRP_T % (key, cx, cy, cz, fx, fy, fz)
 
 
-def format_perception(now: float, game: GameStateText, gyro: Vec3, acc: Vec3,
-                      joints_deg: Mapping[str, float], frp: Mapping[str, FootContact],
-                      see: str | None = None, hear: Sequence[str] = ()) -> str:
+def format_perception(
+    now: float,
+    game: GameStateText,
+    gyro: Vec3,
+    acc: Vec3,
+    joints_deg: Mapping[str, float],
+    frp: Mapping[str, FootContact],
+    see: str | None = None,
+    hear: Sequence[str] = (),
+) -> str:
     """One perception message. ``joints_deg`` needs every perceptor of ``protocol.nao.JOINTS``;
     ``frp`` holds only the feet touching something ('lf', 'rf'); ``see`` is a full ``(See ...)``
     entry (vision cycles only); ``hear`` entries come from ``format_hear``, printed after the
     head's other perceptors (our choice; the fixtures hold no ``hear``)."""
     j = joints_deg
     parts = [
-        _HEAD_T % (now, format_game_state(game), gyro[0], gyro[1], gyro[2], acc[0], acc[1], acc[2],
-                   *[j[n] for n in HJ_BEFORE_SEE]),
+        _HEAD_T
+        % (
+            now,
+            format_game_state(game),
+            gyro[0],
+            gyro[1],
+            gyro[2],
+            acc[0],
+            acc[1],
+            acc[2],
+            *[j[n] for n in HJ_BEFORE_SEE],
+        ),
     ]
     if see is not None:
         parts.append(see)

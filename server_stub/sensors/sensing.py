@@ -1,5 +1,6 @@
 """What each client is told every cycle: agent perceptions (with vision and hearing) and the
 monitor stream, assembled from the world's state and the game's."""
+
 from __future__ import annotations
 
 import math
@@ -83,22 +84,41 @@ class Sensing:
         robot, camera = state.robot, state.vision
         assert robot is not None and camera is not None  # perceptions are made for robots only
         identity = state.announce_identity and state.side is not None
-        gs = GameStateText(game.score_left, game.score_right, game.time, game.play_mode,
-                           state.unum if identity else None, state.side if identity else None)
+        gs = GameStateText(
+            game.score_left,
+            game.score_right,
+            game.time,
+            game.play_mode,
+            state.unum if identity else None,
+            state.side if identity else None,
+        )
         state.announce_identity = state.announce_identity and not identity
         see = None
         if with_vision:
             position, rotation = robot.head_pose()
-            see = camera.see(position, rotation, state.side or "left", self.world.ball_position(),
-                                   self._seen_robots(states))
-        return format_perception(self.world.time, gs, robot.gyro(), robot.accelerometer(), robot.joint_angles(),
-                                 robot.foot_pressure(), see, self._hear(state, self.world.time))
+            see = camera.see(
+                position, rotation, state.side or "left", self.world.ball_position(), self._seen_robots(states)
+            )
+        return format_perception(
+            self.world.time,
+            gs,
+            robot.gyro(),
+            robot.accelerometer(),
+            robot.joint_angles(),
+            robot.foot_pressure(),
+            see,
+            self._hear(state, self.world.time),
+        )
 
     # ----- monitors -----
     def monitor_views(self, states: Sequence[AgentState]) -> list[RobotView]:
-        return [RobotView(s.side, s.unum, s.robot_type, s.robot.part_names, s.robot.part_poses())
-                for s in states if s.robot is not None]
+        return [
+            RobotView(s.side, s.unum, s.robot_type, s.robot.part_names, s.robot.part_poses())
+            for s in states
+            if s.robot is not None
+        ]
 
     def monitor_header(self, game: Game) -> GameHeader:
-        return GameHeader(game.time, game.play_mode, game.half, game.score_left, game.score_right,
-                          game.team_left, game.team_right)
+        return GameHeader(
+            game.time, game.play_mode, game.half, game.score_left, game.score_right, game.team_left, game.team_right
+        )

@@ -17,6 +17,7 @@ the 21 unnamed line transforms in the monitor scene): halfway line, the two goal
 side lines, each penalty area as 3 segments (1.8 m deep, 6.0 m wide), and the centre circle
 (radius 2 m) as 10 chords with corners every 36 deg starting on the +x axis.
 """
+
 from __future__ import annotations
 
 import math
@@ -71,27 +72,37 @@ class VisionSensor:
     """The camera of one robot. It keeps that robot's fixed calibration offset (drawn once, as the
     real server draws it per perceptor), so make one sensor per robot."""
 
-    def __init__(self, rng: np.random.Generator, noise: bool = True, sense_mypos: bool = False,
-                 config: VisionConfig = VisionConfig()) -> None:
+    def __init__(
+        self,
+        rng: np.random.Generator,
+        noise: bool = True,
+        sense_mypos: bool = False,
+        config: VisionConfig = VisionConfig(),
+    ) -> None:
         self._rng = rng
         self._noise = noise
         self._sense_mypos = sense_mypos
         self._cfg = config
-        self._offset = (rng.uniform(-config.calibration_error, config.calibration_error, 3)
-                        if noise else np.zeros(3))
+        self._offset = rng.uniform(-config.calibration_error, config.calibration_error, 3) if noise else np.zeros(3)
         #: what never moves, in the order ``see`` transforms it: landmarks, line starts, line ends
-        self._fixed = np.array([p for _, p in LANDMARKS] + [a for a, _ in FIELD_LINES]
-                               + [b for _, b in FIELD_LINES], dtype=float)
+        self._fixed = np.array(
+            [p for _, p in LANDMARKS] + [a for a, _ in FIELD_LINES] + [b for _, b in FIELD_LINES], dtype=float
+        )
         self._n_lines = len(FIELD_LINES)
         h, v = math.radians(config.half_cone_h_deg), math.radians(config.half_cone_v_deg)
         # Inward normals of the 4 sides of the view pyramid (head frame x right, y fwd, z up).
-        self._planes_t = np.ascontiguousarray(np.array([
-            [math.cos(h), math.sin(h), 0.0], [-math.cos(h), math.sin(h), 0.0],
-            [0.0, math.sin(v), -math.cos(v)], [0.0, math.sin(v), math.cos(v)],
-        ]).T)
+        self._planes_t = np.ascontiguousarray(
+            np.array(
+                [
+                    [math.cos(h), math.sin(h), 0.0],
+                    [-math.cos(h), math.sin(h), 0.0],
+                    [0.0, math.sin(v), -math.cos(v)],
+                    [0.0, math.sin(v), math.cos(v)],
+                ]
+            ).T
+        )
 
-    def see(self, camera_pos: Vec3, camera_rot: np.ndarray, side: str, ball: Vec3,
-            robots: Sequence[SeenRobot]) -> str:
+    def see(self, camera_pos: Vec3, camera_rot: np.ndarray, side: str, ball: Vec3, robots: Sequence[SeenRobot]) -> str:
         """The ``(See ...)`` entry. ``camera_rot``: 3x3 world rotation of the head (columns = head
         x right, y forward, z up); ``side`` ('left'/'right') only mirrors the ground truth
         (``mypos``, ``myorien``, ``ballpos``); ``robots`` includes the observer itself."""
@@ -108,10 +119,20 @@ class VisionSensor:
         n_land = len(LANDMARKS)
         n_points = n_land + len(moving)
         c = self._cfg
-        exact, visible, n_lines = _view(self._fixed, np.array(moving, dtype=float), cam, rot, self._offset,
-                                        self._planes_t, n_land, self._n_lines, c.min_distance,
-                                        c.half_cone_h_deg, c.half_cone_v_deg)
-        visible = visible.tolist()   # the cone cuts before the noise
+        exact, visible, n_lines = _view(
+            self._fixed,
+            np.array(moving, dtype=float),
+            cam,
+            rot,
+            self._offset,
+            self._planes_t,
+            n_land,
+            self._n_lines,
+            c.min_distance,
+            c.half_cone_h_deg,
+            c.half_cone_v_deg,
+        )
+        visible = visible.tolist()  # the cone cuts before the noise
         polar = self._with_noise(exact)
 
         out = ["(See"]
@@ -121,11 +142,11 @@ class VisionSensor:
                 out.append(_NAMED_POL % (name, flat[3 * k], flat[3 * k + 1], flat[3 * k + 2]))
         if visible[n_land]:
             out.append(_NAMED_POL % ("B", flat[3 * n_land], flat[3 * n_land + 1], flat[3 * n_land + 2]))
-        out.extend(self._players(robots, owners, flat[3 * (n_land + 1):], visible[n_land + 1:]))
+        out.extend(self._players(robots, owners, flat[3 * (n_land + 1) :], visible[n_land + 1 :]))
         if self._sense_mypos:
             out.append(self._ground_truth(cam, rot, side, ball))
         if n_lines:
-            ends = np.concatenate([polar[n_points:n_points + n_lines], polar[n_points + n_lines:]], axis=1)
+            ends = np.concatenate([polar[n_points : n_points + n_lines], polar[n_points + n_lines :]], axis=1)
             out.append(_LINE * n_lines % tuple(ends.ravel().tolist()))
         out.append(")")
         return "".join(out)
@@ -140,24 +161,26 @@ class VisionSensor:
         noisy[:, 0] = polar[:, 0] * (1.0 + e[:, 0] * (c.distance_sigma_percent / 100.0))
         return noisy
 
-    def _players(self, robots: Sequence[SeenRobot], owners: list[tuple[int, str]],
-                 flat: list[float], visible: list[bool]) -> list[str]:
+    def _players(
+        self, robots: Sequence[SeenRobot], owners: list[tuple[int, str]], flat: list[float], visible: list[bool]
+    ) -> list[str]:
         """``(P ...)`` of each robot with a part in view; ``flat`` holds (d, h, v) per owner."""
         seen: dict[int, list[str]] = {}
         for k, ((i, part), ok) in enumerate(zip(owners, visible)):
             if ok:
                 seen.setdefault(i, []).append(_NAMED_POL % (part, flat[3 * k], flat[3 * k + 1], flat[3 * k + 2]))
-        return [f" (P (team {robots[i].team}) (id {robots[i].unum}){''.join(parts)})"
-                for i, parts in seen.items()]
+        return [f" (P (team {robots[i].team}) (id {robots[i].unum}){''.join(parts)})" for i, parts in seen.items()]
 
     def _ground_truth(self, cam: np.ndarray, rot: np.ndarray, side: str, ball: Vec3) -> str:
         """``mypos`` is the head centre, ``myorien`` the heading of the head's forward axis; the
         right team gets them mirrored through the field centre (x and y negated)."""
         s = -1.0 if side == "right" else 1.0
         heading = math.degrees(math.atan2(s * rot[1, 1], s * rot[0, 1]))
-        return (f" (mypos {s * cam[0]:.2f} {s * cam[1]:.2f} {cam[2]:.2f})"
-                f" (myorien {heading:.2f})"
-                f" (ballpos {s * ball[0]:.2f} {s * ball[1]:.2f} {ball[2]:.2f})")
+        return (
+            f" (mypos {s * cam[0]:.2f} {s * cam[1]:.2f} {cam[2]:.2f})"
+            f" (myorien {heading:.2f})"
+            f" (ballpos {s * ball[0]:.2f} {s * ball[1]:.2f} {ball[2]:.2f})"
+        )
 
 
 @njit(cache=True)
@@ -170,9 +193,19 @@ def _polar_row(x: float, y: float, z: float, out: np.ndarray, k: int) -> None:
 
 
 @njit(cache=True)
-def _view(fixed: np.ndarray, moving: np.ndarray, cam: np.ndarray, rot: np.ndarray, offset: np.ndarray,
-          planes_t: np.ndarray, n_land: int, n_lines: int, min_distance: float, half_h: float,
-          half_v: float) -> tuple[np.ndarray, np.ndarray, int]:
+def _view(
+    fixed: np.ndarray,
+    moving: np.ndarray,
+    cam: np.ndarray,
+    rot: np.ndarray,
+    offset: np.ndarray,
+    planes_t: np.ndarray,
+    n_land: int,
+    n_lines: int,
+    min_distance: float,
+    half_h: float,
+    half_v: float,
+) -> tuple[np.ndarray, np.ndarray, int]:
     """The camera's exact view, before noise, in one compiled pass (numpy took ~30 small calls).
 
     ``fixed`` holds the landmarks, then the field lines' starts, then their ends; ``moving`` the
@@ -220,8 +253,7 @@ def _view(fixed: np.ndarray, moving: np.ndarray, cam: np.ndarray, rot: np.ndarra
     for k in range(n_points):
         i = k if k < n_land else k + 2 * n_lines  # the moving points follow the line ends
         _polar_row(head[i, 0], head[i, 1], head[i, 2], polar, k)
-        visible[k] = (polar[k, 0] >= min_distance and abs(polar[k, 1]) <= half_h
-                      and abs(polar[k, 2]) <= half_v)
+        visible[k] = polar[k, 0] >= min_distance and abs(polar[k, 1]) <= half_h and abs(polar[k, 2]) <= half_v
     for k in range(shown):
         _polar_row(kept_a[k, 0], kept_a[k, 1], kept_a[k, 2], polar, n_points + k)
         _polar_row(kept_b[k, 0], kept_b[k, 1], kept_b[k, 2], polar, n_points + shown + k)

@@ -1,5 +1,6 @@
 """Search methods for the comparison, found by looking: every module of this package that defines
 ``METHODS`` (a sequence of ``Method``) contributes them, so adding a method is adding a module."""
+
 from __future__ import annotations
 
 import importlib

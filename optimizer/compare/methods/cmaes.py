@@ -4,6 +4,7 @@ Scaling makes one step size fit genes in degrees, seconds and rad/s alike; ``cma
 handling keeps samples in the cube, and the TFS repair (t2 folded into the period) is applied to
 what is evaluated. It starts from a seeded random point with sigma 0.3 of the box.
 """
+
 from __future__ import annotations
 
 import cma
@@ -19,8 +20,11 @@ SIGMA0 = 0.3
 
 def _strategy(rng: np.random.Generator, dimension: int) -> cma.CMAEvolutionStrategy:
     """A fresh strategy from a random point of the cube, seeded from ``rng``."""
-    return cma.CMAEvolutionStrategy(rng.uniform(0.0, 1.0, dimension), SIGMA0, {
-        "bounds": [0.0, 1.0], "seed": int(rng.integers(1, 2**31 - 1)), "verbose": -9})
+    return cma.CMAEvolutionStrategy(
+        rng.uniform(0.0, 1.0, dimension),
+        SIGMA0,
+        {"bounds": [0.0, 1.0], "seed": int(rng.integers(1, 2**31 - 1)), "verbose": -9},
+    )
 
 
 def _program(problem: Problem) -> SearchProgram:

@@ -5,6 +5,7 @@ holds, GALA's continuing population for as many iterations. GALA's final GA, whi
 search with the learnt rate to fill Table I, is a reporting step, not part of the search, so a
 fixed-budget comparison stops before it.
 """
+
 from __future__ import annotations
 
 import math
@@ -31,26 +32,37 @@ def _generations(problem: Problem) -> int:
 
 def _ga(name: str, preset: RatePreset) -> Method:
     def program(problem: Problem) -> SearchProgram:
-        config = GAConfig(population_size=problem.population, generations=_generations(problem),
-                          crossover_rate=preset.crossover_rate, mutation_rate=preset.mutation_rate,
-                          elitism=problem.elitism)
+        config = GAConfig(
+            population_size=problem.population,
+            generations=_generations(problem),
+            crossover_rate=preset.crossover_rate,
+            mutation_rate=preset.mutation_rate,
+            elitism=problem.elitism,
+        )
         return program_of(GARun(problem.bounds, config, problem.seed, repair=problem.repair, prefix="ga"))
 
-    return Method(name, f"GA, {preset.name}: crossover {preset.crossover_rate:g}, mutation {preset.mutation_rate:g}",
-                  program)
+    return Method(
+        name, f"GA, {preset.name}: crossover {preset.crossover_rate:g}, mutation {preset.mutation_rate:g}", program
+    )
 
 
 def _gala(problem: Problem) -> SearchProgram:
     paper = GALAConfig()
-    config = replace(paper, ga=GAConfig(population_size=problem.population, elitism=problem.elitism),
-                     iterations=_generations(problem))
-    return program_of(GALA(problem.bounds, config, PAPER_GALA_BEST.crossover_rate, problem.seed,
-                           repair=problem.repair))
+    config = replace(
+        paper,
+        ga=GAConfig(population_size=problem.population, elitism=problem.elitism),
+        iterations=_generations(problem),
+    )
+    return program_of(GALA(problem.bounds, config, PAPER_GALA_BEST.crossover_rate, problem.seed, repair=problem.repair))
 
 
 METHODS = (
-    Method("gala", "GALA at the paper's settings: crossover 0.8, automata(10) over mutation 0.00-0.09, "
-                   "L_R-P a 0.1 b 0.2, one continuing population", _gala),
+    Method(
+        "gala",
+        "GALA at the paper's settings: crossover 0.8, automata(10) over mutation 0.00-0.09, "
+        "L_R-P a 0.1 b 0.2, one continuing population",
+        _gala,
+    ),
     _ga("ga-dejong", DE_JONG),
     _ga("ga-grefenstette", GREFENSTETTE),
     _ga("ga-paper", PAPER_GALA_BEST),

@@ -1,4 +1,5 @@
 """Uniform random search in the gene box: the floor every method must beat."""
+
 from __future__ import annotations
 
 import numpy as np
