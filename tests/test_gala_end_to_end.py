@@ -37,9 +37,15 @@ TINY = [
 ]
 
 
-def _gala(*args: str, timeout: float = 600) -> subprocess.CompletedProcess[str]:
+def _gala(*args: str, timeout: float = 600, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    """``python -m optimizer.gala ARGS`` from the repository, as a user runs it (``env``: its environment)."""
     return subprocess.run(
-        [sys.executable, "-m", "optimizer.gala", *args], cwd=REPO, capture_output=True, text=True, timeout=timeout
+        [sys.executable, "-m", "optimizer.gala", *args],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=env,
     )
 
 

@@ -17,6 +17,7 @@ import uuid
 from pathlib import Path
 
 import pytest
+from test_gala_end_to_end import _gala, _log
 
 from gait import DEFAULT_GAIT_PATH, load_gait
 from optimizer.cli import episode as episode_command
@@ -305,41 +306,32 @@ def test_a_killed_optimizer_leaves_no_server(rcssserver3d: str, tmp_path: Path) 
 def test_tiny_gala_on_a_real_server_end_to_end(rcssserver3d: str, tmp_path: Path) -> None:
     env, tag = _tagged_env(rcssserver3d)
     out = tmp_path / "run"
-    done = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "optimizer.gala",
-            "--real",
-            "1",
-            "--crossover",
-            "0.8",
-            "--population",
-            "6",
-            "--iterations",
-            "3",
-            "--generations",
-            "2",
-            "--walk-time",
-            "5",
-            "--check-repeats",
-            "3",
-            "--seed",
-            "5",
-            "--quiet",
-            "--out",
-            str(out),
-        ],
-        cwd=REPO,
+    done = _gala(
+        "--real",
+        "1",
+        "--crossover",
+        "0.8",
+        "--population",
+        "6",
+        "--iterations",
+        "3",
+        "--generations",
+        "2",
+        "--walk-time",
+        "5",
+        "--check-repeats",
+        "3",
+        "--seed",
+        "5",
+        "--quiet",
+        "--out",
+        str(out),
         env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
     )
     assert done.returncode == 0, done.stderr
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["runtime"]["real"]["servers"] == 1 and manifest["settings"]["bounds"] == "robot"
-    logged = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
+    logged = _log(out)
     assert all(r["status"] == "ok" for r in logged), [r["reason"] for r in logged if r["status"] != "ok"]
     assert all(0 < r["time"] <= 5.0 for r in logged)
     [row] = list(csv.DictReader((out / "table1.csv").open()))
@@ -355,41 +347,32 @@ def test_each_dask_worker_starts_and_stops_its_own_real_server(rcssserver3d: str
     pytest.importorskip("distributed", reason="Dask is an optional extra: pip install '.[dask]'")
     env, tag = _tagged_env(rcssserver3d)
     out = tmp_path / "run"
-    done = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "optimizer.gala",
-            "--real",
-            "1",
-            "--dask-local",
-            "1",
-            "--crossover",
-            "0.8",
-            "--population",
-            "4",
-            "--iterations",
-            "2",
-            "--generations",
-            "2",
-            "--walk-time",
-            "2",
-            "--check-repeats",
-            "0",
-            "--seed",
-            "2",
-            "--quiet",
-            "--out",
-            str(out),
-        ],
-        cwd=REPO,
+    done = _gala(
+        "--real",
+        "1",
+        "--dask-local",
+        "1",
+        "--crossover",
+        "0.8",
+        "--population",
+        "4",
+        "--iterations",
+        "2",
+        "--generations",
+        "2",
+        "--walk-time",
+        "2",
+        "--check-repeats",
+        "0",
+        "--seed",
+        "2",
+        "--quiet",
+        "--out",
+        str(out),
         env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
     )
     assert done.returncode == 0, done.stderr
-    logged = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
+    logged = _log(out)
     assert logged and all(r["status"] == "ok" for r in logged), [r["reason"] for r in logged if r["status"] != "ok"]
     assert _wait_for(lambda: _servers_tagged(tag) == [], 10.0), _servers_tagged(tag)
 

@@ -12,8 +12,9 @@ from hypothesis import strategies as st
 
 from protocol.nao import JOINTS, SPEED_CAP
 from server_stub.config import PhysicsConfig
+from server_stub.field import BALL_RADIUS
 from server_stub.physics import nao_model
-from server_stub.physics.world import BALL_RADIUS, World
+from server_stub.physics.world import World
 
 DEG_PER_CYCLE_AT_CAP = math.degrees(SPEED_CAP * 0.02)  # 7.035
 

@@ -20,9 +20,6 @@ from server_stub.physics.robot import Robot
 
 #: docs/robot_and_server.md section 6: a new robot appears with its torso here, in the air.
 SPAWN_POSITION = (0.0, -1.0, 1.5)
-FIELD_LENGTH, FIELD_WIDTH = field.LENGTH, field.WIDTH
-GOAL_WIDTH, GOAL_DEPTH, GOAL_HEIGHT = field.GOAL_WIDTH, field.GOAL_DEPTH, field.GOAL_HEIGHT
-BALL_RADIUS, BALL_MASS = field.BALL_RADIUS, field.BALL_MASS
 #: Thickness of the goal's posts, bar and net boxes (not given by the real server's files; thin).
 _GOAL_THICKNESS = 0.02
 #: Border walls: 1 m boxes about 10 m beyond the goal lines and 15 m beyond the side lines.
@@ -30,7 +27,7 @@ _WALL_GAP_X = 10.0
 _WALL_GAP_Y = 15.0
 _WALL_SIZE = 1.0
 #: Half side of the ground box (m): the field, the gap to the walls and the walls themselves.
-_GROUND_HALF = FIELD_LENGTH / 2 + _WALL_GAP_Y + _WALL_SIZE + 4.0
+_GROUND_HALF = field.LENGTH / 2 + _WALL_GAP_Y + _WALL_SIZE + 4.0
 #: Where removed robots wait, asleep, for the next robot of their type (``World.remove_robot``):
 #: far beyond the walls and the ground, one spot each.
 _PARKING = (500.0, 500.0, 50.0)
@@ -45,18 +42,18 @@ _SOLVERS = {"dantzig": pb.CONSTRAINT_SOLVER_LCP_DANTZIG, "pgs": pb.CONSTRAINT_SO
 def _static_boxes() -> list[tuple[tuple[float, float, float], tuple[float, float, float]]]:
     """(half extents, centre) of every static box: both goals (posts, bar, sides, back) and walls."""
     t = _GOAL_THICKNESS / 2
-    half_w = GOAL_WIDTH / 2
-    h = GOAL_HEIGHT / 2
+    half_w = field.GOAL_WIDTH / 2
+    h = field.GOAL_HEIGHT / 2
     boxes = []
     for side in (-1.0, 1.0):
-        line = side * FIELD_LENGTH / 2
+        line = side * field.LENGTH / 2
         for y in (-half_w - t, half_w + t):
             boxes.append(((t, t, h), (line + side * t, y, h)))  # post on the goal line
-            boxes.append(((GOAL_DEPTH / 2, t, h), (line + side * GOAL_DEPTH / 2, y, h)))  # side net
-        boxes.append(((t, half_w, t), (line + side * t, 0.0, GOAL_HEIGHT + t)))  # crossbar
-        boxes.append(((t, half_w, h), (line + side * (GOAL_DEPTH + t), 0.0, h)))  # back net
-    wall_x = FIELD_LENGTH / 2 + _WALL_GAP_X
-    wall_y = FIELD_WIDTH / 2 + _WALL_GAP_Y
+            boxes.append(((field.GOAL_DEPTH / 2, t, h), (line + side * field.GOAL_DEPTH / 2, y, h)))  # side net
+        boxes.append(((t, half_w, t), (line + side * t, 0.0, field.GOAL_HEIGHT + t)))  # crossbar
+        boxes.append(((t, half_w, h), (line + side * (field.GOAL_DEPTH + t), 0.0, h)))  # back net
+    wall_x = field.LENGTH / 2 + _WALL_GAP_X
+    wall_y = field.WIDTH / 2 + _WALL_GAP_Y
     half = _WALL_SIZE / 2
     for side in (-1.0, 1.0):
         boxes.append(((half, wall_y, half), (side * (wall_x + half), 0.0, half)))
@@ -123,8 +120,10 @@ class World:
             physicsClientId=c,
         )
         self._static = pb.createMultiBody(0.0, shapes, physicsClientId=c)
-        ball_shape = pb.createCollisionShape(pb.GEOM_SPHERE, radius=BALL_RADIUS, physicsClientId=c)
-        self._ball = pb.createMultiBody(BALL_MASS, ball_shape, basePosition=(0.0, 0.0, BALL_RADIUS), physicsClientId=c)
+        ball_shape = pb.createCollisionShape(pb.GEOM_SPHERE, radius=field.BALL_RADIUS, physicsClientId=c)
+        self._ball = pb.createMultiBody(
+            field.BALL_MASS, ball_shape, basePosition=(0.0, 0.0, field.BALL_RADIUS), physicsClientId=c
+        )
         pb.changeDynamics(
             self._ball,
             -1,
