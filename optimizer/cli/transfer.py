@@ -30,6 +30,7 @@ from matplotlib.figure import Figure
 
 from gait import GENE_NAMES
 from optimizer.cli.common import (
+    LEGACY_START,
     EvaluationSetup,
     EvaluatorMaker,
     add_server_arguments,
@@ -266,7 +267,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         parser.error(f"RUN_DIR: {folder.path} reports no gait yet")
     settings = folder.manifest["settings"]
     real = bool(args.real or args.server)
-    start = _start(parser, args, tuple(settings.get("start", (0.0, 0.0, 0.0))), real)
+    start = _start(parser, args, tuple(settings.get("start", LEGACY_START)), real)
     jitter = tuple(args.jitter) if args.jitter is not None else stability_config(settings).jitter
     if not any(jitter) and not real:
         jitter = StabilityConfig().jitter  # the stand-in is deterministic: unmoved walks would be one walk
