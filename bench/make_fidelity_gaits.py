@@ -26,7 +26,6 @@ few per cent, so a gait near a threshold can go either way).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -50,6 +49,7 @@ from optimizer.episode.fidelity import (  # noqa: E402
 )
 from optimizer.episode.real_server import RealServerProcess  # noqa: E402
 from optimizer.episode.runner import quiet_agent_logs  # noqa: E402
+from optimizer.run.folder import EPISODES, read_episode_log  # noqa: E402
 
 #: Each gene's range: distances in gene space are in these units, so no gene dominates.
 _SPAN = GENE_BOUNDS[:, 1] - GENE_BOUNDS[:, 0]
@@ -62,18 +62,13 @@ def _genes(values: Sequence[float]) -> tuple[float, ...]:
 def _fastest_distinct(run: Path, count: int, min_separation: float) -> list[tuple[tuple[float, ...], float, str]]:
     """The ``count`` fastest walks of a run's ``episodes.jsonl`` that did not fall, each at least
     ``min_separation`` (in gene ranges) from the ones kept before: (genes, distance, key)."""
-    records = []
-    for line in (run / "episodes.jsonl").read_text().splitlines():
-        if line.strip():
-            record = json.loads(line)
-            if record.get("status") == "ok" and not record["fell"]:
-                records.append(record)
-    records.sort(key=lambda r: (-float(r["distance"]), r["key"]))
+    records = [r for r in read_episode_log(run / EPISODES)[0].values() if r.stood]
+    records.sort(key=lambda r: (-r.distance, r.key))
     kept: list[tuple[tuple[float, ...], float, str]] = []
     for record in records:
-        genes = np.asarray(record["genes"], dtype=float)
+        genes = np.asarray(record.genes, dtype=float)
         if all(np.linalg.norm((genes - np.asarray(g)) / _SPAN) >= min_separation for g, _, _ in kept):
-            kept.append((_genes(genes), float(record["distance"]), record["key"]))
+            kept.append((_genes(genes), record.distance, record.key))
         if len(kept) == count:
             break
     return kept

@@ -12,6 +12,7 @@ import pytest
 
 from gait import GENE_BOUNDS, repair_genes
 from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask, stable_seed
+from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.driver import BarProgress, Driver, ResumeMismatch
 from optimizer.run.folder import EpisodeLog, read_episode_log
 from optimizer.search.config import GAConfig, GALAConfig
@@ -91,9 +92,9 @@ def test_every_episode_is_logged_once_with_its_seed(tmp_path: Path) -> None:
     records, warnings, _ = read_episode_log(tmp_path / "episodes.jsonl")
     assert warnings == [] and len(records) == len(evaluator.evaluated) == len(set(evaluator.evaluated))
     for key, record in records.items():
-        assert record["seed"] == stable_seed(5, key)
-        assert record["fitness"] == synthetic_fitness(record["genes"])
-    assert result.best_fitness == max(r["fitness"] for k, r in records.items() if k.startswith("pc0.8/final/"))
+        assert record.seed == stable_seed(5, key)
+        assert record.fitness == synthetic_fitness(record.genes)
+    assert result.best_fitness == max(r.fitness for k, r in records.items() if k.startswith("pc0.8/final/"))
 
 
 @pytest.mark.parametrize("die_after", [1, 17, 40, 70])
@@ -116,7 +117,7 @@ def test_a_killed_run_resumes_to_the_uninterrupted_result(tmp_path: Path, die_af
     final_log, warnings, _ = read_episode_log(path)
     assert warnings == []
     assert final_log.keys() == whole_log.keys()
-    assert [r["genes"] for r in final_log.values()] == [whole_log[k]["genes"] for k in final_log]
+    assert [r.genes for r in final_log.values()] == [whole_log[k].genes for k in final_log]
 
 
 def test_a_complete_log_replays_without_any_episode(tmp_path: Path) -> None:
@@ -154,15 +155,17 @@ def test_several_searches_share_one_log_and_the_progress_bar_counts_them(tmp_pat
         first = driver.run(GARun(GENE_BOUNDS, GAConfig(population_size=5, generations=2), 1, prefix="a"))
         driver.run(GARun(GENE_BOUNDS, GAConfig(population_size=5, generations=2), 1, prefix="b"))
     assert driver.evaluated == 2 * (5 + 4) == len(log.records)
-    assert bar.best == max(r["fitness"] for r in log.records.values()) >= first.best_fitness
+    assert bar.best == max(r.fitness for r in log.records.values()) >= first.best_fitness
     assert bar.failed == 0
 
 
 def test_the_bar_keeps_the_search_best_and_ends_full(capsys) -> None:
     bar = BarProgress(total=10)
-    bar.episode({"key": "a/i000", "fitness": 3.0, "status": "ok"})
-    bar.episode({"key": "check/a/i000/r00", "start": [0.1, 0.0, 2.0], "fitness": 9.0, "status": "ok"})
-    assert bar.best == 3.0  # a check's walk from a moved start is not a search result
+    bar.episode(EpisodeRecord("a/i000", (1.0,), 3.0))
+    bar.episode(EpisodeRecord("check/a/i000/r00", (1.0,), 9.0, WalkKind.CHECK, start=(0.1, 0.0, 2.0)))
+    bar.episode(EpisodeRecord("a/i001", (2.0,), 0.0, status="failed"))
+    assert bar.best == 3.0  # a check's walk is not a search result
+    assert bar.failed == 1
     bar.close(finished=True)
     shown = capsys.readouterr().err.split("\r")[-1]
-    assert "100%" in shown and "2/2" in shown  # the planned 10 was an estimate; the run is done
+    assert "100%" in shown and "3/3" in shown  # the planned 10 was an estimate; the run is done

@@ -118,7 +118,7 @@ def test_every_task_is_answered_once_and_runners_are_reused(tmp_path: Path) -> N
         assert outcome.fitness == sum(outcome.task.genes)
         assert outcome.result["runner_seed"] == outcome.task.seed  # the episode's seed reached the runner
         assert outcome.worker in (0, 1)
-        assert outcome.to_record()["key"] == outcome.task.key
+        assert outcome.to_record().key == outcome.task.key
     assert len(list(tmp_path.glob("runner-*"))) == 2  # one runner per worker, for both batches
 
 

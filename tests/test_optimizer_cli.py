@@ -161,7 +161,7 @@ def test_the_farthest_walk_without_a_fall_is_kept(tmp_path: Path, capsys) -> Non
     argv = ["--crossover", "0.8", *SMALL, "--seed", "4", "--out", str(out)]
     assert gala_command.main(argv, make_evaluator=lambda s: FallingWhenFast()) == 0
     records = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
-    records = [r for r in records if "start" not in r]  # the search's walks, not the checks'
+    records = [r for r in records if r["kind"] == "search"]  # the search's walks, not the checks'
     assert any(r["fell"] for r in records) and any(not r["fell"] for r in records)
     fastest = max((r for r in records if not r["fell"]), key=lambda r: r["fitness"])
     assert json.loads((out / "results.json").read_text())["fastest_episode"] == fastest
@@ -195,7 +195,7 @@ def test_fastest_gait_is_the_fastest_walk_that_passes_its_check(tmp_path: Path, 
     out = tmp_path / "run"
     assert gala_command.main([*argv, "--out", str(out)], make_evaluator=lambda s: FastestIsFragile()) == 0
     records = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
-    searched = [r for r in records if "start" not in r]
+    searched = [r for r in records if r["kind"] == "search"]
     runner_up = max((r for r in searched if not r["fell"] and r["genes"] != first["genes"]), key=lambda r: r["fitness"])
     results = json.loads((out / "results.json").read_text())
     assert results["fastest_episode"]["key"] == results["fastest_check"]["key"] == runner_up["key"]

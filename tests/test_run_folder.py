@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -11,6 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from optimizer.evaluation.record import EpisodeRecord, RecordError, WalkKind
 from optimizer.run.folder import (
     EpisodeLog,
     RunFolder,
@@ -23,7 +25,8 @@ from optimizer.run.folder import (
 REPO = Path(__file__).resolve().parents[1]
 
 
-def record(key: str, fitness: float = 1.0) -> dict:
+def document(key: str, fitness: float = 1.0) -> dict:
+    """A log line's object, as the optimizer writes it."""
     return {
         "key": key,
         "genes": [0.5, 1.5],
@@ -38,6 +41,10 @@ def record(key: str, fitness: float = 1.0) -> dict:
         "reason": "",
         "wall": 0.3,
     }
+
+
+def record(key: str, fitness: float = 1.0) -> EpisodeRecord:
+    return EpisodeRecord.from_json(document(key, fitness))
 
 
 def test_manifest_records_what_was_run_and_reopens(tmp_path: Path) -> None:
@@ -111,16 +118,16 @@ def test_a_truncated_last_line_is_ignored_and_cut_before_appending(tmp_path: Pat
 
 def test_a_garbled_line_before_the_end_is_an_error(tmp_path: Path) -> None:
     path = tmp_path / "episodes.jsonl"
-    path.write_text(json.dumps(record("a")) + "\n{not json\n" + json.dumps(record("b")) + "\n")
+    path.write_text(json.dumps(document("a")) + "\n{not json\n" + json.dumps(document("b")) + "\n")
     with pytest.raises(RunFolderError, match="line 2"):
         read_episode_log(path)
 
 
 def test_a_key_logged_twice_keeps_the_first_and_warns(tmp_path: Path) -> None:
     path = tmp_path / "episodes.jsonl"
-    path.write_text("".join(json.dumps(r) + "\n" for r in (record("a", 1.0), record("b"), record("a", 9.0))))
+    path.write_text("".join(json.dumps(r) + "\n" for r in (document("a", 1.0), document("b"), document("a", 9.0))))
     records, warnings, _ = read_episode_log(path)
-    assert records["a"]["fitness"] == 1.0
+    assert records["a"].fitness == 1.0
     assert len(warnings) == 1 and "'a'" in warnings[0] and "line 3" in warnings[0]
     with EpisodeLog(path) as log, pytest.raises(ValueError, match="already in the log"):
         log.append(record("b"))
@@ -149,14 +156,14 @@ def _lines(*records: dict) -> list[bytes]:
     [
         (b"garbage{", "line 2: not JSON"),
         (
-            json.dumps(record("x", 1.0) | {"fitness": "oops"}).encode(),
+            json.dumps(document("x", 1.0) | {"fitness": "oops"}).encode(),
             'line 2: "fitness" must be a finite number, found "oops"',
         ),
         (
-            json.dumps(record("x", 1.0) | {"key": ["x"]}).encode(),
+            json.dumps(document("x", 1.0) | {"key": ["x"]}).encode(),
             'line 2: "key" must be a non-empty string, found ["x"]',
         ),
-        (json.dumps(record("x", 1.0) | {"genes": [1, "a"]}).encode(), 'line 2: "genes" must be a list of numbers'),
+        (json.dumps(document("x", 1.0) | {"genes": [1, "a"]}).encode(), 'line 2: "genes" must be a list of numbers'),
         (b'{"key": "\xff\xfe"}', "line 2: not UTF-8 text"),
         (b"[1, 2]", "line 2: expected a JSON object"),
     ],
@@ -165,7 +172,7 @@ def test_a_damaged_line_is_one_line_error_naming_file_line_and_problem(
     tmp_path: Path, bad: bytes, problem: str
 ) -> None:
     path = tmp_path / "episodes.jsonl"
-    good = _lines(record("a"), record("b"))
+    good = _lines(document("a"), document("b"))
     path.write_bytes(b"\n".join([good[0], bad, good[1]]) + b"\n")
     with pytest.raises(RunFolderError) as caught:
         read_episode_log(path)
@@ -176,8 +183,8 @@ def test_a_damaged_line_is_one_line_error_naming_file_line_and_problem(
 
 def test_repair_moves_bad_lines_aside_and_keeps_every_intact_line(tmp_path: Path) -> None:
     path = tmp_path / "episodes.jsonl"
-    good = _lines(record("a"), record("b"), record("c"))
-    bad = [b"garbage", json.dumps(record("x") | {"fitness": "oops"}).encode(), b"\xff\xfe"]
+    good = _lines(document("a"), document("b"), document("c"))
+    bad = [b"garbage", json.dumps(document("x") | {"fitness": "oops"}).encode(), b"\xff\xfe"]
     tail = b'{"key": "d", "gen'  # a torn last write stays for EpisodeLog to cut, as before
     path.write_bytes(b"\n".join([good[0], bad[0], good[1], bad[1], bad[2], good[2]]) + b"\n" + tail)
     assert repair_episode_log(path) == 3
@@ -230,3 +237,33 @@ def test_resume_of_a_damaged_log_stops_with_one_line_then_goes_on_with_skip_bad_
     assert "moved 1 bad line(s) to episodes.jsonl.rejected" in resumed.stderr
     assert log.read_bytes().splitlines() == intact  # nothing re-run, nothing lost
     assert (run / "episodes.jsonl.rejected").read_bytes() == b'{"key": ["x"], "fitness": "oops"}\n'
+
+
+def test_a_record_round_trips_and_says_what_kind_of_walk_it_was() -> None:
+    walk = EpisodeRecord.from_json(document("check/a/r00") | {"kind": "check", "start": [-5, 0.1, 2]})
+    assert walk.kind is WalkKind.CHECK and not walk.is_search and walk.start == (-5.0, 0.1, 2.0)
+    assert EpisodeRecord.from_json(walk.to_json()) == walk
+    assert json.loads(json.dumps(walk.to_json())) == walk.to_json()
+
+
+def test_a_log_from_before_records_had_their_kind_reads_check_walks_by_their_key() -> None:
+    """Older logs have no "kind": check walks were always keyed check/..., a comparison's robust
+    walks (a search's, with a start of their own) were not."""
+    assert EpisodeRecord.from_json(document("check/pc0.8/i001/r03") | {"start": [0, 0, 0]}).kind is WalkKind.CHECK
+    robust = EpisodeRecord.from_json(document("gala/s00/g01/i002/k1") | {"start": [0, 0, 0]})
+    assert robust.kind is WalkKind.SEARCH and robust.is_search
+
+
+@pytest.mark.parametrize(
+    ("change", "problem"),
+    [
+        ({"kind": "warmup"}, '"kind" must be one of search, check'),
+        ({"fell": 1}, '"fell" must be true or false'),
+        ({"seed": 1.5}, '"seed" must be an integer'),
+        ({"start": [0, 0]}, '"start" must be 3 numbers'),
+        ({"distance": float("nan")}, '"distance" must be a finite number'),
+    ],
+)
+def test_a_record_with_a_wrong_field_is_refused_naming_it(change: dict, problem: str) -> None:
+    with pytest.raises(RecordError, match=re.escape(problem)):
+        EpisodeRecord.from_json(document("a") | change)

@@ -12,7 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask, stable_seed
-from optimizer.run.driver import Driver, ResumeMismatch, is_search_walk
+from optimizer.evaluation.record import EpisodeRecord, WalkKind
+from optimizer.run.driver import Driver, ResumeMismatch
 from optimizer.run.folder import EpisodeLog, read_episode_log
 from optimizer.run.stability import check, check_best, fastest_stable, jittered_starts
 from optimizer.search.config import StabilityConfig
@@ -54,7 +55,7 @@ class StartSensitive:
         pass
 
 
-def search_walk(driver: Driver, key: str, *genes: float) -> dict:
+def search_walk(driver: Driver, key: str, *genes: float) -> EpisodeRecord:
     return driver.walk([driver.task(key, genes)])[key]
 
 
@@ -65,17 +66,17 @@ def test_a_check_walks_the_gait_from_seeded_moved_starts_and_counts_falls(tmp_pa
         walk = search_walk(driver, "pc0.8/final/g01/i002", 4.0, 0.5)
         report = check(driver, walk, BASE, CONFIG)
     repeats = report.repeats
-    assert [r["key"] for r in repeats] == [f"check/pc0.8/final/g01/i002/r{j:02d}" for j in range(6)]
-    assert all(r["genes"] == [4.0, 0.5] for r in repeats)
-    starts = [tuple(r["start"]) for r in repeats]
+    assert [r.key for r in repeats] == [f"check/pc0.8/final/g01/i002/r{j:02d}" for j in range(6)]
+    assert all(r.genes == (4.0, 0.5) for r in repeats)
+    starts = [r.start for r in repeats]
     assert starts == jittered_starts(BASE, CONFIG.jitter, 6, stable_seed(3, "check/pc0.8/final/g01/i002"))
     assert report.falls == sum(s[0] > BASE[0] for s in starts) and 0 < report.falls < 6
     assert not report.stable and report.failed == 0
     assert f"fell in {report.falls} of 6 moved starts, 4.00-4.00 m (mean 4.00 m)" == report.summary()
     assert report.to_dict()["mean_distance"] == 4.0 and report.to_dict()["falls"] == report.falls
     logged = read_episode_log(tmp_path / "episodes.jsonl")[0]
-    assert [tuple(logged[r["key"]]["start"]) for r in repeats] == starts
-    assert not is_search_walk(repeats[0]) and is_search_walk(walk)
+    assert [logged[r.key].start for r in repeats] == starts
+    assert [logged[r.key].kind for r in repeats] == [WalkKind.CHECK] * 6 and logged[walk.key].kind is WalkKind.SEARCH
 
 
 def test_a_searchs_best_is_checked_unless_there_is_none_or_checks_are_off(tmp_path: Path) -> None:
@@ -107,7 +108,7 @@ def test_a_resumed_check_is_answered_from_the_log_and_another_start_is_refused(t
     with EpisodeLog(tmp_path / "other.jsonl") as log:
         driver = Driver(other_seed, log, run_seed=4)
         third = check(driver, search_walk(driver, "a/i000", 2.0), BASE, CONFIG)
-    assert [r["start"] for r in third.repeats] != [r["start"] for r in first.repeats]
+    assert [r.start for r in third.repeats] != [r.start for r in first.repeats]
 
 
 def test_the_fastest_stable_gait_skips_fast_walks_that_fall_from_moved_starts(tmp_path: Path) -> None:
@@ -117,7 +118,7 @@ def test_the_fastest_stable_gait_skips_fast_walks_that_fall_from_moved_starts(tm
         for key, first_gene in (("s/i000", 9.0), ("s/i001", 8.0), ("s/i002", 8.0), ("s/i003", 7.0), ("s/i004", 6.0)):
             search_walk(driver, key, first_gene)
         report = fastest_stable(driver, log.records, BASE, CONFIG)
-    assert report is not None and report.stable and report.walk["key"] == "s/i003"
+    assert report is not None and report.stable and report.walk.key == "s/i003"
     checked = {t.key.rsplit("/", 1)[0] for t in evaluator.tasks if t.start is not None}
     # fastest first, one check per gait (s/i002 has s/i001's genes), none after the first that passes
     assert checked == {"check/s/i000", "check/s/i001", "check/s/i003"}
@@ -135,30 +136,15 @@ def test_when_no_candidate_passes_the_one_that_fell_least_is_kept(tmp_path: Path
     checked = sorted({t.key.rsplit("/", 1)[0] for t in evaluator.tasks if t.start is not None})
     assert checked == ["check/s/i000", "check/s/i001", "check/s/i002"]  # CONFIG.candidates = 3
     # each candidate's starts are its own draw, so their falls differ: the fewest win, then the faster
-    falls = {k: sum(r["fell"] for key, r in records.items() if key.startswith(f"check/s/i{k:03d}/")) for k in range(3)}
-    least = min(range(3), key=lambda k: (falls[k], -records[f"s/i{k:03d}"]["fitness"]))
-    assert report.walk["key"] == f"s/i{least:03d}" and report.falls == falls[least]
+    falls = {k: sum(r.fell for key, r in records.items() if key.startswith(f"check/s/i{k:03d}/")) for k in range(3)}
+    least = min(range(3), key=lambda k: (falls[k], -records[f"s/i{k:03d}"].fitness))
+    assert report.walk.key == f"s/i{least:03d}" and report.falls == falls[least]
 
 
 def test_every_walk_fell_gives_no_fastest(tmp_path: Path) -> None:
     with EpisodeLog(tmp_path / "episodes.jsonl") as log:
         driver = Driver(StartSensitive(), log, run_seed=1)
-        log.append(
-            {
-                "key": "s/i000",
-                "genes": [1.0],
-                "seed": 0,
-                "worker": 0,
-                "distance": 0.3,
-                "fell": True,
-                "time": 2.0,
-                "fitness": 3.0,
-                "mean_speed": 0.15,
-                "status": "ok",
-                "reason": "",
-                "wall": 0.0,
-            }
-        )
+        log.append(EpisodeRecord("s/i000", (1.0,), 3.0, seed=0, worker=0, distance=0.3, fell=True, time=2.0))
         assert fastest_stable(driver, log.records, BASE, CONFIG) is None
 
 

@@ -37,7 +37,8 @@ from optimizer.evaluation.pool import (
     Evaluator,
     ProcessPoolEvaluator,
 )
-from optimizer.run.driver import BarProgress, Driver, ResumeMismatch, is_search_walk
+from optimizer.evaluation.record import EpisodeRecord
+from optimizer.run.driver import BarProgress, Driver, ResumeMismatch
 from optimizer.run.folder import RunFolder, RunFolderError, new_run_path
 from optimizer.search.config import StabilityConfig
 from protocol.cli_values import (
@@ -447,7 +448,7 @@ def run_session(
         f"{run.command}: run folder {run.folder.path} (seed {run.seed}, {run.setup.workers} worker(s)"
         + (f", {len(logged)} episodes already logged)" if run.resumed else ")")
     )
-    searched = (r["fitness"] for r in logged if is_search_walk(r))
+    searched = (r.fitness for r in logged if r.is_search)
     progress = BarProgress(planned_episodes, len(logged), max(searched, default=-math.inf), quiet=quiet)
     evaluator: Evaluator | None = None
     # SIGTERM (a scheduler's or a service manager's stop) ends the run as Ctrl-C does: resumable,
@@ -483,10 +484,10 @@ def run_session(
 # --- result files shared by the commands ----------------------------------------------------------
 
 
-def best_episode(records: Mapping[str, Mapping[str, Any]], key: str | None) -> dict[str, Any] | None:
+def best_episode(records: Mapping[str, EpisodeRecord], key: str | None) -> EpisodeRecord | None:
     """The logged episode of a search's best (``KeyedSearch.best_key``): its distance and speed go
     into the tables. None when the search has no best (every episode failed to be answered)."""
-    return None if key is None or key not in records else dict(records[key])
+    return None if key is None else records.get(key)
 
 
 def write_gait(path: Path, genes: np.ndarray, notes: str) -> None:

@@ -117,7 +117,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             {
                 **result.to_dict(),
                 "settings": run.settings,
-                "best_episode": best,
+                "best_episode": None if best is None else best.to_json(),
                 "check": None if checked is None else checked.to_dict(),
             },
         )
@@ -127,7 +127,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             result.best_genes,
             f"{title(run.settings)}: fitness {result.best_fitness:.4f}{verdict} (run {folder})",
         )
-        distance = "-" if best is None else f"{best['distance']:.2f} m"
+        distance = "-" if best is None else f"{best.distance:.2f} m"
         return f"best fitness {result.best_fitness:.4f} ({distance}{verdict}); results in {folder}"
 
     return run_session(

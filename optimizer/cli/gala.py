@@ -41,6 +41,7 @@ from optimizer.cli.common import (
 )
 from optimizer.episode import Start
 from optimizer.evaluation.pool import stable_seed
+from optimizer.evaluation.record import EpisodeRecord
 from optimizer.run.driver import Driver
 from optimizer.run.folder import RunFolder, write_json
 from optimizer.run.report import (
@@ -180,13 +181,13 @@ def scheme(settings: dict[str, Any], config: GALAConfig) -> LearningScheme:
     return LinearRewardPenalty(la.reward_step, la.penalty_step)
 
 
-def fastest_episode(records: Mapping[str, Mapping[str, Any]]) -> dict[str, Any] | None:
+def fastest_episode(records: Mapping[str, EpisodeRecord]) -> EpisodeRecord | None:
     """The farthest walk that did not fall, of every episode the search logged. Table I takes each
     row's best from a fresh final GA, as the paper does; the continuing population of the learning
     phase evaluates ten times as many gaits and often walks farther (pc 0.8, seed 1: 10.29 m against
     the final GA's 6.38 m), and a user wants that gait too."""
     walks = standing_walks(records)
-    return dict(walks[0]) if walks else None
+    return walks[0] if walks else None
 
 
 @dataclass
@@ -194,7 +195,7 @@ class Row:
     """A finished Table I row: the GALA result, its best walk as logged, and that walk's check."""
 
     result: GALAResult
-    best: dict[str, Any] | None
+    best: EpisodeRecord | None
     check: StabilityReport | None
 
     def table_row(self) -> TableRow:
@@ -202,8 +203,8 @@ class Row:
         spread = None if check is None else check.spread()
         return TableRow.from_gala(
             self.result,
-            None if best is None else best["distance"],
-            None if best is None else best["mean_speed"],
+            None if best is None else best.distance,
+            None if best is None else best.mean_speed,
             None if check is None else len(check.repeats),
             None if check is None else check.falls,
             spread,
@@ -212,7 +213,7 @@ class Row:
     def to_dict(self) -> dict[str, Any]:
         return {
             **self.result.to_dict(),
-            "best_episode": self.best,
+            "best_episode": None if self.best is None else self.best.to_json(),
             "check": None if self.check is None else self.check.to_dict(),
         }
 
@@ -221,12 +222,12 @@ class Row:
 class Fastest:
     """The fastest walk of the search so far and its check (None when checks are off)."""
 
-    walk: dict[str, Any]
+    walk: EpisodeRecord
     check: StabilityReport | None
 
     def describe(self) -> str:
         walk, check = self.walk, self.check
-        text = f"{walk['distance']:.2f} m in {walk['time']:g} s ({walk['key']})"
+        text = f"{walk.distance:.2f} m in {walk.time:g} s ({walk.key})"
         if check is None:
             return f"farthest walk without a fall: {text}"
         verdict = "fastest stable walk" if check.stable else "no fast walk passed its check; the steadiest"
@@ -238,7 +239,7 @@ def fastest_walk(driver: Driver, base: Start, stability: StabilityConfig) -> Fas
         walk = fastest_episode(driver.log.records)
         return None if walk is None else Fastest(walk, None)
     report = fastest_stable(driver, driver.log.records, base, stability)
-    return None if report is None else Fastest(dict(report.walk), report)
+    return None if report is None else Fastest(report.walk, report)
 
 
 def write_outputs(folder: RunFolder, settings: dict[str, Any], rows: list[Row], fastest: Fastest | None) -> None:
@@ -252,12 +253,12 @@ def write_outputs(folder: RunFolder, settings: dict[str, Any], rows: list[Row], 
         {
             "settings": settings,
             "rows": [row.to_dict() for row in rows],
-            "fastest_episode": None if fastest is None else fastest.walk,
+            "fastest_episode": None if fastest is None else fastest.walk.to_json(),
             "fastest_check": None if fastest is None or fastest.check is None else fastest.check.to_dict(),
         },
     )
     if fastest is not None:
-        write_gait(path / "fastest_gait.json", np.array(fastest.walk["genes"]), f"GALA run: {fastest.describe()}")
+        write_gait(path / "fastest_gait.json", np.array(fastest.walk.genes), f"GALA run: {fastest.describe()}")
     latest = rows[-1]
     result, best = latest.result, latest.best
     tag = f"pc{result.crossover:g}"
@@ -269,7 +270,7 @@ def write_outputs(folder: RunFolder, settings: dict[str, Any], rows: list[Row], 
     )
     notes = (
         f"GALA row pc={result.crossover:g}, pm={result.optimal_mutation:g}: fitness {result.best_fitness:.4f}"
-        + ("" if best is None else f", {best['distance']:.2f} m in {best['time']:.1f} s")
+        + ("" if best is None else f", {best.distance:.2f} m in {best.time:.1f} s")
         + ("" if latest.check is None else f"; {latest.check.summary()}")
     )
     write_gait(path / f"best_gait-{tag}.json", result.best_genes, notes)

@@ -42,6 +42,7 @@ from optimizer.cli.common import (
 )
 from optimizer.episode import DEFAULT_START, Start, start_problem_on_real_server
 from optimizer.evaluation.pool import EpisodeTask, EvaluationError, stable_seed
+from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.folder import RunFolder, write_json
 from optimizer.run.stability import distance_spread, jittered_starts
 from optimizer.search.config import StabilityConfig
@@ -57,17 +58,17 @@ class ReportedGait:
     names: list[str]
     run_distances: list[float]
     run_falls: int
-    walks: list[dict[str, Any]] = field(default_factory=list)
+    walks: list[EpisodeRecord] = field(default_factory=list)
 
     @property
     def name(self) -> str:
         return " = ".join(self.names)
 
     def new_distances(self) -> list[float]:
-        return [float(w["distance"]) for w in self.walks if w["status"] == "ok"]
+        return [w.distance for w in self.walks if w.ran]
 
     def new_falls(self) -> int:
-        return sum(1 for w in self.walks if w["status"] == "ok" and w["fell"])
+        return sum(1 for w in self.walks if w.ran and w.fell)
 
 
 def _measured(check: Mapping[str, Any] | None, walk: Mapping[str, Any] | None) -> tuple[list[float], int]:
@@ -284,7 +285,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         starts = jittered_starts(start, jitter, args.repeats, stable_seed(seed, f"transfer/{number_}"))
         for j, point in enumerate(starts):
             key = f"transfer/g{number_}/r{j:02d}"
-            tasks[key] = (gait, EpisodeTask(key, gait.genes, stable_seed(seed, key), point))
+            tasks[key] = (gait, EpisodeTask(key, gait.genes, stable_seed(seed, key), point, WalkKind.CHECK))
     print(
         f"transfer: {len(gaits)} gait(s) x {args.repeats} walks on the {target} ({workers} worker(s))", file=sys.stderr
     )
@@ -303,7 +304,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         if evaluator is not None:
             evaluator.close()
     for gait in gaits:
-        gait.walks.sort(key=lambda w: w["key"])
+        gait.walks.sort(key=lambda w: w.key)
     run_kind = run_server_kind(folder)
     write_csv(gaits, folder.path / "transfer.csv")
     write_markdown(gaits, folder.path / "transfer.md", run_kind, target)
@@ -319,7 +320,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             "repeats": args.repeats,
             "real_command": real_command,
             "servers": [str(s) for s in servers],
-            "gaits": [{**_row(g), "genes": list(g.genes), "walks": g.walks} for g in gaits],
+            "gaits": [{**_row(g), "genes": list(g.genes), "walks": [w.to_json() for w in g.walks]} for g in gaits],
         },
     )
     print((folder.path / "transfer.md").read_text() + f"written to {folder.path}/transfer.{{csv,md,png,json}}")

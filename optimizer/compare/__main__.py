@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 from optimizer.cli.common import (
@@ -190,7 +191,8 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
                 )
                 scored = drive(driver, method.program(problem), budget, prefix, run.setup.start, robust)
                 best = max(scored, key=lambda s: s.fitness)  # the first of equals: the earliest found
-                walk = {"key": best.key, "genes": list(best.genes), "fitness": best.fitness}
+                # the candidate's walk under the candidate's own key (with --robust its walks are keyed .../kN)
+                walk = replace(best.records[0], key=best.key, fitness=best.fitness)
                 report = check_best(driver, walk, run.setup.start, stability)
                 runs.append(_outcome(method, index, scored, best, report, settings["success_distance"]))
             _write(run.folder.path, runs, settings, budget * per_candidate)

@@ -10,14 +10,14 @@ quantile: a search then cannot win by a gait that only walks from one exact star
 
 from __future__ import annotations
 
-from collections.abc import Generator, Mapping, Sequence
+from collections.abc import Generator, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from optimizer.episode import Start
 from optimizer.evaluation.pool import EpisodeTask, stable_seed
+from optimizer.evaluation.record import EpisodeRecord
 from optimizer.run.driver import Driver
 from optimizer.run.stability import jittered_starts
 from optimizer.search.ga import Batch, KeyedSearch, SearchProgram
@@ -75,7 +75,7 @@ class Scored:
     key: str
     genes: tuple[float, ...]
     fitness: float
-    records: tuple[Mapping[str, Any], ...]
+    records: tuple[EpisodeRecord, ...]
 
 
 def _tasks(
@@ -107,7 +107,7 @@ def drive(
         values = []
         for key, g, group in zip(keys, genes, tasks):
             walks = tuple(records[task.key] for task in group)
-            value = float(walks[0]["fitness"]) if robust is None else robust.combine([w["fitness"] for w in walks])
+            value = walks[0].fitness if robust is None else robust.combine([w.fitness for w in walks])
             values.append(value)
             scored.append(Scored(key, g, value, walks))
         fitness = np.array(values)

@@ -30,9 +30,10 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from typing import Any, Protocol
 
-from optimizer.episode import EpisodeConfig, EpisodeRunner, ServerAddress, Start
+from optimizer.episode import EpisodeConfig, EpisodeResult, EpisodeRunner, ServerAddress, Start
 from optimizer.episode.real_server import RealServerProcess
 from optimizer.episode.runner import quiet_agent_logs
+from optimizer.evaluation.record import EpisodeRecord, WalkKind
 
 
 def stable_seed(run_seed: int, name: str) -> int:
@@ -46,12 +47,14 @@ def stable_seed(run_seed: int, name: str) -> int:
 class EpisodeTask:
     """One episode to run: the candidate's key and genes, and its own seed (``stable_seed`` of the
     run seed and the key), so its result does not depend on which worker runs it or when.
-    ``start`` (x, y, heading) moves this episode's start point; None walks from the run's."""
+    ``start`` (x, y, heading) moves this episode's start point; None walks from the run's.
+    ``kind`` goes into the episode's record (``optimizer.evaluation.record``)."""
 
     key: str
     genes: tuple[float, ...]
     seed: int
     start: Start | None = None
+    kind: WalkKind = WalkKind.SEARCH
 
     def run_on(self, runner: Runner) -> dict[str, Any]:
         """This episode on ``runner``, as the result dict a worker sends back."""
@@ -59,18 +62,8 @@ class EpisodeTask:
 
 
 def failed_result(reason: str, wall: float) -> dict[str, Any]:
-    """The result of an episode that could not be run, shaped like ``EpisodeResult.to_dict()``
-    with the runner's own convention for a failure (status "failed", fitness 0)."""
-    return {
-        "distance": 0.0,
-        "fell": False,
-        "time": 0.0,
-        "fitness": 0.0,
-        "mean_speed": 0.0,
-        "status": "failed",
-        "reason": reason,
-        "wall": wall,
-    }
+    """The result dict of an episode that could not be run (``EpisodeResult.failed``)."""
+    return EpisodeResult.failed(reason, wall).to_dict()
 
 
 @dataclass(frozen=True)
@@ -86,18 +79,10 @@ class EpisodeOutcome:
     def fitness(self) -> float:
         return float(self.result["fitness"])
 
-    def to_record(self) -> dict[str, Any]:
-        """The episode log's line: key, genes, seed, start (when the task moved it), worker and
-        every field of the result."""
-        start = {} if self.task.start is None else {"start": list(self.task.start)}
-        return {
-            "key": self.task.key,
-            "genes": list(self.task.genes),
-            "seed": self.task.seed,
-            **start,
-            "worker": self.worker,
-            **self.result,
-        }
+    def to_record(self) -> EpisodeRecord:
+        """The episode log's record of this outcome."""
+        task = self.task
+        return EpisodeRecord.of(task.key, task.genes, task.seed, task.start, task.kind, self.worker, self.result)
 
 
 class Evaluator(Protocol):

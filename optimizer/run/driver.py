@@ -9,7 +9,7 @@ exactly the state of an uninterrupted run, and no episode is ever run twice.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any, Protocol
 
 import numpy as np
@@ -17,14 +17,9 @@ from tqdm import tqdm
 
 from optimizer.episode import Start
 from optimizer.evaluation.pool import EpisodeTask, Evaluator, stable_seed
+from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.folder import EpisodeLog
 from optimizer.search.ga import AskTellSearch
-
-
-def is_search_walk(record: Mapping[str, Any]) -> bool:
-    """An episode a search asked for: one walked from the run's own start. A walk from a start of
-    its own (a stability check's) says nothing about the search's progress."""
-    return "start" not in record
 
 
 class ResumeMismatch(RuntimeError):
@@ -37,7 +32,7 @@ class Progress(Protocol):
 
     def batch(self, prefix: str) -> None: ...
 
-    def episode(self, record: Mapping[str, Any]) -> None: ...
+    def episode(self, record: EpisodeRecord) -> None: ...
 
 
 class Driver:
@@ -57,29 +52,34 @@ class Driver:
         while not search.done:
             tasks = [self.task(c.key, c.genes) for c in search.ask()]
             records = self.walk(tasks)
-            search.tell({key: float(record["fitness"]) for key, record in records.items()})
+            search.tell({key: record.fitness for key, record in records.items()})
         return search.result()
 
-    def task(self, key: str, genes: Sequence[float] | np.ndarray, start: Start | None = None) -> EpisodeTask:
+    def task(
+        self,
+        key: str,
+        genes: Sequence[float] | np.ndarray,
+        start: Start | None = None,
+        kind: WalkKind = WalkKind.SEARCH,
+    ) -> EpisodeTask:
         """The episode ``key`` of this run, with its own seed."""
-        return EpisodeTask(key, tuple(float(g) for g in genes), stable_seed(self.run_seed, key), start)
+        return EpisodeTask(key, tuple(float(g) for g in genes), stable_seed(self.run_seed, key), start, kind)
 
-    def walk(self, tasks: Sequence[EpisodeTask]) -> dict[str, dict[str, Any]]:
+    def walk(self, tasks: Sequence[EpisodeTask]) -> dict[str, EpisodeRecord]:
         """Each task's log record: from the log when it holds the key, else evaluated (as one
         batch) and logged as it finishes. A logged key must have the task's genes and start."""
-        records: dict[str, dict[str, Any]] = {}
+        records: dict[str, EpisodeRecord] = {}
         todo: list[EpisodeTask] = []
         for task in tasks:
             record = self.log.records.get(task.key)
             if record is None:
                 todo.append(task)
                 continue
-            logged = (tuple(record["genes"]), record.get("start"))
-            asked = (task.genes, None if task.start is None else list(task.start))
-            if logged != asked:
+            asked = (task.genes, None if task.start is None else tuple(float(x) for x in task.start))
+            if (record.genes, record.start) != asked:
                 raise ResumeMismatch(
                     f"episode {task.key!r}: the log holds other genes or another start than the search "
-                    f"asks (genes {record['genes']}, start {logged[1]} vs genes {list(task.genes)}, start "
+                    f"asks (genes {list(record.genes)}, start {record.start} vs genes {list(task.genes)}, start "
                     f"{asked[1]}); was the run made with other settings or code?"
                 )
             records[task.key] = record
@@ -112,10 +112,10 @@ class BarProgress:
         self._batch = prefix
         self._show()
 
-    def episode(self, record: Mapping[str, Any]) -> None:
-        if is_search_walk(record):
-            self.best = max(self.best, float(record["fitness"]))
-        self.failed += record.get("status") == "failed"
+    def episode(self, record: EpisodeRecord) -> None:
+        if record.is_search:
+            self.best = max(self.best, record.fitness)
+        self.failed += not record.ran
         self._bar.update(1)
         self._show()
 

@@ -17,7 +17,6 @@ keys in the same order, and every key found in the log is answered from it inste
 from __future__ import annotations
 
 import json
-import math
 import os
 import platform
 import subprocess
@@ -26,6 +25,8 @@ from collections.abc import Mapping, Sequence
 from importlib import metadata
 from pathlib import Path
 from typing import Any
+
+from optimizer.evaluation.record import EpisodeRecord, RecordError
 
 MANIFEST = "manifest.json"
 EPISODES = "episodes.jsonl"
@@ -184,56 +185,21 @@ class RunFolder:
         return []
 
 
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
-def _shown(value: Any) -> str:
-    text = json.dumps(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def record_problem(record: Any) -> str | None:
-    """What makes ``record`` unusable by a resumed run (None if nothing): the fields the optimizer
-    reads must have their types, or the run would fail later with a traceback far from the cause.
-    ``key``, ``genes`` and ``fitness`` are required; ``start``, ``status``, ``fell`` and
-    ``distance`` are checked when present (failed episodes and older runs may lack some)."""
-    if not isinstance(record, dict):
-        return f"expected a JSON object, found {_shown(record)}"
-    key = record.get("key")
-    if not isinstance(key, str) or not key:
-        return f'"key" must be a non-empty string, found {_shown(key)}'
-    genes = record.get("genes")
-    if not isinstance(genes, list) or not all(_is_number(g) for g in genes):
-        return f'"genes" must be a list of numbers, found {_shown(genes)}'
-    if not _is_number(record.get("fitness")):
-        return f'"fitness" must be a finite number, found {_shown(record.get("fitness"))}'
-    start = record.get("start")
-    if start is not None and not (isinstance(start, list) and len(start) == 3 and all(map(_is_number, start))):
-        return f'"start" must be 3 numbers, found {_shown(start)}'
-    for name, wanted, check in (
-        ("status", "a string", lambda v: isinstance(v, str)),
-        ("fell", "true or false", lambda v: isinstance(v, bool)),
-        ("distance", "a finite number", _is_number),
-    ):
-        if name in record and not check(record[name]):
-            return f'"{name}" must be {wanted}, found {_shown(record[name])}'
-    return None
-
-
-def _parse_line(line: bytes) -> tuple[dict[str, Any] | None, str | None]:
+def _parse_line(line: bytes) -> tuple[EpisodeRecord | None, str | None]:
     """(record, None) or (None, what is wrong with the line)."""
     try:
-        record = json.loads(line)
+        document = json.loads(line)
     except UnicodeDecodeError as exc:
         return None, f"not UTF-8 text (byte {exc.start + 1} of the line)"
     except json.JSONDecodeError as exc:
         return None, f"not JSON ({exc.msg} at column {exc.colno})"
-    problem = record_problem(record)
-    return (None, problem) if problem else (record, None)
+    try:
+        return EpisodeRecord.from_json(document), None
+    except RecordError as exc:
+        return None, str(exc)
 
 
-def scan_episode_log(path: Path) -> tuple[dict[str, dict[str, Any]], list[str], int, list[tuple[int, str]]]:
+def scan_episode_log(path: Path) -> tuple[dict[str, EpisodeRecord], list[str], int, list[tuple[int, str]]]:
     """Records by key, warnings, the byte length of the complete lines, and the bad lines as
     (line number, problem), in order.
 
@@ -241,7 +207,7 @@ def scan_episode_log(path: Path) -> tuple[dict[str, dict[str, Any]], list[str], 
     writer killed mid-write): it is left out with a warning, as a torn write. A key logged twice
     keeps its first record (the one a search was told) and gives a warning.
     """
-    records: dict[str, dict[str, Any]] = {}
+    records: dict[str, EpisodeRecord] = {}
     warnings: list[str] = []
     bad: list[tuple[int, str]] = []
     try:
@@ -262,7 +228,7 @@ def scan_episode_log(path: Path) -> tuple[dict[str, dict[str, Any]], list[str], 
             else:
                 bad.append((number, problem or "unreadable"))
             continue
-        key = record["key"]
+        key = record.key
         if key in records:
             warnings.append(f"{path}, line {number}: key {key!r} logged again; the first record is kept")
             continue
@@ -270,7 +236,7 @@ def scan_episode_log(path: Path) -> tuple[dict[str, dict[str, Any]], list[str], 
     return records, warnings, complete, bad
 
 
-def read_episode_log(path: Path) -> tuple[dict[str, dict[str, Any]], list[str], int]:
+def read_episode_log(path: Path) -> tuple[dict[str, EpisodeRecord], list[str], int]:
     """Records by key, warnings, and the byte length of the complete lines (``scan_episode_log``).
 
     A bad line before the last is corruption and an error naming the file, the line and what is
@@ -330,15 +296,15 @@ class EpisodeLog:
             self._file.truncate(complete)
             self._file.seek(complete)
 
-    def append(self, record: Mapping[str, Any]) -> None:
+    def append(self, record: EpisodeRecord) -> None:
         """Log one finished episode; a key already logged is an error (it would count twice)."""
-        key = record["key"]
+        key = record.key
         if key in self.records:
             raise ValueError(f"episode {key!r} is already in the log")
-        line = json.dumps(dict(record), separators=(",", ":"), allow_nan=False) + "\n"
+        line = json.dumps(record.to_json(), separators=(",", ":"), allow_nan=False) + "\n"
         self._file.write(line.encode())
         self._file.flush()
-        self.records[key] = dict(record)
+        self.records[key] = record
 
     def close(self) -> None:
         self._file.close()

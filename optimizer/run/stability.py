@@ -22,11 +22,9 @@ import numpy as np
 
 from optimizer.episode import Start
 from optimizer.evaluation.pool import stable_seed
-from optimizer.run.driver import Driver, is_search_walk
+from optimizer.evaluation.record import CHECK_PREFIX, EpisodeRecord, WalkKind
+from optimizer.run.driver import Driver
 from optimizer.search.config import StabilityConfig
-
-#: Key prefix of every check walk.
-CHECK_PREFIX = "check/"
 
 
 def jittered_starts(base: Sequence[float], jitter: Sequence[float], count: int, seed: int) -> list[Start]:
@@ -39,10 +37,10 @@ def jittered_starts(base: Sequence[float], jitter: Sequence[float], count: int, 
     return [(base[0] + dx, base[1] + dy, base[2] + dh) for dx, dy, dh in offsets.tolist()]
 
 
-def standing_walks(records: Mapping[str, Mapping[str, Any]]) -> list[Mapping[str, Any]]:
+def standing_walks(records: Mapping[str, EpisodeRecord]) -> list[EpisodeRecord]:
     """The search's walks that ran and did not fall, fastest first (by key on a tie)."""
-    walks = [r for r in records.values() if is_search_walk(r) and r["status"] == "ok" and not r["fell"]]
-    return sorted(walks, key=lambda r: (-float(r["fitness"]), r["key"]))
+    walks = [r for r in records.values() if r.is_search and r.stood]
+    return sorted(walks, key=lambda r: (-r.fitness, r.key))
 
 
 def distance_spread(distances: Sequence[float]) -> tuple[float, float, float] | None:
@@ -54,17 +52,17 @@ def distance_spread(distances: Sequence[float]) -> tuple[float, float, float] | 
 class StabilityReport:
     """The check of one logged walk: the walk itself and its repeats' log records."""
 
-    walk: Mapping[str, Any]
-    repeats: list[dict[str, Any]]
+    walk: EpisodeRecord
+    repeats: list[EpisodeRecord]
 
     @property
     def falls(self) -> int:
-        return sum(1 for r in self.repeats if r["status"] == "ok" and r["fell"])
+        return sum(1 for r in self.repeats if r.ran and r.fell)
 
     @property
     def failed(self) -> int:
         """Repeats the infrastructure could not run (neither a walk nor a fall)."""
-        return sum(1 for r in self.repeats if r["status"] != "ok")
+        return sum(1 for r in self.repeats if not r.ran)
 
     @property
     def stable(self) -> bool:
@@ -73,7 +71,7 @@ class StabilityReport:
 
     def spread(self) -> tuple[float, float, float] | None:
         """(shortest, longest, mean) distance of the repeats that ran; None when none did."""
-        return distance_spread([float(r["distance"]) for r in self.repeats if r["status"] == "ok"])
+        return distance_spread([r.distance for r in self.repeats if r.ran])
 
     def summary(self) -> str:
         spread = self.spread()
@@ -83,9 +81,9 @@ class StabilityReport:
 
     def to_dict(self) -> dict[str, Any]:
         shortest, longest, mean = self.spread() or (None, None, None)
-        ran = [float(r["distance"]) for r in self.repeats if r["status"] == "ok"]
+        ran = [r.distance for r in self.repeats if r.ran]
         return {
-            "key": self.walk["key"],
+            "key": self.walk.key,
             "repeats": len(self.repeats),
             "falls": self.falls,
             "failed": self.failed,
@@ -93,21 +91,34 @@ class StabilityReport:
             "max_distance": longest,
             "mean_distance": mean,
             "std_distance": float(np.std(ran, ddof=1)) if len(ran) > 1 else None,
-            "walks": [{k: r[k] for k in ("key", "start", "distance", "fell", "time", "status")} for r in self.repeats],
+            "walks": [
+                {
+                    "key": r.key,
+                    "start": list(r.start or ()),
+                    "distance": r.distance,
+                    "fell": r.fell,
+                    "time": r.time,
+                    "status": r.status,
+                }
+                for r in self.repeats
+            ],
         }
 
 
-def check(driver: Driver, walk: Mapping[str, Any], base: Start, config: StabilityConfig) -> StabilityReport:
+def check(driver: Driver, walk: EpisodeRecord, base: Start, config: StabilityConfig) -> StabilityReport:
     """Walk the gait of the logged ``walk`` ``config.repeats`` times from moved starts."""
-    key = walk["key"]
+    key = walk.key
     starts = jittered_starts(base, config.jitter, config.repeats, stable_seed(driver.run_seed, CHECK_PREFIX + key))
-    tasks = [driver.task(f"{CHECK_PREFIX}{key}/r{j:02d}", walk["genes"], start) for j, start in enumerate(starts)]
+    tasks = [
+        driver.task(f"{CHECK_PREFIX}{key}/r{j:02d}", walk.genes, start, WalkKind.CHECK)
+        for j, start in enumerate(starts)
+    ]
     records = driver.walk(tasks)
-    return StabilityReport(dict(walk), [records[task.key] for task in tasks])
+    return StabilityReport(walk, [records[task.key] for task in tasks])
 
 
 def check_best(
-    driver: Driver, best: Mapping[str, Any] | None, base: Start, config: StabilityConfig
+    driver: Driver, best: EpisodeRecord | None, base: Start, config: StabilityConfig
 ) -> StabilityReport | None:
     """The check of a search's best walk; None when the search has none (every episode failed)
     or checks are off (``repeats`` 0)."""
@@ -115,7 +126,7 @@ def check_best(
 
 
 def fastest_stable(
-    driver: Driver, records: Mapping[str, Mapping[str, Any]], base: Start, config: StabilityConfig
+    driver: Driver, records: Mapping[str, EpisodeRecord], base: Start, config: StabilityConfig
 ) -> StabilityReport | None:
     """The fastest stable gait of the search so far: of its walks that did not fall, fastest
     first (one per gait), the first of ``config.candidates`` whose check has no fall; when none
@@ -123,14 +134,13 @@ def fastest_stable(
     reports: list[StabilityReport] = []
     seen: set[tuple[float, ...]] = set()
     for walk in standing_walks(records):
-        genes = tuple(walk["genes"])
-        if genes in seen:
+        if walk.genes in seen:
             continue
-        seen.add(genes)
+        seen.add(walk.genes)
         report = check(driver, walk, base, config)
         if report.stable:
             return report
         reports.append(report)
         if len(reports) == config.candidates:
             break
-    return min(reports, key=lambda r: (r.falls + r.failed, -float(r.walk["fitness"])), default=None)
+    return min(reports, key=lambda r: (r.falls + r.failed, -r.walk.fitness), default=None)

@@ -1,0 +1,192 @@
+"""The episode record: one finished episode as the run's log keeps it, typed.
+
+A record carries what kind of walk it was, so nothing downstream has to guess: a *search* walk is
+one a search asked for to score a candidate (from the run's start, or from a moved start when a
+comparison scores candidates robustly); a *check* walk repeats a found gait from a moved start to
+see whether it falls (``optimizer.run.stability``). The kind decides which walks count as a
+search's progress and which may be reported as its finds.
+
+On disk a record is one JSON object per line of ``episodes.jsonl`` (``to_json``/``from_json``).
+Logs written before records carried their kind are read by the key: check walks have always been
+keyed ``check/...``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import Any
+
+from optimizer.episode import Start
+
+#: Key prefix of every check walk (``optimizer.run.stability``).
+CHECK_PREFIX = "check/"
+
+
+class WalkKind(StrEnum):
+    SEARCH = "search"
+    CHECK = "check"
+
+
+class RecordError(ValueError):
+    """A logged line that is not a usable record; the message says which field and why."""
+
+
+@dataclass(frozen=True)
+class EpisodeRecord:
+    """One finished episode: which candidate (key, genes, its seed and start), what kind of walk,
+    which worker ran it, and the runner's result (``optimizer.episode.EpisodeResult``).
+
+    ``start`` is None for a walk from the run's own start. ``seed`` and ``worker`` are None only
+    in records of logs that did not keep them."""
+
+    key: str
+    genes: tuple[float, ...]
+    fitness: float
+    kind: WalkKind = WalkKind.SEARCH
+    seed: int | None = None
+    start: Start | None = None
+    worker: int | None = None
+    distance: float = 0.0
+    fell: bool = False
+    time: float = 0.0
+    mean_speed: float = 0.0
+    status: str = "ok"
+    reason: str = ""
+    wall: float = 0.0
+
+    @property
+    def ran(self) -> bool:
+        """The episode was walked (not lost to the infrastructure)."""
+        return self.status == "ok"
+
+    @property
+    def stood(self) -> bool:
+        """Walked to the end without a fall."""
+        return self.ran and not self.fell
+
+    @property
+    def is_search(self) -> bool:
+        return self.kind is WalkKind.SEARCH
+
+    def to_json(self) -> dict[str, Any]:
+        """The log line's object: fields that are None are left out, as they always were."""
+        document: dict[str, Any] = {"key": self.key, "genes": list(self.genes), "kind": self.kind.value}
+        if self.seed is not None:
+            document["seed"] = self.seed
+        if self.start is not None:
+            document["start"] = list(self.start)
+        if self.worker is not None:
+            document["worker"] = self.worker
+        document.update(
+            distance=self.distance,
+            fell=self.fell,
+            time=self.time,
+            fitness=self.fitness,
+            mean_speed=self.mean_speed,
+            status=self.status,
+            reason=self.reason,
+            wall=self.wall,
+        )
+        return document
+
+    @classmethod
+    def from_json(cls, document: Any) -> EpisodeRecord:
+        """A record from a log line's object. ``key``, ``genes`` and ``fitness`` are required, the
+        other fields are checked when present (failed episodes and older runs may lack some);
+        raises ``RecordError`` naming the first field that is wrong, so a resumed run stops at
+        the line instead of failing later with a traceback far from the cause."""
+        if not isinstance(document, dict):
+            raise RecordError(f"expected a JSON object, found {_shown(document)}")
+        key = document.get("key")
+        if not isinstance(key, str) or not key:
+            raise RecordError(f'"key" must be a non-empty string, found {_shown(key)}')
+        genes = document.get("genes")
+        if not isinstance(genes, list) or not all(_is_number(g) for g in genes):
+            raise RecordError(f'"genes" must be a list of numbers, found {_shown(genes)}')
+        start = document.get("start")
+        if start is not None and not (isinstance(start, list) and len(start) == 3 and all(map(_is_number, start))):
+            raise RecordError(f'"start" must be 3 numbers, found {_shown(start)}')
+        checks = {
+            "fitness": ("a finite number", _is_number),
+            "distance": ("a finite number", _is_number),
+            "time": ("a finite number", _is_number),
+            "mean_speed": ("a finite number", _is_number),
+            "wall": ("a finite number", _is_number),
+            "fell": ("true or false", lambda v: isinstance(v, bool)),
+            "status": ("a string", lambda v: isinstance(v, str)),
+            "reason": ("a string", lambda v: isinstance(v, str)),
+            "seed": ("an integer", _is_int),
+            "worker": ("an integer", _is_int),
+            "kind": ("one of " + ", ".join(k.value for k in WalkKind), lambda v: v in {k.value for k in WalkKind}),
+        }
+        if "fitness" not in document:
+            raise RecordError(f'"fitness" must be a finite number, found {_shown(None)}')
+        for name, (wanted, ok) in checks.items():
+            if name in document and not ok(document[name]):
+                raise RecordError(f'"{name}" must be {wanted}, found {_shown(document[name])}')
+        kind = document.get("kind")
+        if kind is None:  # a log from before records carried their kind
+            kind = WalkKind.CHECK if key.startswith(CHECK_PREFIX) else WalkKind.SEARCH
+        return cls(
+            key=key,
+            genes=tuple(float(g) for g in genes),
+            fitness=float(document["fitness"]),
+            kind=WalkKind(kind),
+            seed=document.get("seed"),
+            start=None if start is None else (float(start[0]), float(start[1]), float(start[2])),
+            worker=document.get("worker"),
+            distance=float(document.get("distance", 0.0)),
+            fell=document.get("fell", False),
+            time=float(document.get("time", 0.0)),
+            mean_speed=float(document.get("mean_speed", 0.0)),
+            status=document.get("status", "ok"),
+            reason=document.get("reason", ""),
+            wall=float(document.get("wall", 0.0)),
+        )
+
+    @classmethod
+    def of(
+        cls,
+        key: str,
+        genes: tuple[float, ...],
+        seed: int,
+        start: Start | None,
+        kind: WalkKind,
+        worker: int,
+        result: Mapping[str, Any],
+    ) -> EpisodeRecord:
+        """The record of a task run by ``worker``, from the runner's result dict
+        (``EpisodeResult.to_dict()``)."""
+        return cls(
+            key=key,
+            genes=genes,
+            fitness=float(result["fitness"]),
+            kind=kind,
+            seed=seed,
+            start=start,
+            worker=worker,
+            distance=float(result["distance"]),
+            fell=bool(result["fell"]),
+            time=float(result["time"]),
+            mean_speed=float(result["mean_speed"]),
+            status=str(result["status"]),
+            reason=str(result["reason"]),
+            wall=float(result["wall"]),
+        )
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _shown(value: Any) -> str:
+    text = json.dumps(value)
+    return text if len(text) <= 60 else text[:57] + "..."
