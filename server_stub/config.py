@@ -61,6 +61,18 @@ class PhysicsConfig:
     #: 0.56 / 0.67 against 0.90 / 0.15), so both stay off until the dynamics, not only the
     #: contacts, have ODE's maximal coordinates.
     ode_true_inertia: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_TRUE_INERTIA", "0") == "1")
+    #: "ode" backend only: maximal coordinates, as ODE's dWorldStep (``server_stub.physics.ode_maximal``):
+    #: every body integrated on its own (true inertias, no floor), each hinge held by ODE's 5 joint
+    #: rows (world ERP ``ode_joint_erp``, world CFM ``global_cfm``) plus its motor or limit row;
+    #: contacts as the reduced step makes them, from the bodies' own poses. Off: the reduced step.
+    ode_maximal: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_MAX", "0") == "1")
+    #: ``ode_maximal`` only: the world ERP of the hinges' joint rows. SimSpark never sets it
+    #: (spark.rb sets gravity, CFM, auto-disable and the surface layer only), so ODE's default 0.2.
+    ode_joint_erp: float = 0.2
+    #: ``ode_maximal`` only: ODE 0.16's gyroscopic torque, on for every body by default (dBodyCreate
+    #: sets dxBodyGyroscopic; SimSpark never clears it) and computed implicitly ("implicit",
+    #: step.cpp: (I (I - h [L]x)^-1 - 1) L / h, L = I w); "explicit" (-w x I w) for comparison.
+    ode_gyroscopic: str = "implicit"
 
     # --- solver ---
     #: "dantzig": pybullet's exact MLCP solver, like ODE's dWorldStep (section 4). Measured: a
@@ -77,7 +89,9 @@ class PhysicsConfig:
     #: one step per cycle (with friction off as well, so not the slip model's doing), and 1e-4
     #: still let 1 of 96 explode. Walk probe: 72/72 either way.
     inertia_floor: float = 1e-3
-    #: world CFM of the real server (section 4).
+    #: world CFM of the real server (section 4; spark.rb's $physicsGlobalCFM). ``ode_maximal`` gives
+    #: it to the hinges' 5 joint rows (ODE sets every joint row's CFM to the world's before the
+    #: joint's own; SimSpark's hinge ``setCFM 0 1e-8`` is dParamCFM, the motor row's only).
     global_cfm: float = 1e-5
 
     # --- contacts (docs/robot_and_server.md section 4: robot soft ERP 0.6 / CFM 1e-4, ground ERP 0.2, averaged) ---

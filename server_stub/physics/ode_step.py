@@ -50,12 +50,15 @@ from typing import NamedTuple
 import numpy as np
 import pybullet as pb
 
-from server_stub.physics import nao_model, ode_kernels
+from server_stub.physics import nao_model, ode_kernels, ode_maximal
 from server_stub.physics.ode_kernels import BOX, CAPSULE, SPHERE
 from server_stub.physics.robot import _MAX
 
 #: ODE joint rows' CFM (docs/robot_and_server.md section 3), used for the motor rows.
 MOTOR_CFM = 1e-8
+#: SimSpark's hinge fudge factor (hingejoint.rsg): a motor driving away from the stop it stands
+#: at pushes with this fraction of its force (ODE's dxJointLimitMotor); the maximal step only.
+FUDGE_FACTOR = 1e-5
 #: Most contact points per shape and the ground in ``warm_up``.
 MAX_POINTS = 4
 #: ODE's world ERP (its default 0.2; SimSpark sets none), which pulls a hinge's drifted anchor
@@ -131,8 +134,11 @@ def solve(robot, ground: int, config) -> Solved:
     client, body = robot._client, robot._body
     static = getattr(robot, "_ode_static", None)
     if static is None or static.masses.shape[0] != len(robot._indices) + 1:
-        static = _Static(client, body, ground, robot.robot_type if config.ode_true_inertia else None)
+        true_inertia = config.ode_true_inertia or config.ode_maximal
+        static = _Static(client, body, ground, robot.robot_type if true_inertia else None)
         robot._ode_static = static
+    if config.ode_maximal:
+        return _solve_maximal(robot, ground, static, config)
     h = config.cycle
     position, orientation = pb.getBasePositionAndOrientation(body, physicsClientId=client)
     v0, w0 = pb.getBaseVelocity(body, physicsClientId=client)
@@ -238,7 +244,142 @@ def solve(robot, ground: int, config) -> Solved:
     )
 
 
-def _motor_rows(angles, force, sticky, torque_limit, ode_limits):
+class _Bodies:
+    """The maximal-coordinate state of one robot (``ode_maximal``): every body's centre,
+    quaternion, velocity and spin, kept between steps (pybullet's exact joints cannot hold the
+    joints' drift), and the reduced state last written into pybullet, to notice a beam or a
+    trainer's move (then the bodies are placed anew from pybullet)."""
+
+    def __init__(self, pos, quat, vel, spin, anchor_child, anchor_parent) -> None:
+        self.pos, self.quat, self.vel, self.spin = pos, quat, vel, spin
+        self.anchor_child, self.anchor_parent = anchor_child, anchor_parent
+        self.written: np.ndarray | None = None
+
+
+#: how far pybullet's state may differ from what the maximal step wrote before the bodies are
+#: placed anew from it (a beam, a trainer's move, a reset)
+_RESYNC_TOLERANCE = 1e-7
+
+
+def _reduced(position, orientation, velocity, spin, angles, rates) -> np.ndarray:
+    return np.concatenate(
+        [np.asarray(position), np.asarray(orientation), np.asarray(velocity), np.asarray(spin), angles, rates]
+    )
+
+
+def _solve_maximal(robot, ground: int, static: _Static, config) -> Solved:
+    """One step of ``ode_maximal`` (every body on its own, ODE's joint rows)."""
+    client, body = robot._client, robot._body
+    h = config.cycle
+    position, orientation = pb.getBasePositionAndOrientation(body, physicsClientId=client)
+    v0, w0 = pb.getBaseVelocity(body, physicsClientId=client)
+    states = pb.getJointStates(body, static.indices, physicsClientId=client)
+    angles = np.array([s[0] for s in states])
+    rates = np.array([s[1] for s in states])
+    now = _reduced(position, orientation, v0, w0, angles, rates)
+    bodies: _Bodies | None = getattr(robot, "_ode_bodies", None)
+    if bodies is None or bodies.written is None or np.max(np.abs(bodies.written - now)) > _RESYNC_TOLERANCE:
+        links = pb.getLinkStates(body, static.indices, computeForwardKinematics=1, physicsClientId=client)
+        coms = np.array([position] + [link[0] for link in links], dtype=float)
+        quats = np.array([orientation] + [link[1] for link in links], dtype=float)
+        anchors = np.array([link[4] for link in links], dtype=float)
+        vel, spin = ode_maximal.body_velocities(
+            static.parents,
+            static.joint_of,
+            static.local_axes,
+            coms,
+            quats,
+            anchors,
+            np.array(v0, dtype=float),
+            np.array(w0, dtype=float),
+            rates,
+        )
+        if bodies is None:
+            child, parent = ode_maximal.local_anchors(static.parents, static.joint_of, coms, quats, anchors)
+        else:
+            child, parent = bodies.anchor_child, bodies.anchor_parent
+        bodies = _Bodies(coms, quats, vel, spin, child, parent)
+        robot._ode_bodies = bodies
+    parts, points, depths = ode_kernels.ground_contacts(
+        static.shape_body, static.shape_kind, static.shape_size, bodies.pos, bodies.quat, config.ode_box_points
+    )
+    target, force = robot._sent
+    nj = len(static.indices)
+    if target.shape[0] != nj:
+        target = np.zeros(nj)
+        force = np.full(nj, config.motor_torque)
+    lo, hi, push = _motor_rows(
+        angles, np.asarray(force, dtype=float), robot._motor, config.motor_torque, True, FUDGE_FACTOR
+    )
+    pos, quat, vel, spin, forces, tangents, torques, iterations = ode_maximal.step(
+        static.masses,
+        static.principal,
+        static.parents,
+        static.joint_of,
+        static.local_axes,
+        bodies.anchor_child,
+        bodies.anchor_parent,
+        bodies.pos,
+        bodies.quat,
+        bodies.vel,
+        bodies.spin,
+        np.array([0.0, 0.0, config.gravity]),
+        config.linear_damping,
+        config.angular_damping,
+        config.ode_gyroscopic == "implicit",
+        parts,
+        points,
+        depths,
+        np.asarray(target, dtype=float),
+        lo,
+        hi,
+        push,
+        static.motor_state,
+        h,
+        config.ode_joint_erp,
+        config.global_cfm,
+        MOTOR_CFM,
+        config.contact_erp,
+        config.contact_cfm,
+        config.slip,
+        config.contact_slop,
+    )
+    bodies.pos, bodies.quat, bodies.vel, bodies.spin = pos, quat, vel, spin
+    new_angles, new_rates = ode_maximal.measure(quat, spin, static.parents, static.joint_of, static.local_axes)
+    bodies.written = _reduced(pos[0], quat[0], vel[0], spin[0], new_angles, new_rates)
+    contacts = tuple(
+        (
+            0,
+            body,
+            ground,
+            k - 1,
+            -1,
+            p,
+            (p[0], p[1], 0.0),
+            (0.0, 0.0, 1.0),
+            -d,
+            f[0],
+            f[1],
+            tuple(t[0]),
+            f[2],
+            tuple(t[1]),
+        )
+        for k, p, d, f, t in zip(parts.tolist(), points.tolist(), depths.tolist(), forces.tolist(), tangents.tolist())
+    )
+    return Solved(
+        pos[0].tolist(),
+        quat[0].tolist(),
+        vel[0].tolist(),
+        spin[0].tolist(),
+        [[a] for a in new_angles.tolist()],
+        [[r] for r in new_rates.tolist()],
+        contacts,
+        torques,
+        iterations,
+    )
+
+
+def _motor_rows(angles, force, sticky, torque_limit, ode_limits, fudge=0.0):
     """Bounds of each hinge's row and the torque pushing hinges besides it. Inside its range a
     hinge's row is its motor's, |torque| <= 10 N m. Outside, ``server_stub.physics.motors`` has made the
     row its stop's (target: back by ERP 0.8 or the bounced speed, whichever is larger). With
@@ -255,10 +396,10 @@ def _motor_rows(angles, force, sticky, torque_limit, ode_limits):
             high = angles[j] >= _MAX[j]
             if high:
                 lo[j], hi[j] = -np.inf, 0.0
-                push[j] = torque_limit if sticky[j] >= 0.0 else 0.0
+                push[j] = torque_limit if sticky[j] >= 0.0 else -fudge * torque_limit
             else:
                 lo[j], hi[j] = 0.0, np.inf
-                push[j] = -torque_limit if sticky[j] <= 0.0 else 0.0
+                push[j] = -torque_limit if sticky[j] <= 0.0 else fudge * torque_limit
     return lo, hi, push
 
 

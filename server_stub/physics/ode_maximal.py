@@ -1,0 +1,465 @@
+"""The "ode" backend's maximal-coordinate step (``PhysicsConfig.ode_maximal``): every body of the
+robot integrated on its own, as ODE 0.16's ``dWorldStep`` does, the hinges held by constraint rows.
+
+Facts (read in ODE 0.16's step.cpp, joints/hinge.cpp, joints/joint.cpp (dxJointLimitMotor),
+ode.cpp, and SimSpark's rsg/agent/nao/hingejoint.rsg, spark.rb, dragcontroller.cpp; our own code):
+
+- each body (torso and the 22 hinge children) has a centre x, a quaternion q, a velocity v and a
+  spin w (world), its mass and its uniform solid's principal moments (docs/robot_and_server.md
+  section 2, no floor);
+- forces before the step: gravity m g, SimSpark's DragController (-0.01 v, torque -0.01 w), and
+  ODE's gyroscopic term, on by default in 0.16 (dBodyCreate sets dxBodyGyroscopic) and computed
+  implicitly (Lacoursiere): with L = I w and I~ = I - h [L]x, the torque (I I~^-1 - 1) L / h;
+- a hinge (ODE body 1 = the child, body 2 = the parent, as SimSpark's ``attach`` orders them):
+  3 rows keep its anchor copies together (c = ERP/h times their gap), 2 rows keep the child's axis
+  on the parent's (about the two directions across the child's axis, c = ERP/h times
+  (a1 x a2) along each); ERP and CFM are the world's (ODE's default 0.2, SimSpark's 1e-5). Then
+  one motor or limit row about the child's axis: inside the range a motor (target speed,
+  |torque| <= 10 N m, CFM 1e-8); at a stop (angle at the step's start <= low or >= high) ODE's
+  one-sided limit row (ERP 0.8, bounce 1, CFM 1e-8) and the motor's full torque as an outside
+  torque when it drives into the stop (times the fudge factor 1e-5 when away, i.e. nothing): the
+  targets and bounds are ``server_stub.physics.motors``' and ``ode_step._motor_rows``';
+- ground contacts as the reduced "ode" backend makes them (``ode_kernels.ground_contacts``, from
+  the bodies' own poses): a normal row (>= 0, ERP 0.4 on depth less the surface layer 0.001,
+  CFM 1e-4) and two friction rows (unbounded, CFM = slip 0.005);
+- the LCP of dWorldStep, scaled by h: A = h J M^-1 J' + diag(cfm), b = c - J (v + h M^-1 f),
+  solved exactly: the unbounded rows (hinges, friction) eliminated by a Cholesky factor, the
+  bounded ones (motors, stops, normals) by ``ode_kernels.box_qp`` on the Schur complement;
+- v += h M^-1 (f + J' lambda), then x += h v and ODE's infinitesimal rotation
+  q += h/2 (0, w) q, normalised (SimSpark does not turn on finite rotation);
+- the hinge angle as dJointGetHingeAngle measures it from the two bodies' quaternions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from server_stub.physics.ode_kernels import _cho_solve, _cholesky, _cross, _plane_space, box_qp
+from server_stub.physics.rotations import rotation_matrix
+
+
+@njit(cache=True)
+def _qmul(a, b):
+    """Hamilton product of (x, y, z, w) quaternions."""
+    return np.array(
+        [
+            a[3] * b[0] + b[3] * a[0] + a[1] * b[2] - a[2] * b[1],
+            a[3] * b[1] + b[3] * a[1] + a[2] * b[0] - a[0] * b[2],
+            a[3] * b[2] + b[3] * a[2] + a[0] * b[1] - a[1] * b[0],
+            a[3] * b[3] - a[0] * b[0] - a[1] * b[1] - a[2] * b[2],
+        ]
+    )
+
+
+@njit(cache=True)
+def _conj(a):
+    return np.array([-a[0], -a[1], -a[2], a[3]])
+
+
+@njit(cache=True)
+def _mat_vec(m, v):
+    return np.array(
+        [
+            m[0, 0] * v[0] + m[0, 1] * v[1] + m[0, 2] * v[2],
+            m[1, 0] * v[0] + m[1, 1] * v[1] + m[1, 2] * v[2],
+            m[2, 0] * v[0] + m[2, 1] * v[1] + m[2, 2] * v[2],
+        ]
+    )
+
+
+@njit(cache=True)
+def hinge_angle(q_child, q_parent, local_axis):
+    """dJointGetHingeAngle for bodies whose frames agree at angle 0: from the child's orientation
+    relative to the parent's, the rotation's size signed by its part along the axis (so a turn off
+    the axis shows in the angle, as on the real server)."""
+    rel = _qmul(_conj(q_child), q_parent)  # the parent seen from the child
+    s = np.sqrt(rel[0] ** 2 + rel[1] ** 2 + rel[2] ** 2)
+    along = rel[0] * local_axis[0] + rel[1] * local_axis[1] + rel[2] * local_axis[2]
+    if along >= 0.0:
+        theta = 2.0 * np.arctan2(s, rel[3])
+    else:
+        theta = 2.0 * np.arctan2(s, -rel[3])
+    if theta > np.pi:
+        theta -= 2.0 * np.pi
+    return -theta
+
+
+@njit(cache=True)
+def measure(quats, spins, parents, joint_of, local_axes):
+    """Every hinge's angle and rate as the real server reads them (child = body 1)."""
+    nj = local_axes.shape[0]
+    angles = np.empty(nj)
+    rates = np.empty(nj)
+    for k in range(1, quats.shape[0]):
+        j = joint_of[k]
+        p = parents[k]
+        angles[j] = hinge_angle(quats[k], quats[p], local_axes[j])
+        axis = _mat_vec(rotation_matrix(quats[k]), local_axes[j])
+        rel = spins[k] - spins[p]
+        rates[j] = axis[0] * rel[0] + axis[1] * rel[1] + axis[2] * rel[2]
+    return angles, rates
+
+
+@njit(cache=True)
+def body_velocities(parents, joint_of, local_axes, coms, quats, anchors, v0, w0, qd):
+    """Each body's centre velocity and spin from the torso's and the hinge rates (exact joints)."""
+    nb = coms.shape[0]
+    vel = np.zeros((nb, 3))
+    spin = np.zeros((nb, 3))
+    vel[0] = v0
+    spin[0] = w0
+    for k in range(1, nb):
+        p = parents[k]
+        j = joint_of[k]
+        axis = _mat_vec(rotation_matrix(quats[k]), local_axes[j])
+        spin[k] = spin[p] + qd[j] * axis
+        vel[k] = vel[p] + _cross(spin[p], anchors[j] - coms[p]) + _cross(spin[k], coms[k] - anchors[j])
+    return vel, spin
+
+
+@njit(cache=True)
+def local_anchors(parents, joint_of, coms, quats, anchors):
+    """Each hinge's anchor in its child's and its parent's body frame (from an exact pose)."""
+    nj = anchors.shape[0]
+    child = np.empty((nj, 3))
+    parent = np.empty((nj, 3))
+    for k in range(1, coms.shape[0]):
+        j = joint_of[k]
+        p = parents[k]
+        rc = rotation_matrix(quats[k])
+        rp = rotation_matrix(quats[p])
+        dc = anchors[j] - coms[k]
+        dp = anchors[j] - coms[p]
+        for a in range(3):
+            child[j, a] = rc[0, a] * dc[0] + rc[1, a] * dc[1] + rc[2, a] * dc[2]
+            parent[j, a] = rp[0, a] * dp[0] + rp[1, a] * dp[1] + rp[2, a] * dp[2]
+    return child, parent
+
+
+@njit(cache=True)
+def anchor_gaps(parents, joint_of, coms, quats, anchor_child, anchor_parent):
+    """Distance (m) between each hinge's two anchor copies."""
+    nj = anchor_child.shape[0]
+    gaps = np.empty(nj)
+    for k in range(1, coms.shape[0]):
+        j = joint_of[k]
+        p = parents[k]
+        a1 = coms[k] + _mat_vec(rotation_matrix(quats[k]), anchor_child[j])
+        a2 = coms[p] + _mat_vec(rotation_matrix(quats[p]), anchor_parent[j])
+        d = a1 - a2
+        gaps[j] = np.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
+    return gaps
+
+
+@njit(cache=True)
+def _invert3(m):
+    """Inverse of a 3x3 matrix (ok False when singular)."""
+    c00 = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
+    c01 = m[1, 2] * m[2, 0] - m[1, 0] * m[2, 2]
+    c02 = m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0]
+    det = m[0, 0] * c00 + m[0, 1] * c01 + m[0, 2] * c02
+    out = np.zeros((3, 3))
+    if det == 0.0:
+        return out, False
+    inv = 1.0 / det
+    out[0, 0] = c00 * inv
+    out[1, 0] = c01 * inv
+    out[2, 0] = c02 * inv
+    out[0, 1] = (m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2]) * inv
+    out[1, 1] = (m[0, 0] * m[2, 2] - m[0, 2] * m[2, 0]) * inv
+    out[2, 1] = (m[0, 1] * m[2, 0] - m[0, 0] * m[2, 1]) * inv
+    out[0, 2] = (m[0, 1] * m[1, 2] - m[0, 2] * m[1, 1]) * inv
+    out[1, 2] = (m[0, 2] * m[1, 0] - m[0, 0] * m[1, 2]) * inv
+    out[2, 2] = (m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]) * inv
+    return out, True
+
+
+@njit(cache=True)
+def gyroscopic_torque(inertia, w, h, implicit):
+    """ODE 0.16's gyroscopic torque of one body: implicit (its default), (I I~^-1 - 1) L / h with
+    L = I w and I~ = I - h [L]x; explicit, -w x I w."""
+    big_l = _mat_vec(inertia, w)
+    if not implicit:
+        return -_cross(w, big_l)
+    tilde = inertia.copy()
+    # -[L]x scaled by h: row-major cross matrix of -L
+    tilde[0, 1] += h * big_l[2]
+    tilde[0, 2] -= h * big_l[1]
+    tilde[1, 0] -= h * big_l[2]
+    tilde[1, 2] += h * big_l[0]
+    tilde[2, 0] += h * big_l[1]
+    tilde[2, 1] -= h * big_l[0]
+    inv, ok = _invert3(tilde)
+    if not ok:
+        return np.zeros(3)
+    prod = inertia @ inv
+    for a in range(3):
+        prod[a, a] -= 1.0
+    return _mat_vec(prod, big_l / h)
+
+
+@njit(cache=True)
+def step(
+    masses,
+    principal,
+    parents,
+    joint_of,
+    local_axes,
+    anchor_child,
+    anchor_parent,
+    pos,
+    quat,
+    vel,
+    spin,
+    gravity,
+    drag_linear,
+    drag_angular,
+    implicit_gyro,
+    contact_body,
+    contact_point,
+    contact_depth,
+    motor_target,
+    motor_lo,
+    motor_hi,
+    push,
+    motor_state,
+    h,
+    joint_erp,
+    joint_cfm,
+    motor_cfm,
+    contact_erp,
+    contact_cfm,
+    slip,
+    surface_layer,
+):
+    """One dWorldStep of one robot's bodies. Returns (positions, quaternions, velocities, spins,
+    contact forces (points x 3: normal, t1, t2), tangents (points x 2 x 3), motor/stop torques,
+    solver passes). ``motor_state`` (hinges): the bounded rows' active-set guess, updated."""
+    nb = masses.shape[0]
+    nj = local_axes.shape[0]
+    nc = contact_point.shape[0]
+    rot = np.empty((nb, 3, 3))
+    inv_inertia = np.empty((nb, 3, 3))
+    force = np.empty((nb, 6))
+    for k in range(nb):
+        r = rotation_matrix(quat[k])
+        rot[k] = r
+        inertia = np.empty((3, 3))
+        for a in range(3):
+            for b in range(3):
+                s = 0.0
+                t = 0.0
+                for c in range(3):
+                    s += r[a, c] * principal[k, c] * r[b, c]
+                    t += r[a, c] / principal[k, c] * r[b, c]
+                inertia[a, b] = s
+                inv_inertia[k, a, b] = t
+        for a in range(3):
+            force[k, a] = masses[k] * gravity[a] - drag_linear * vel[k, a]
+        tq = gyroscopic_torque(inertia, spin[k], h, implicit_gyro) - drag_angular * spin[k]
+        for a in range(3):
+            force[k, 3 + a] = tq[a]
+    # rows: unbounded first (5 per hinge, 2 friction per contact), then bounded (motor per hinge,
+    # normal per contact). Each row acts on body1 (Jacobian j1) and body2 (j2; -1 none).
+    n_unb = 5 * nj + 2 * nc
+    nr = n_unb + nj + nc
+    b1 = np.full(nr, -1, dtype=np.int64)
+    b2 = np.full(nr, -1, dtype=np.int64)
+    j1 = np.zeros((nr, 6))
+    j2 = np.zeros((nr, 6))
+    c = np.zeros(nr)
+    cfm = np.zeros(nr)
+    lo = np.full(nr, -np.inf)
+    hi = np.full(nr, np.inf)
+    k_joint = joint_erp / h
+    for k in range(1, nb):
+        j = joint_of[k]
+        p = parents[k]
+        a1 = _mat_vec(rot[k], anchor_child[j])
+        a2 = _mat_vec(rot[p], anchor_parent[j])
+        gap = pos[p] + a2 - pos[k] - a1
+        base = 5 * j
+        for i in range(3):
+            r = base + i
+            b1[r] = k
+            b2[r] = p
+            j1[r, i] = 1.0
+            j2[r, i] = -1.0
+            # angular parts: -[a1]x row i on body 1, [a2]x row i on body 2
+            e = np.zeros(3)
+            e[i] = 1.0
+            x1 = _cross(a1, e)  # row i of -[a1]x is (a1 x e_i)
+            x2 = _cross(a2, e)
+            for a in range(3):
+                j1[r, 3 + a] = x1[a]
+                j2[r, 3 + a] = -x2[a]
+            c[r] = k_joint * gap[i]
+            cfm[r] = joint_cfm
+        ax1 = _mat_vec(rot[k], local_axes[j])
+        ax2 = _mat_vec(rot[p], local_axes[j])
+        t1, t2 = _plane_space(ax1)
+        err = _cross(ax1, ax2)
+        for i in range(2):
+            r = base + 3 + i
+            d = t1 if i == 0 else t2
+            b1[r] = k
+            b2[r] = p
+            for a in range(3):
+                j1[r, 3 + a] = d[a]
+                j2[r, 3 + a] = -d[a]
+            c[r] = k_joint * (err[0] * d[0] + err[1] * d[1] + err[2] * d[2])
+            cfm[r] = joint_cfm
+        r = n_unb + j
+        b1[r] = k
+        b2[r] = p
+        for a in range(3):
+            j1[r, 3 + a] = ax1[a]
+            j2[r, 3 + a] = -ax1[a]
+            force[k, 3 + a] += push[j] * ax1[a]
+            force[p, 3 + a] -= push[j] * ax1[a]
+        c[r] = motor_target[j]
+        cfm[r] = motor_cfm
+        lo[r] = motor_lo[j]
+        hi[r] = motor_hi[j]
+    tangents = np.empty((nc, 2, 3))
+    normal = np.array([0.0, 0.0, 1.0])
+    for i in range(nc):
+        k = contact_body[i]
+        t1, t2 = _plane_space(normal)
+        tangents[i, 0] = t1
+        tangents[i, 1] = t2
+        arm = contact_point[i] - pos[k]
+        rn = n_unb + nj + i
+        for r, d in ((rn, normal), (5 * nj + 2 * i, t1), (5 * nj + 2 * i + 1, t2)):
+            b1[r] = k
+            ang = _cross(arm, d)
+            for a in range(3):
+                j1[r, a] = d[a]
+                j1[r, 3 + a] = ang[a]
+        depth = contact_depth[i] - surface_layer
+        c[rn] = contact_erp * depth / h if depth > 0.0 else 0.0
+        cfm[rn] = contact_cfm
+        lo[rn] = 0.0
+        cfm[5 * nj + 2 * i] = slip
+        cfm[5 * nj + 2 * i + 1] = slip
+    # M^-1 J' per row and body; free velocities v + h M^-1 f
+    m1 = np.zeros((nr, 6))
+    m2 = np.zeros((nr, 6))
+    for r in range(nr):
+        k = b1[r]
+        inv_m = 1.0 / masses[k]
+        for a in range(3):
+            m1[r, a] = j1[r, a] * inv_m
+        ang = _mat_vec(inv_inertia[k], j1[r, 3:6])
+        for a in range(3):
+            m1[r, 3 + a] = ang[a]
+        k = b2[r]
+        if k >= 0:
+            inv_m = 1.0 / masses[k]
+            for a in range(3):
+                m2[r, a] = j2[r, a] * inv_m
+            ang = _mat_vec(inv_inertia[k], j2[r, 3:6])
+            for a in range(3):
+                m2[r, 3 + a] = ang[a]
+    free = np.empty((nb, 6))
+    for k in range(nb):
+        for a in range(3):
+            free[k, a] = vel[k, a] + h * force[k, a] / masses[k]
+        ang = _mat_vec(inv_inertia[k], force[k, 3:6])
+        for a in range(3):
+            free[k, 3 + a] = spin[k, a] + h * ang[a]
+    # A = h J M^-1 J' + cfm, b = c - J free
+    big_a = np.zeros((nr, nr))
+    rhs = c.copy()
+    for r in range(nr):
+        s1 = 0.0
+        k = b1[r]
+        for a in range(6):
+            s1 += j1[r, a] * free[k, a]
+        k = b2[r]
+        if k >= 0:
+            for a in range(6):
+                s1 += j2[r, a] * free[k, a]
+        rhs[r] -= s1
+        for s in range(r, nr):
+            v = 0.0
+            for x in range(2):
+                kr = b1[r] if x == 0 else b2[r]
+                if kr < 0:
+                    continue
+                jr = j1[r] if x == 0 else j2[r]
+                for y in range(2):
+                    ks = b1[s] if y == 0 else b2[s]
+                    if ks != kr:
+                        continue
+                    ms = m1[s] if y == 0 else m2[s]
+                    for a in range(6):
+                        v += jr[a] * ms[a]
+            big_a[r, s] = h * v
+            big_a[s, r] = h * v
+        big_a[r, r] += cfm[r]
+    # eliminate the unbounded rows, box-solve the bounded ones on the Schur complement
+    nbd = nr - n_unb
+    lower, ok = _cholesky(big_a[:n_unb, :n_unb].copy())
+    y = np.empty((n_unb, nbd))
+    for s in range(nbd):
+        y[:, s] = _cho_solve(lower, big_a[:n_unb, n_unb + s].copy())
+    y0 = _cho_solve(lower, rhs[:n_unb].copy())
+    schur = big_a[n_unb:, n_unb:].copy()
+    rhs_b = rhs[n_unb:].copy()
+    for r in range(nbd):
+        for s in range(nbd):
+            v = 0.0
+            for t in range(n_unb):
+                v += big_a[n_unb + r, t] * y[t, s]
+            schur[r, s] -= v
+        v = 0.0
+        for t in range(n_unb):
+            v += big_a[n_unb + r, t] * y0[t]
+        rhs_b[r] -= v
+    state = np.zeros(nbd, dtype=np.int64)
+    for j in range(nj):
+        state[j] = motor_state[j]
+    lam_b, iterations = box_qp(schur, rhs_b, lo[n_unb:], hi[n_unb:], state)
+    for j in range(nj):
+        motor_state[j] = state[j]
+    lam = np.empty(nr)
+    for t in range(n_unb):
+        v = y0[t]
+        for s in range(nbd):
+            v -= y[t, s] * lam_b[s]
+        lam[t] = v
+    lam[n_unb:] = lam_b
+    # velocities, then positions and orientations
+    new_vel = free.copy()
+    for r in range(nr):
+        if lam[r] == 0.0:
+            continue
+        k = b1[r]
+        for a in range(6):
+            new_vel[k, a] += h * m1[r, a] * lam[r]
+        k = b2[r]
+        if k >= 0:
+            for a in range(6):
+                new_vel[k, a] += h * m2[r, a] * lam[r]
+    out_pos = pos.copy()
+    out_quat = quat.copy()
+    out_vel = np.empty((nb, 3))
+    out_spin = np.empty((nb, 3))
+    for k in range(nb):
+        for a in range(3):
+            out_vel[k, a] = new_vel[k, a]
+            out_spin[k, a] = new_vel[k, 3 + a]
+            out_pos[k, a] = pos[k, a] + h * new_vel[k, a]
+        w = np.array([out_spin[k, 0], out_spin[k, 1], out_spin[k, 2], 0.0])
+        dq = _qmul(w, quat[k])
+        qn = quat[k] + 0.5 * h * dq
+        out_quat[k] = qn / np.sqrt(qn[0] ** 2 + qn[1] ** 2 + qn[2] ** 2 + qn[3] ** 2)
+    forces = np.empty((nc, 3))
+    for i in range(nc):
+        forces[i, 0] = lam[n_unb + nj + i]
+        forces[i, 1] = lam[5 * nj + 2 * i]
+        forces[i, 2] = lam[5 * nj + 2 * i + 1]
+    torques = lam[n_unb : n_unb + nj].copy()
+    return out_pos, out_quat, out_vel, out_spin, forces, tangents, torques, iterations
