@@ -15,36 +15,13 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from protocol.nao import JOINTS  # noqa: E402
+from server_stub.physics import nao_model  # noqa: E402
 from server_stub.physics.rotations import body_poses  # noqa: E402
 from server_stub.sensors.monitor_scene import GameHeader, MonitorScene, RobotView  # noqa: E402
 from server_stub.sensors.perception_text import GameStateText, format_perception  # noqa: E402
 from server_stub.sensors.vision import SeenRobot, VisionSensor  # noqa: E402
 
-_PARTS = [
-    "torso",
-    "neck",
-    "head",
-    "rshoulder",
-    "rupperarm",
-    "relbow",
-    "rlowerarm",
-    "lshoulder",
-    "lupperarm",
-    "lelbow",
-    "llowerarm",
-    "rhip1",
-    "rhip2",
-    "rthigh",
-    "rshank",
-    "rankle",
-    "rfoot",
-    "lhip1",
-    "lhip2",
-    "lthigh",
-    "lshank",
-    "lankle",
-    "lfoot",
-]
+_PARTS = nao_model.part_names()
 
 
 def _us(fn, number: int) -> float:

@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from protocol.monitor import MonitorReader
 from protocol.nao import JOINTS, PLAY_MODES
 from protocol.perception import parse_perception
+from server_stub.physics import nao_model
 from server_stub.sensors.monitor_scene import GameHeader, MonitorScene, RobotView
 from server_stub.sensors.number_text import g_rows
 from server_stub.sensors.perception_text import GameStateText, format_hear, format_perception
@@ -303,31 +304,7 @@ def _pose(position, heading_deg: float, pitch_deg: float = 0.0) -> np.ndarray:
     return m
 
 
-_PART_NAMES = [
-    "torso",
-    "neck",
-    "head",
-    "rshoulder",
-    "rupperarm",
-    "relbow",
-    "rlowerarm",
-    "lshoulder",
-    "lupperarm",
-    "lelbow",
-    "llowerarm",
-    "rhip1",
-    "rhip2",
-    "rthigh",
-    "rshank",
-    "rankle",
-    "rfoot",
-    "lhip1",
-    "lhip2",
-    "lthigh",
-    "lshank",
-    "lankle",
-    "lfoot",
-]
+_PART_NAMES = nao_model.part_names()
 
 
 def _robot(team, unum, torso, heading=0.0, pitch=0.0, robot_type=0) -> RobotView:

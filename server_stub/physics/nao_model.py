@@ -168,6 +168,12 @@ def hinges(robot_type: int = 0) -> tuple[Hinge, ...]:
     return tuple(by_effector[j.effector] for j in JOINTS)
 
 
+def part_names() -> tuple[str, ...]:
+    """Every part, torso first, then each hinge's child in ``protocol.nao.JOINTS`` order: the
+    order of ``Robot.part_names`` and of a robot's parts in the monitor's scene (all types)."""
+    return ("torso", *(h.child for h in hinges(0)))
+
+
 def speed_caps(robot_type: int = 0) -> tuple[float, ...]:
     """Per-joint speed cap (rad/s) in JOINTS order; type 2 has its own ankle speeds (section 3)."""
     rtype = _robot_type(robot_type)
