@@ -166,14 +166,14 @@ def threaded_server():
 
 def test_any_exception_from_one_clients_input_drops_only_that_client(threaded_server, monkeypatch, caplog) -> None:
     server = threaded_server
-    original = server._scene
+    original = server.sim._scene
 
     def buggy(state, args):
         if args and args[0] == "boom":
             raise RuntimeError("a bug this input reached")
         original(state, args)
 
-    monkeypatch.setattr(server, "_scene", buggy)
+    monkeypatch.setattr(server.sim, "_scene", buggy)
     with caplog.at_level(logging.WARNING, logger="server_stub"):
         bad = RawClient(server.agent_port)
         bad.send("(scene boom)(syn)")

@@ -11,16 +11,13 @@ from __future__ import annotations
 import logging
 import socket
 import time
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 from protocol.errors import excerpt
 from protocol.framing import FrameDecoder, encode_frame
+from server_stub.agent_state import AgentState
 from server_stub.config import ServerConfig
 
-if TYPE_CHECKING:  # types only: the network side does not need the physics to load
-    from server_stub.physics.robot import Robot
-    from server_stub.sensors.vision import VisionSensor
+__all__ = ["AgentState", "Client"]
 
 log = logging.getLogger("server_stub")
 
@@ -129,24 +126,3 @@ class Client:
             self.sock.close()
         except OSError:
             pass
-
-
-@dataclass
-class AgentState:
-    """What the server knows about one agent connection's robot."""
-
-    robot: Robot | None = None
-    robot_type: int = 0
-    side: str | None = None
-    team: str | None = None
-    unum: int | None = None
-    #: the first GS after init carries unum and team (docs/robot_and_server.md section 5)
-    announce_identity: bool = False
-    #: a perception was sent and no ``(syn)`` has come back since
-    awaiting_syn: bool = False
-    sent_at: float = 0.0
-    #: perception computed after the last step, sent at the next cycle boundary
-    next_perception: str | None = None
-    #: frames received since the last step, applied after the next perception goes out
-    inbox: list[bytes] = field(default_factory=list)
-    vision: VisionSensor | None = None

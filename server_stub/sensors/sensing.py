@@ -9,9 +9,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from protocol.commands import say_problem
+from server_stub.agent_state import AgentState
 from server_stub.config import ServerConfig
 from server_stub.game import Game
-from server_stub.net.clients import AgentState
 from server_stub.physics.world import World
 from server_stub.sensors import number_text, vision
 from server_stub.sensors.monitor_scene import GameHeader, MonitorScene, RobotView
