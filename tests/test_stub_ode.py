@@ -9,8 +9,9 @@ import numpy as np
 import pybullet as pb
 import pytest
 
+from protocol.nao import JOINTS
 from server_stub.config import PhysicsConfig
-from server_stub.physics import calibration_walk, ode_kernels, ode_step
+from server_stub.physics import calibration_walk, ode_kernels, ode_maximal, ode_step
 from server_stub.physics.world import World
 
 ODE = dataclasses.replace(PhysicsConfig(), backend="ode")
@@ -216,3 +217,236 @@ def test_odes_box_plane_rule_gives_the_deepest_corner_and_at_most_two_neighbours
         3,
     )
     assert len(bodies) == 2 and np.all(points[:, 1] < 0.0) and np.all(depths >= 0.0)
+
+
+# ----- the maximal-coordinate step (``PhysicsConfig.ode_maximal``, ``server_stub.physics.ode_maximal``) -----
+
+MAX = dataclasses.replace(PhysicsConfig(), backend="ode", ode_maximal=True)
+
+
+def _gaps(robot):
+    bodies, static = robot._ode_bodies, robot._ode_static
+    return ode_maximal.anchor_gaps(
+        static.parents, static.joint_of, bodies.pos, bodies.quat, bodies.anchor_child, bodies.anchor_parent
+    )
+
+
+@pytest.fixture(scope="module")
+def standing_max():
+    world = World(MAX)
+    robot = world.add_robot()
+    robot.beam(-3.0, 2.0, 0.0)
+    for _ in range(150):
+        world.step()
+    yield world, robot
+    world.close()
+
+
+def test_maximal_standing_numbers_match_the_real_server(standing_max):
+    """docs section 2: torso at 0.383 m, each foot 22.59 N, dead still; the hinges' anchor copies
+    stay together (the real server's monitor stream: 0.02 mm standing)."""
+    world, robot = standing_max
+    assert robot.torso_position()[2] == pytest.approx(0.383, abs=0.002)
+    pressure = robot.foot_pressure()
+    assert sorted(pressure) == ["lf", "rf"]
+    for _, force in pressure.values():
+        assert force[2] == pytest.approx(22.59, abs=0.1)
+    start = robot.torso_position()
+    for _ in range(100):
+        world.step()
+    assert np.allclose(robot.torso_position(), start, atol=1e-4)
+    assert np.abs(robot.gyro()).max() < 0.05
+    assert _gaps(robot).max() < 5e-5
+
+
+def _free_robot(seed):
+    """A tumbling robot's bodies (exact joints, random angles and rates) and its static data."""
+    world = World(MAX)
+    robot = world.add_robot()
+    c, b = robot._client, robot.body_id
+    rng = np.random.default_rng(seed)
+    pb.resetBasePositionAndOrientation(
+        b, (0, 0, 3), pb.getQuaternionFromEuler(rng.normal(size=3) * 0.5), physicsClientId=c
+    )
+    pb.resetBaseVelocity(b, rng.normal(size=3).tolist(), (rng.normal(size=3) * 3).tolist(), physicsClientId=c)
+    pb.resetJointStatesMultiDof(
+        b,
+        list(range(22)),
+        [[x] for x in rng.normal(size=22) * 0.5],
+        targetVelocities=[[x] for x in rng.normal(size=22) * 3],
+        physicsClientId=c,
+    )
+    static = ode_step._Static(c, b, world._ground, robot.robot_type)
+    position, orientation = pb.getBasePositionAndOrientation(b, physicsClientId=c)
+    v0, w0 = pb.getBaseVelocity(b, physicsClientId=c)
+    links = pb.getLinkStates(b, static.indices, computeForwardKinematics=1, physicsClientId=c)
+    coms = np.array([position] + [s[0] for s in links])
+    quats = np.array([orientation] + [s[1] for s in links])
+    anchors = np.array([s[4] for s in links])
+    rates = np.array([s[1] for s in pb.getJointStates(b, static.indices, physicsClientId=c)])
+    angles = np.array([s[0] for s in pb.getJointStates(b, static.indices, physicsClientId=c)])
+    vel, spin = ode_maximal.body_velocities(
+        static.parents, static.joint_of, static.local_axes, coms, quats, anchors, np.array(v0), np.array(w0), rates
+    )
+    child, parent = ode_maximal.local_anchors(static.parents, static.joint_of, coms, quats, anchors)
+    world.close()
+    return static, coms, quats, vel, spin, child, parent, angles, rates
+
+
+def _free_step(static, coms, quats, vel, spin, child, parent, gravity=0.0, erp=0.2, implicit=True):
+    none = np.zeros(0)
+    return ode_maximal.step(
+        static.masses,
+        static.principal,
+        static.parents,
+        static.joint_of,
+        static.local_axes,
+        child,
+        parent,
+        coms,
+        quats,
+        vel,
+        spin,
+        np.array([0.0, 0.0, gravity]),
+        0.0,
+        0.0,
+        implicit,
+        np.zeros(0, dtype=np.int64),
+        np.zeros((0, 3)),
+        none,
+        np.zeros(22),
+        np.zeros(22),
+        np.zeros(22),
+        np.zeros(22),
+        np.zeros(22, dtype=np.int64),
+        0.02,
+        erp,
+        1e-5,
+        1e-8,
+        0.4,
+        1e-4,
+        0.005,
+        0.001,
+    )
+
+
+def test_maximal_bodies_measure_the_joint_angles_pybullet_holds():
+    """dJointGetHingeAngle and its rate, from the bodies placed by pybullet's exact joints, give
+    pybullet's angles and rates back."""
+    static, coms, quats, vel, spin, _, _, angles, rates = _free_robot(3)
+    measured, measured_rates = ode_maximal.measure(quats, spin, static.parents, static.joint_of, static.local_axes)
+    assert np.allclose(measured, angles, atol=1e-9)
+    assert np.allclose(measured_rates, rates, atol=1e-9)
+
+
+def test_maximal_free_flight_keeps_momentum_and_loses_no_more_than_the_gyroscopic_damping():
+    """Without gravity, drag, contacts or motor torque (motor bounds 0), the joint forces are
+    internal: the total linear momentum is kept exactly. The angular momentum about the centre of
+    mass is not quite (the anchor copies drift apart, by up to 1 cm at these 3 rad/s rates and
+    spins, and the rows pulling them back act at two different points; measured 5% over 25 steps
+    with either gyroscopic form); the kinetic energy never grows and keeps 95%."""
+    static, coms, quats, vel, spin, child, parent, _, _ = _free_robot(5)
+    m = static.masses
+
+    def momentum_and_energy(coms, quats, vel, spin):
+        p = (m[:, None] * vel).sum(axis=0)
+        centre = (m[:, None] * coms).sum(axis=0) / m.sum()
+        ang = np.zeros(3)
+        energy = 0.0
+        for k in range(len(m)):
+            r = np.array(pb.getMatrixFromQuaternion(quats[k])).reshape(3, 3)
+            inertia = r @ np.diag(static.principal[k]) @ r.T
+            ang += np.cross(coms[k] - centre, m[k] * vel[k]) + inertia @ spin[k]
+            energy += 0.5 * m[k] * vel[k] @ vel[k] + 0.5 * spin[k] @ inertia @ spin[k]
+        return p, ang, energy
+
+    p0, l0, e0 = momentum_and_energy(coms, quats, vel, spin)
+    state = (coms, quats, vel, spin)
+    energies = [e0]
+    for _ in range(25):
+        out = _free_step(static, *state, child, parent)
+        state = out[:4]
+        energies.append(momentum_and_energy(*state)[2])
+    p1, l1, e1 = momentum_and_energy(*state)
+    assert np.allclose(p1, p0, atol=1e-9)
+    assert np.linalg.norm(l1 - l0) < 0.08 * np.linalg.norm(l0)
+    assert max(energies) <= e0 * 1.001
+    assert e1 > 0.9 * e0
+    assert _free_gaps(static, state, child, parent).max() < 0.015
+
+
+def _free_gaps(static, state, child, parent):
+    return ode_maximal.anchor_gaps(static.parents, static.joint_of, state[0], state[1], child, parent)
+
+
+def test_maximal_joint_rows_pull_a_drifted_anchor_back_by_the_world_erp():
+    """Every body at rest, one body moved 2 mm off its hinge: one step closes the gap by ERP 0.2
+    (ODE's joint error reduction), to within the rows' CFM and the other joints' give."""
+    static, coms, quats, vel, spin, child, parent, _, _ = _free_robot(7)
+    vel, spin = np.zeros_like(vel), np.zeros_like(spin)
+    foot = static.masses.shape[0] - 1
+    moved = coms.copy()
+    moved[foot] += np.array([0.002, 0.0, 0.0])
+    gap = _free_gaps(static, (moved, quats), child, parent)[foot - 1]
+    out = _free_step(static, moved, quats, vel, spin, child, parent)
+    after = _free_gaps(static, out, child, parent)[foot - 1]
+    assert gap == pytest.approx(0.002, rel=1e-6)
+    assert after == pytest.approx(0.8 * gap, rel=0.02)
+
+
+def test_odes_implicit_gyroscopic_torque_tends_to_the_explicit_one_for_small_steps():
+    """ODE 0.16's implicit gyroscopic torque (I (I - h [L]x)^-1 - 1) L / h is -w x I w as h -> 0
+    and smaller than it at h = 0.02 for a fast-spinning thin body (it damps the tumbling)."""
+    inertia = np.diag([3.6e-6, 2e-4, 2e-4])
+    w = np.array([1.0, 20.0, 5.0])
+    explicit = -np.cross(w, inertia @ w)
+    assert np.allclose(ode_maximal.gyroscopic_torque(inertia, w, 1e-7, True), explicit, rtol=1e-4, atol=1e-7)
+    assert np.allclose(ode_maximal.gyroscopic_torque(inertia, w, 0.02, False), explicit)
+    implicit = ode_maximal.gyroscopic_torque(inertia, w, 0.02, True)
+    assert np.linalg.norm(implicit) < 0.9 * np.linalg.norm(explicit)
+
+
+def test_calibration_walk_on_the_maximal_step():
+    """The calibration walk from its default start walks 3.0 m +-15% without falling (real:
+    2.91-3.14 m); every hinge's anchor copies stay within 1 cm and the knees part by millimetres,
+    as the real server's do on walking gaits (3-6 mm on the 13.26 m gait)."""
+    gaps = []
+    original = ode_step.apply
+
+    def apply(robot, solved):
+        original(robot, solved)
+        gaps.append(_gaps(robot))
+
+    ode_step.apply = apply
+    try:
+        with World(MAX) as world:
+            result = calibration_walk.run(world)
+    finally:
+        ode_step.apply = original
+    assert not result.fell
+    assert result.dx == pytest.approx(3.0, rel=0.15)
+    assert abs(result.dy) <= 1.5 * 0.988
+    gaps_mm = np.array(gaps) * 1000.0
+    knees = [i for i, j in enumerate(JOINTS) if j.effector in ("rle4", "lle4")]
+    assert gaps_mm.max() < 10.0
+    assert 0.5 < gaps_mm[:, knees].max() < 8.0
+
+
+def test_maximal_step_keeps_a_flailing_robot_together():
+    """Random motor speeds (3 rad/s spread, new every 0.2 s) for 4 s: no blow-up (torso under
+    5 m/s), every hinge's anchor copies within 2 cm."""
+    rng = np.random.default_rng(11)
+    with World(MAX) as world:
+        robot = world.add_robot()
+        robot.beam(-3.0, 2.0, 0.0)
+        worst_speed = 0.0
+        worst_gap = 0.0
+        for step in range(200):
+            if step % 10 == 0:
+                for joint, speed in zip(JOINTS, rng.normal(size=22) * 3.0):
+                    robot.command(joint.effector, float(speed))
+            world.step()
+            worst_speed = max(worst_speed, float(np.linalg.norm(robot._base_motion()[0])))
+            worst_gap = max(worst_gap, float(_gaps(robot).max()))
+    assert worst_speed < 5.0
+    assert worst_gap < 0.02

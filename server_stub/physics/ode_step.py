@@ -454,6 +454,7 @@ def warm_up() -> None:
         MOTOR_CFM,
     )
     ode_kernels.integrate_orientation(np.array([0.0, 0.0, 0.0, 1.0]), np.array([0.0, 0.0, 1.0]), 0.02)
+    _warm_up_maximal()
     two = (np.array([0, 0], dtype=np.int64), np.array([0, 0], dtype=np.int64))
     centres, quats = np.array([[0.0, 0.0, 0.3], [0.0, 0.0, 0.05]]), np.tile([0.0, 0.0, 0.0, 1.0], (2, 1))
     ode_kernels.joint_drift(
@@ -477,4 +478,49 @@ def warm_up() -> None:
         np.array([[0.0, 0.0, 0.05]]),
         np.array([[0.0, 0.0, 0.0, 1.0]]),
         3,
+    )
+
+
+def _warm_up_maximal() -> None:
+    """Compile (or load) the maximal step's kernels on a two-body problem with one contact."""
+    two = (np.array([0, 0], dtype=np.int64), np.array([0, 0], dtype=np.int64))
+    axes = np.array([[1.0, 0.0, 0.0]])
+    centres = np.array([[0.0, 0.0, 0.3], [0.0, 0.0, 0.05]])
+    quats = np.tile([0.0, 0.0, 0.0, 1.0], (2, 1))
+    anchors = np.array([[0.0, 0.0, 0.1]])
+    vel, spin = ode_maximal.body_velocities(*two, axes, centres, quats, anchors, np.zeros(3), np.zeros(3), np.ones(1))
+    child, parent = ode_maximal.local_anchors(*two, centres, quats, anchors)
+    ode_maximal.anchor_gaps(*two, centres, quats, child, parent)
+    ode_maximal.measure(quats, spin, *two, axes)
+    ode_maximal.step(
+        np.ones(2),
+        np.full((2, 3), 0.01),
+        *two,
+        axes,
+        child,
+        parent,
+        centres,
+        quats,
+        vel,
+        spin,
+        np.array([0.0, 0.0, -9.81]),
+        0.01,
+        0.01,
+        True,
+        np.array([1], dtype=np.int64),
+        np.array([[0.0, 0.0, 0.0]]),
+        np.array([0.002]),
+        np.zeros(1),
+        np.full(1, -10.0),
+        np.full(1, 10.0),
+        np.zeros(1),
+        np.zeros(1, dtype=np.int64),
+        0.02,
+        0.2,
+        1e-5,
+        MOTOR_CFM,
+        0.4,
+        1e-4,
+        0.005,
+        0.001,
     )
