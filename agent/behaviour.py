@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import enum
 import logging
+from dataclasses import dataclass, field
 
 from agent.config import AgentConfig
 from agent.controller import joint_velocities
@@ -37,6 +38,17 @@ class Phase(enum.Enum):
     SETTLING = "settling"
     WALKING = "walking"
     DONE = "done"
+
+
+@dataclass(frozen=True)
+class Action:
+    """One cycle's answer before it is printed: hinge velocities (rad/s by effector name, in
+    ``JOINTS`` order; empty when none are sent) and the text of any other command after them
+    (``init``, ``beam``). A program that hands the velocities to a server without text (the
+    optimizer's direct episodes) reads this; ``reply`` prints it."""
+
+    velocities: dict[str, float] = field(default_factory=dict)
+    text: str = ""
 
 
 class WalkBehaviour:
@@ -64,10 +76,9 @@ class WalkBehaviour:
         out.update(leg_joint_targets(self.gait.angles(gait_time), _LIMITS))
         return out
 
-    def _hold_and_move(self, perception: Perception, gait_time: float) -> str:
+    def _velocities(self, perception: Perception, gait_time: float) -> dict[str, float]:
         lookahead = gait_time + self.config.lookahead_cycles * CYCLE
-        v = joint_velocities(self.targets(lookahead), perception.joints, self.config.gain)
-        return commands.hinge_velocities(v)
+        return joint_velocities(self.targets(lookahead), perception.joints, self.config.gain)
 
     def _beam(self) -> str:
         if self.play_mode in BEAM_PLAY_MODES:
@@ -77,27 +88,33 @@ class WalkBehaviour:
 
     def reply(self, perception: Perception) -> str:
         """The message to send after ``perception`` (without ``(syn)``, which the caller adds)."""
+        action = self.action(perception)
+        if not action.velocities:
+            return action.text
+        return commands.hinge_velocities(action.velocities) + action.text
+
+    def action(self, perception: Perception) -> Action:
+        """What to answer ``perception`` with (``reply`` prints it); advances the behaviour."""
         if perception.game.play_mode is not None:
             self.play_mode = perception.game.play_mode
         if self.phase is Phase.CONNECTING:
             self.phase = Phase.BEAMING
-            return commands.init(self.config.unum, self.config.team)
+            return Action(text=commands.init(self.config.unum, self.config.team))
         if self.phase is Phase.BEAMING:
             self.phase = Phase.SETTLING
-            return self._beam()
+            return Action(text=self._beam())
         if self.phase is Phase.SETTLING:
             if self.settle_cycle >= self.config.settle_cycles and (self.config.start_now or self.play_mode == "PlayOn"):
                 self.phase = Phase.WALKING
                 log.info("gait started at server time %.2f", perception.time)
             else:
-                message = self._hold_and_move(perception, 0.0)
-                if self.settle_cycle == self.config.rebeam_cycle:
-                    message += self._beam()
+                velocities = self._velocities(perception, 0.0)
+                beam = self._beam() if self.settle_cycle == self.config.rebeam_cycle else ""
                 self.settle_cycle += 1
-                return message
+                return Action(velocities, beam)
         if self.phase is Phase.WALKING:
             # the first walking reply is gait time 0; after it, one cycle has been walked
-            message = self._hold_and_move(perception, self.walk_time)
+            velocities = self._velocities(perception, self.walk_time)
             self.walk_cycles += 1
             if self.fall.update(perception.acc):
                 self.fell_at = self.walk_time
@@ -106,5 +123,5 @@ class WalkBehaviour:
                 )
             if self.config.duration is not None and self.walk_time >= self.config.duration - 1e-9:
                 self.phase = Phase.DONE
-            return message
-        return ""
+            return Action(velocities)
+        return Action()

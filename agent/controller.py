@@ -14,6 +14,7 @@ from collections.abc import Mapping
 from protocol.nao import JOINTS, SPEED_CAP
 
 _DEG = math.pi / 180.0
+_NAMES = tuple((joint.effector, joint.perceptor) for joint in JOINTS)
 
 
 def joint_velocities(
@@ -26,11 +27,12 @@ def joint_velocities(
     A joint missing from the perception gets 0, which the server treats as "hold".
     """
     velocities: dict[str, float] = {}
-    for joint in JOINTS:
-        target = targets_deg.get(joint.effector)
+    target_of, angle_of = targets_deg.get, perceived_deg.get
+    for effector, perceptor in _NAMES:
+        target = target_of(effector)
         if target is None:
             continue
-        angle = perceived_deg.get(joint.perceptor)
+        angle = angle_of(perceptor)
         v = 0.0 if angle is None else gain * (target - angle) * _DEG
-        velocities[joint.effector] = min(max(v, -SPEED_CAP), SPEED_CAP)
+        velocities[effector] = min(max(v, -SPEED_CAP), SPEED_CAP)
     return velocities

@@ -29,6 +29,7 @@ from pathlib import Path
 from agent import AgentConfig, AgentError, NaoAgent
 from gait import TFSParams, save_gait
 from optimizer.episode.config import EpisodeConfig, EpisodeResult, Start
+from optimizer.episode.direct import DirectStub
 from optimizer.episode.monitor_link import EpisodeFailure, MonitorLink
 from optimizer.episode.scoring import Judge, TracePoint, find_robot
 from optimizer.episode.servers import (
@@ -59,6 +60,11 @@ class EpisodeRunner:
     server process it is given to own (a real rcssserver3d, ``optimizer.episode.real_server``), or a
     server run elsewhere (an address).
 
+    The embedded stub runs in this process by default, its core and the agent's behaviour driven
+    directly with no sockets and no text (``optimizer.episode.direct``, ``config.embedded_stub``
+    "direct", for an in-process agent), with the same results as the stub over sockets
+    (``embedded_stub="socket"``, or ``agent_mode="process"``: a ``python -m server_stub`` process).
+
     A server or agent that dies or hangs is detected, an owned server restarted, the episode retried once;
     if that fails too the episode is returned as failed with its reason. ``evaluate`` never raises
     for such failures, so a worker keeps going. Each episode may start elsewhere (``start``) on
@@ -82,7 +88,11 @@ class EpisodeRunner:
         self.last_trace: list[TracePoint] | None = None
         self._fixed_server = server if isinstance(server, ServerAddress) else None
         self._owned: ManagedServer | None = None
-        if server is None:
+        self._seed = seed
+        #: the embedded stub in this process (made at the first episode), when episodes go direct
+        self._direct: DirectStub | None = None
+        self._goes_direct = server is None and config.agent_mode == "inprocess" and config.embedded_stub == "direct"
+        if server is None and not self._goes_direct:
             self._owned = StubProcess(seed=seed)
         elif not isinstance(server, ServerAddress):
             self._owned = server
@@ -113,9 +123,15 @@ class EpisodeRunner:
 
     def close(self) -> None:
         self._close_monitor()
+        self._close_direct()
         if self._owned is not None:
             self._owned.stop()
         self._tmp.cleanup()
+
+    def _close_direct(self) -> None:
+        if self._direct is not None:
+            self._direct.close()
+            self._direct = None
 
     def __enter__(self) -> EpisodeRunner:
         return self
@@ -137,6 +153,7 @@ class EpisodeRunner:
 
     def _reset_server(self) -> None:
         self._close_monitor()
+        self._close_direct()
         if self._owned is not None:
             self._owned.restart()
 
@@ -174,6 +191,14 @@ class EpisodeRunner:
         )
 
     def _episode(self, params: TFSParams, config: EpisodeConfig) -> EpisodeResult:
+        if self._goes_direct:
+            judge = Judge(config, self.trace)
+            if self._direct is None:
+                self._direct = DirectStub(self._seed)
+            self._direct.run(params, config, judge)
+            assert judge.result is not None
+            self.last_trace = judge.trace
+            return judge.result
         address = self._address()
         link = self._link()
         self._prepare(link, config)

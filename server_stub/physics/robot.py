@@ -57,6 +57,7 @@ class Robot:
         self._config = config
         self._indices = list(range(_N))
         self._caps = [float(c) for c in nao_model.speed_caps(robot_type)]
+        self._caps_array = np.array(self._caps)
         names = [pb.getJointInfo(body, i, physicsClientId=client)[12].decode() for i in self._indices]
         self._part_names = ("torso", *names)
         self._link_index = {name: i for i, name in enumerate(names)}
@@ -97,6 +98,13 @@ class Robot:
             raise ValueError(f"velocity for {JOINTS[index].effector} must be finite, got {velocity!r}")
         cap = self._caps[index]
         self._requested[index] = min(cap, max(-cap, velocity))
+
+    def command_joints(self, velocities: np.ndarray) -> None:
+        """``command_joint`` for every joint at once, ``velocities`` in ``JOINTS`` order (the
+        optimizer's direct episodes, which hand over an agent's 22 commands without text)."""
+        if velocities.shape != (_N,) or not np.isfinite(velocities).all():
+            raise ValueError(f"velocities must be {_N} finite numbers, got {velocities!r}")
+        np.clip(velocities, -self._caps_array, self._caps_array, out=self._requested)
 
     def _before_step(self) -> None:
         """Apply last interval's commands (the latency rule) and set this step's motors

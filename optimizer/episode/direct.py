@@ -1,0 +1,228 @@
+"""Episodes on the embedded stand-in without sockets or text: the optimizer's fast path.
+
+``EpisodeRunner`` walks a gait on a server over TCP: the stub prints a perception, the agent parses
+it and prints its reply, the stub parses that, and the monitor stream is printed and parsed again
+for the judge. With the embedded stub all of it runs on one machine for one agent, so this module
+drives the stand-in's core (``server_stub.simulation.Simulation``) and the agent's behaviour
+(``agent.behaviour.WalkBehaviour``) directly, in one process, in the same order of events as the
+socket path, and scores with the same ``Judge``:
+
+- each cycle the agent is given the perception computed after the previous step, the replies
+  to the perception before it are applied, the world steps: the server's two-cycle latency;
+- ``PlayOn`` is set between the perception after which the agent is settled and its reply, as
+  the runner's trainer sends it;
+- every number crosses as the text would carry it: perceptions rounded to 2 decimals
+  (``%.2f``), velocity commands to 4 (``%.4f``), the judge's torso to 6 significant digits
+  (``%g``) and only when the monitor's delta rule would resend it (a move over 0.005);
+- what this agent does not read is not made: vision, the gyro, foot pressure, hearing, and all
+  body parts but the torso for the judge.
+
+``tests/test_episode_direct.py`` checks that fast and slow gaits walk the same distances and fall
+the same way, to the last digit, here and over the sockets.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from agent.behaviour import WalkBehaviour
+from agent.config import AgentConfig
+from gait import TFSGait, TFSParams
+from optimizer.episode.config import EpisodeConfig
+from optimizer.episode.monitor_link import EpisodeFailure
+from optimizer.episode.scoring import Judge
+from protocol import commands
+from protocol.monitor import MonitorState, RobotPose
+from protocol.nao import JOINTS
+from protocol.perception import GameState, Perception
+from server_stub.agent_state import AgentState
+from server_stub.config import PhysicsConfig, ServerConfig
+from server_stub.sensors.monitor_scene import MonitorConfig
+from server_stub.simulation import Simulation
+
+#: Hinge effector name -> its index in ``JOINTS`` (``Robot.command_joint``).
+_HINGE_INDEX = {joint.effector: index for index, joint in enumerate(JOINTS)}
+_EFFECTORS = tuple(_HINGE_INDEX)
+#: ``round``'s second argument for every joint: perceptions print 2 decimals, commands 4
+_TWO_DECIMALS = (2,) * len(JOINTS)
+_FOUR_DECIMALS = (4,) * len(JOINTS)
+#: The monitor resends a transform only when one of its 16 numbers moved by more than this.
+_SLT_THRESHOLD = MonitorConfig().slt_threshold
+
+
+def _g(value: float) -> float:
+    """``value`` as the monitor stream carries it: ``%g``, 6 significant digits."""
+    return float(f"{value:g}")
+
+
+class _TorsoView:
+    """What a monitor reader knows of each robot's torso, without the stream: a full scene when
+    robots came or went (or one's team or number changed), else the torso's pose only when it
+    moved past the delta threshold since it was last sent (``server_stub.sensors.monitor_scene``)."""
+
+    def __init__(self) -> None:
+        self._keys: list[tuple] = []
+        self._sent: list[list[float]] = []
+
+    def state(self, sim: Simulation) -> MonitorState:
+        playing = [s for s in sim.agents if s.robot is not None]
+        keys = [(s.side, s.unum, s.robot_type) for s in playing]
+        full = sim.scene_changed or keys != self._keys
+        sim.scene_changed = False
+        if full:
+            self._keys = keys
+            self._sent = [[] for _ in playing]
+        robots = []
+        for index, state in enumerate(playing):
+            robot = state.robot
+            assert robot is not None
+            (px, py, pz), r = robot.torso_position(), robot.torso_rotation().ravel().tolist()
+            # the torso's SLT: its 4x4 world pose, column-major
+            pose = [r[0], r[3], r[6], 0.0, r[1], r[4], r[7], 0.0, r[2], r[5], r[8], 0.0, px, py, pz, 1.0]
+            sent = self._sent[index]
+            if not sent or max(abs(a - b) for a, b in zip(pose, sent)) > _SLT_THRESHOLD:
+                self._sent[index] = sent = pose
+            robots.append(
+                RobotPose(
+                    state.side,
+                    state.unum,
+                    state.robot_type,
+                    (_g(sent[12]), _g(sent[13]), _g(sent[14])),
+                    (_g(sent[8]), _g(sent[9]), _g(sent[10])),
+                    (_g(sent[4]), _g(sent[5]), _g(sent[6])),
+                )
+            )
+        game = sim.game
+        return MonitorState(
+            _g(game.time),
+            game.play_mode,
+            game.half,
+            game.score_left,
+            game.score_right,
+            game.team_left,
+            game.team_right,
+            robots,
+        )
+
+
+def _perception(sim: Simulation, state: AgentState) -> Perception:
+    """What the agent's parser would read from this cycle's perception, numbers rounded as
+    printed; no See (this agent never looks), no GYR, FRP or hear (it reads none of them)."""
+    robot = state.robot
+    assert robot is not None
+    game = sim.game
+    identity = state.announce_identity and state.side is not None
+    state.announce_identity = state.announce_identity and not identity
+    gs = GameState(
+        state.unum if identity else None,
+        state.side if identity else None,
+        game.score_left,
+        game.score_right,
+        round(game.time, 2),
+        game.play_mode,
+    )
+    ax, ay, az = robot.accelerometer()
+    angles = robot.joint_angles()
+    joints = dict(zip(angles, map(round, angles.values(), _TWO_DECIMALS)))
+    return Perception(
+        round(sim.world.time, 2),
+        gs,
+        None,
+        (round(ax, 2), round(ay, 2), round(az, 2)),
+        joints,
+        {},
+        None,
+        [],
+        [],
+    )
+
+
+def _ignore(problem: str, key: str) -> None:
+    raise EpisodeFailure(f"the stand-in refused the agent's command: {problem}")
+
+
+class DirectStub:
+    """The embedded stand-in as a library in this process, for one episode after another: the
+    same settings as ``StubProcess`` (sync, exact beams, its seed)."""
+
+    def __init__(self, seed: int = 0) -> None:
+        self.seed = seed
+        # PhysicsConfig() now: its backend comes from the environment (NAO_STUB_PHYSICS), read when
+        # the stub starts, as a stub process started now would read it
+        self.sim = Simulation(ServerConfig(sync=True, realtime=False, beam_noise=False, seed=seed), PhysicsConfig())
+        #: the monitor reader's knowledge, kept across episodes as a trainer's connection keeps it
+        self._view = _TorsoView()
+        # the runner's trainer connects at its first episode and gets a full scene then
+        self.sim.scene_changed = True
+
+    def run(self, params: TFSParams, config: EpisodeConfig, judge: Judge) -> None:
+        """Walk ``params`` once from ``config``'s start; ``judge.result`` holds the outcome."""
+        sim = self.sim
+        sx, sy = config.start
+        # what the runner's trainer sends before each episode
+        sim.set_play_mode("BeforeKickOff")
+        sim.set_game_time(0.0)
+        sim.set_ball((sx, sy + 5.0, 0.042), (0.0, 0.0, 0.0))
+        agent_config = AgentConfig(
+            team=config.team, unum=config.unum, beam=(sx, sy, config.heading), sync=True, start_now=True
+        )
+        behaviour = WalkBehaviour(agent_config, TFSGait(params))
+        state = sim.join()
+        inbox: list[bytes | dict[str, float]] = [commands.scene().encode()]
+        to_agent: Perception | None = None
+        play_on_sent = False
+        cycles = 0
+        limit = math.ceil(config.walk_time / 0.02) + 1000  # settling and a margin: far more than a walk needs
+        try:
+            while judge.result is None:
+                # the cycle: the perception goes out, the replies that came in are applied, a step
+                delivered, to_agent = to_agent, None
+                for message in inbox:
+                    if isinstance(message, bytes):
+                        sim.apply_frame(state, message, _ignore)
+                    else:
+                        robot = state.robot
+                        assert robot is not None
+                        if tuple(message) == _EFFECTORS:  # every cycle: all 22, in JOINTS order
+                            robot.command_joints(np.array(list(message.values())))
+                        else:
+                            for name, velocity in message.items():
+                                robot.command_joint(_HINGE_INDEX[name], velocity)
+                inbox = []
+                sim.step()
+                cycles += 1
+                if state.robot is not None:
+                    to_agent = _perception(sim, state)
+                if sim.monitor_due:
+                    judge.feed(self._view.state(sim))
+                # the agent answers the perception it was given
+                if delivered is not None:
+                    if not play_on_sent and behaviour.settle_cycle >= agent_config.settle_cycles:
+                        sim.set_play_mode("PlayOn")  # between the perception and its reply
+                        play_on_sent = True
+                    inbox = self._reply(behaviour, delivered)
+                if cycles > limit:
+                    raise EpisodeFailure(f"no result after {cycles} cycles")
+        finally:
+            sim.leave(state)
+
+    @staticmethod
+    def _reply(behaviour: WalkBehaviour, perception: Perception) -> list[bytes | dict[str, float]]:
+        """The agent's reply as the stand-in would read it: velocities at 4 decimals; the
+        handshake and beams (a few per episode) as their text."""
+        action = behaviour.action(perception)
+        out: list[bytes | dict[str, float]] = []
+        if action.velocities:
+            for name, value in action.velocities.items():
+                if not math.isfinite(value):  # as commands.hinge_velocities refuses to print it
+                    raise ValueError(f"velocity of {name} is not finite: {value!r}")
+            velocities = action.velocities
+            out.append(dict(zip(velocities, map(round, velocities.values(), _FOUR_DECIMALS))))
+        if action.text:
+            out.append(action.text.encode())
+        return out
+
+    def close(self) -> None:
+        self.sim.close()
