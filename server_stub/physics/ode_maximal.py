@@ -463,3 +463,354 @@ def step(
         forces[i, 2] = lam[5 * nj + 2 * i + 1]
     torques = lam[n_unb : n_unb + nj].copy()
     return out_pos, out_quat, out_vel, out_spin, forces, tangents, torques, iterations
+
+
+@njit(cache=True)
+def _inverse_definite(a, sign):
+    """Inverse of a small symmetric matrix that is positive (sign 1) or negative (sign -1)
+    definite, by a Cholesky factor of sign * a."""
+    n = a.shape[0]
+    lower, ok = _cholesky(sign * a)
+    out = np.empty((n, n))
+    e = np.zeros(n)
+    for col in range(n):
+        e[:] = 0.0
+        e[col] = 1.0
+        x = _cho_solve(lower, e)
+        for row in range(n):
+            out[row, col] = sign * x[row]
+    return out
+
+
+@njit(cache=True)
+def _tree_solve(
+    nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, rj, rf
+):
+    """Solve H x = r on the factored tree (``step_tree``), r given per body (rb, nb x 6), hinge
+    node (rj, nj x 5) and friction node (rf, nc x 2); overwritten by x."""
+    # forward: leaves to root
+    for k in range(nb - 1, -1, -1):
+        c = contact_first[k]
+        while c >= 0:
+            t = dinv_contact[c] @ rf[c]
+            rb[k] -= jf[c].T @ t
+            c = contact_next[c]
+        if k == 0:
+            break
+        j = joint_of[k]
+        p = parents[k]
+        rj[j] -= jc[j] @ (dinv_body[k] @ rb[k])
+        rb[p] -= jp[j].T @ (dinv_joint[j] @ rj[j])
+    # backward: root to leaves
+    rb[0] = dinv_body[0] @ rb[0]
+    for k in range(nb):
+        if k > 0:
+            j = joint_of[k]
+            p = parents[k]
+            rj[j] = dinv_joint[j] @ (rj[j] - jp[j] @ rb[p])
+            rb[k] = dinv_body[k] @ (rb[k] - jc[j].T @ rj[j])
+        c = contact_first[k]
+        while c >= 0:
+            rf[c] = dinv_contact[c] @ (rf[c] - jf[c] @ rb[k])
+            c = contact_next[c]
+
+
+@njit(cache=True)
+def step_tree(
+    masses,
+    principal,
+    parents,
+    joint_of,
+    local_axes,
+    anchor_child,
+    anchor_parent,
+    pos,
+    quat,
+    vel,
+    spin,
+    gravity,
+    drag_linear,
+    drag_angular,
+    implicit_gyro,
+    contact_body,
+    contact_point,
+    contact_depth,
+    motor_target,
+    motor_lo,
+    motor_hi,
+    push,
+    motor_state,
+    h,
+    joint_erp,
+    joint_cfm,
+    motor_cfm,
+    contact_erp,
+    contact_cfm,
+    slip,
+    surface_layer,
+):
+    """``step`` solved in O(bodies) (Baraff 1996, "Linear-time dynamics using Lagrange
+    multipliers"): the unbounded rows (5 per hinge, 2 friction rows per contact) and the bodies form
+    a tree, so H = [[M/h, J_U'], [J_U, -cfm_U]] is factored block by block from the leaves to the
+    torso; the bounded rows (motor or stop per hinge, normal per contact) get their Schur
+    complement S = cfm_B + G' H^-1 G (G their Jacobians on the bodies) from one forward pass each
+    along their path to the torso, and ``box_qp`` solves their LCP on S. Same arguments and
+    results as ``step`` (equal to rounding). Requires every parent index below its child's."""
+    nb = masses.shape[0]
+    nj = local_axes.shape[0]
+    nc = contact_point.shape[0]
+    rot = np.empty((nb, 3, 3))
+    inv_inertia = np.empty((nb, 3, 3))
+    force = np.empty((nb, 6))
+    dbody = np.zeros((nb, 6, 6))
+    for k in range(nb):
+        r = rotation_matrix(quat[k])
+        rot[k] = r
+        inertia = np.empty((3, 3))
+        for a in range(3):
+            for b in range(3):
+                s = 0.0
+                t = 0.0
+                for cc in range(3):
+                    s += r[a, cc] * principal[k, cc] * r[b, cc]
+                    t += r[a, cc] / principal[k, cc] * r[b, cc]
+                inertia[a, b] = s
+                inv_inertia[k, a, b] = t
+                dbody[k, 3 + a, 3 + b] = s / h
+            dbody[k, a, a] = masses[k] / h
+        for a in range(3):
+            force[k, a] = masses[k] * gravity[a] - drag_linear * vel[k, a]
+        tq = gyroscopic_torque(inertia, spin[k], h, implicit_gyro) - drag_angular * spin[k]
+        for a in range(3):
+            force[k, 3 + a] = tq[a]
+    # hinge nodes (5 rows on child k and parent p) and their motor/stop rows (bounded)
+    jc = np.zeros((nj, 5, 6))
+    jp = np.zeros((nj, 5, 6))
+    cj = np.zeros((nj, 5))
+    motor_dir = np.zeros((nj, 3))
+    k_joint = joint_erp / h
+    for k in range(1, nb):
+        j = joint_of[k]
+        p = parents[k]
+        a1 = _mat_vec(rot[k], anchor_child[j])
+        a2 = _mat_vec(rot[p], anchor_parent[j])
+        gap = pos[p] + a2 - pos[k] - a1
+        for i in range(3):
+            e = np.zeros(3)
+            e[i] = 1.0
+            x1 = _cross(a1, e)
+            x2 = _cross(a2, e)
+            jc[j, i, i] = 1.0
+            jp[j, i, i] = -1.0
+            for a in range(3):
+                jc[j, i, 3 + a] = x1[a]
+                jp[j, i, 3 + a] = -x2[a]
+            cj[j, i] = k_joint * gap[i]
+        ax1 = _mat_vec(rot[k], local_axes[j])
+        ax2 = _mat_vec(rot[p], local_axes[j])
+        t1, t2 = _plane_space(ax1)
+        err = _cross(ax1, ax2)
+        for i in range(2):
+            d = t1 if i == 0 else t2
+            for a in range(3):
+                jc[j, 3 + i, 3 + a] = d[a]
+                jp[j, 3 + i, 3 + a] = -d[a]
+            cj[j, 3 + i] = k_joint * (err[0] * d[0] + err[1] * d[1] + err[2] * d[2])
+        motor_dir[j] = ax1
+        for a in range(3):
+            force[k, 3 + a] += push[j] * ax1[a]
+            force[p, 3 + a] -= push[j] * ax1[a]
+    # contacts: friction nodes (2 rows) and normal rows (bounded), listed per body
+    jf = np.zeros((nc, 2, 6))
+    jn = np.zeros((nc, 6))
+    cn = np.zeros(nc)
+    tangents = np.empty((nc, 2, 3))
+    contact_first = np.full(nb, -1, dtype=np.int64)
+    contact_next = np.full(nc, -1, dtype=np.int64)
+    normal = np.array([0.0, 0.0, 1.0])
+    t1, t2 = _plane_space(normal)
+    for i in range(nc - 1, -1, -1):
+        k = contact_body[i]
+        contact_next[i] = contact_first[k]
+        contact_first[k] = i
+        tangents[i, 0] = t1
+        tangents[i, 1] = t2
+        arm = contact_point[i] - pos[k]
+        an = _cross(arm, normal)
+        a1 = _cross(arm, t1)
+        a2 = _cross(arm, t2)
+        for a in range(3):
+            jn[i, a] = normal[a]
+            jn[i, 3 + a] = an[a]
+            jf[i, 0, a] = t1[a]
+            jf[i, 0, 3 + a] = a1[a]
+            jf[i, 1, a] = t2[a]
+            jf[i, 1, 3 + a] = a2[a]
+        depth = contact_depth[i] - surface_layer
+        cn[i] = contact_erp * depth / h if depth > 0.0 else 0.0
+    # free velocities v + h M^-1 f
+    free = np.empty((nb, 6))
+    for k in range(nb):
+        for a in range(3):
+            free[k, a] = vel[k, a] + h * force[k, a] / masses[k]
+        ang = _mat_vec(inv_inertia[k], force[k, 3:6])
+        for a in range(3):
+            free[k, 3 + a] = spin[k, a] + h * ang[a]
+    # factor H from the leaves to the torso
+    dinv_body = np.empty((nb, 6, 6))
+    dinv_joint = np.empty((nj, 5, 5))
+    dinv_contact = np.empty((nc, 2, 2))
+    for k in range(nb - 1, -1, -1):
+        c = contact_first[k]
+        while c >= 0:
+            dinv_contact[c] = np.eye(2) * (-1.0 / slip)
+            dbody[k] -= jf[c].T @ dinv_contact[c] @ jf[c]
+            c = contact_next[c]
+        dinv_body[k] = _inverse_definite(dbody[k], 1.0)
+        if k == 0:
+            break
+        j = joint_of[k]
+        p = parents[k]
+        dj = -joint_cfm * np.eye(5) - jc[j] @ dinv_body[k] @ jc[j].T
+        dinv_joint[j] = _inverse_definite(dj, -1.0)
+        dbody[p] -= jp[j].T @ dinv_joint[j] @ jp[j]
+    # right-hand sides b = c - J free, unbounded and bounded
+    bj = np.empty((nj, 5))
+    for k in range(1, nb):
+        j = joint_of[k]
+        p = parents[k]
+        bj[j] = cj[j] - jc[j] @ free[k] - jp[j] @ free[p]
+    bf = np.empty((nc, 2))
+    for i in range(nc):
+        bf[i] = -(jf[i] @ free[contact_body[i]])
+    nbd = nj + nc
+    bb = np.empty(nbd)
+    lo = np.empty(nbd)
+    hi = np.empty(nbd)
+    cfm_b = np.empty(nbd)
+    for k in range(1, nb):
+        j = joint_of[k]
+        p = parents[k]
+        rel = 0.0
+        for a in range(3):
+            rel += motor_dir[j, a] * (free[k, 3 + a] - free[p, 3 + a])
+        bb[j] = motor_target[j] - rel
+        lo[j] = motor_lo[j]
+        hi[j] = motor_hi[j]
+        cfm_b[j] = motor_cfm
+    for i in range(nc):
+        bb[nj + i] = cn[i] - jn[i] @ free[contact_body[i]]
+        lo[nj + i] = 0.0
+        hi[nj + i] = np.inf
+        cfm_b[nj + i] = contact_cfm
+    # y0: the velocity change with the bounded rows' forces 0
+    yb = np.zeros((nb, 6))
+    yj = bj.copy()
+    yf = bf.copy()
+    _tree_solve(
+        nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, yb, yj, yf
+    )
+    # forward passes of the bounded rows along their paths: z (bodies, hinges) and D^-1 z
+    zb = np.zeros((nbd, nb, 6))
+    zj = np.zeros((nbd, nj, 5))
+    on_body = np.zeros((nbd, nb), dtype=np.bool_)
+    on_joint = np.zeros((nbd, nj), dtype=np.bool_)
+    start = np.empty(nbd, dtype=np.int64)
+    for r in range(nbd):
+        if r < nj:
+            # the motor row of hinge r: +axis on its child, -axis on its parent
+            k = 0
+            for kk in range(1, nb):
+                if joint_of[kk] == r:
+                    k = kk
+            p = parents[k]
+            for a in range(3):
+                zb[r, k, 3 + a] = motor_dir[r, a]
+                zb[r, p, 3 + a] = -motor_dir[r, a]
+            on_body[r, p] = True
+        else:
+            k = contact_body[r - nj]
+            zb[r, k] = jn[r - nj]
+        start[r] = k
+        # contributions of a body's contact nodes are zero (their r is zero): walk to the root
+        while k > 0:
+            on_body[r, k] = True
+            j = joint_of[k]
+            p = parents[k]
+            zj[r, j] = -(jc[j] @ (dinv_body[k] @ zb[r, k]))
+            on_joint[r, j] = True
+            zb[r, p] -= jp[j].T @ (dinv_joint[j] @ zj[r, j])
+            k = p
+        on_body[r, 0] = True
+    schur = np.zeros((nbd, nbd))
+    for r in range(nbd):
+        wb = np.zeros((nb, 6))
+        wj = np.zeros((nj, 5))
+        for k in range(nb):
+            if on_body[r, k]:
+                wb[k] = dinv_body[k] @ zb[r, k]
+        for j in range(nj):
+            if on_joint[r, j]:
+                wj[j] = dinv_joint[j] @ zj[r, j]
+        for s in range(r, nbd):
+            v = 0.0
+            for k in range(nb):
+                if on_body[r, k] and on_body[s, k]:
+                    for a in range(6):
+                        v += zb[s, k, a] * wb[k, a]
+            for j in range(nj):
+                if on_joint[r, j] and on_joint[s, j]:
+                    for a in range(5):
+                        v += zj[s, j, a] * wj[j, a]
+            schur[r, s] = v
+            schur[s, r] = v
+        schur[r, r] += cfm_b[r]
+    # the bounded rows' right-hand side: b_B - J_B y0
+    for k in range(1, nb):
+        j = joint_of[k]
+        p = parents[k]
+        for a in range(3):
+            bb[j] -= motor_dir[j, a] * (yb[k, 3 + a] - yb[p, 3 + a])
+    for i in range(nc):
+        bb[nj + i] -= jn[i] @ yb[contact_body[i]]
+    state = np.zeros(nbd, dtype=np.int64)
+    for j in range(nj):
+        state[j] = motor_state[j]
+    lam_b, iterations = box_qp(schur, bb, lo, hi, state)
+    for j in range(nj):
+        motor_state[j] = state[j]
+    # the final solve: body right-hand side G lambda_B, unbounded rows' b
+    rb = np.zeros((nb, 6))
+    for k in range(1, nb):
+        j = joint_of[k]
+        p = parents[k]
+        for a in range(3):
+            rb[k, 3 + a] += motor_dir[j, a] * lam_b[j]
+            rb[p, 3 + a] -= motor_dir[j, a] * lam_b[j]
+    for i in range(nc):
+        rb[contact_body[i]] += jn[i] * lam_b[nj + i]
+    rj = bj.copy()
+    rf = bf.copy()
+    _tree_solve(
+        nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, rj, rf
+    )
+    out_pos = pos.copy()
+    out_quat = quat.copy()
+    out_vel = np.empty((nb, 3))
+    out_spin = np.empty((nb, 3))
+    for k in range(nb):
+        for a in range(3):
+            out_vel[k, a] = free[k, a] + rb[k, a]
+            out_spin[k, a] = free[k, 3 + a] + rb[k, 3 + a]
+            out_pos[k, a] = pos[k, a] + h * out_vel[k, a]
+        w = np.array([out_spin[k, 0], out_spin[k, 1], out_spin[k, 2], 0.0])
+        dq = _qmul(w, quat[k])
+        qn = quat[k] + 0.5 * h * dq
+        out_quat[k] = qn / np.sqrt(qn[0] ** 2 + qn[1] ** 2 + qn[2] ** 2 + qn[3] ** 2)
+    forces = np.empty((nc, 3))
+    for i in range(nc):
+        forces[i, 0] = lam_b[nj + i]
+        forces[i, 1] = -rf[i, 0]
+        forces[i, 2] = -rf[i, 1]
+    torques = lam_b[:nj].copy()
+    return out_pos, out_quat, out_vel, out_spin, forces, tangents, torques, iterations

@@ -311,7 +311,7 @@ def _solve_maximal(robot, ground: int, static: _Static, config) -> Solved:
     lo, hi, push = _motor_rows(
         angles, np.asarray(force, dtype=float), robot._motor, config.motor_torque, True, FUDGE_FACTOR
     )
-    pos, quat, vel, spin, forces, tangents, torques, iterations = ode_maximal.step(
+    pos, quat, vel, spin, forces, tangents, torques, iterations = ode_maximal.step_tree(
         static.masses,
         static.principal,
         static.parents,
@@ -492,35 +492,36 @@ def _warm_up_maximal() -> None:
     child, parent = ode_maximal.local_anchors(*two, centres, quats, anchors)
     ode_maximal.anchor_gaps(*two, centres, quats, child, parent)
     ode_maximal.measure(quats, spin, *two, axes)
-    ode_maximal.step(
-        np.ones(2),
-        np.full((2, 3), 0.01),
-        *two,
-        axes,
-        child,
-        parent,
-        centres,
-        quats,
-        vel,
-        spin,
-        np.array([0.0, 0.0, -9.81]),
-        0.01,
-        0.01,
-        True,
-        np.array([1], dtype=np.int64),
-        np.array([[0.0, 0.0, 0.0]]),
-        np.array([0.002]),
-        np.zeros(1),
-        np.full(1, -10.0),
-        np.full(1, 10.0),
-        np.zeros(1),
-        np.zeros(1, dtype=np.int64),
-        0.02,
-        0.2,
-        1e-5,
-        MOTOR_CFM,
-        0.4,
-        1e-4,
-        0.005,
-        0.001,
-    )
+    for kernel in (ode_maximal.step, ode_maximal.step_tree):
+        kernel(
+            np.ones(2),
+            np.full((2, 3), 0.01),
+            *two,
+            axes,
+            child,
+            parent,
+            centres,
+            quats,
+            vel,
+            spin,
+            np.array([0.0, 0.0, -9.81]),
+            0.01,
+            0.01,
+            True,
+            np.array([1], dtype=np.int64),
+            np.array([[0.0, 0.0, 0.0]]),
+            np.array([0.002]),
+            np.zeros(1),
+            np.full(1, -10.0),
+            np.full(1, 10.0),
+            np.zeros(1),
+            np.zeros(1, dtype=np.int64),
+            0.02,
+            0.2,
+            1e-5,
+            MOTOR_CFM,
+            0.4,
+            1e-4,
+            0.005,
+            0.001,
+        )
