@@ -466,20 +466,109 @@ def step(
 
 
 @njit(cache=True)
-def _inverse_definite(a, sign):
-    """Inverse of a small symmetric matrix that is positive (sign 1) or negative (sign -1)
-    definite, by a Cholesky factor of sign * a."""
+def _inverse_definite(a, sign, out):
+    """``out`` = the inverse of a small symmetric matrix that is positive (sign 1) or negative
+    (sign -1) definite: Cholesky factor of sign * a, inverted."""
     n = a.shape[0]
-    lower, ok = _cholesky(sign * a)
-    out = np.empty((n, n))
-    e = np.zeros(n)
-    for col in range(n):
-        e[:] = 0.0
-        e[col] = 1.0
-        x = _cho_solve(lower, e)
-        for row in range(n):
-            out[row, col] = sign * x[row]
-    return out
+    low = np.zeros((n, n))
+    for j in range(n):
+        d = sign * a[j, j]
+        for k in range(j):
+            d -= low[j, k] * low[j, k]
+        d = np.sqrt(d)
+        low[j, j] = d
+        for i in range(j + 1, n):
+            t = sign * a[i, j]
+            for k in range(j):
+                t -= low[i, k] * low[j, k]
+            low[i, j] = t / d
+    # invert the factor in place (lower triangular)
+    for j in range(n):
+        low[j, j] = 1.0 / low[j, j]
+        for i in range(j + 1, n):
+            t = 0.0
+            for k in range(j, i):
+                t -= low[i, k] * low[k, j]
+            low[i, j] = t / low[i, i]
+    for i in range(n):
+        for j in range(i + 1):
+            t = 0.0
+            for k in range(i, n):
+                t += low[k, i] * low[k, j]
+            out[i, j] = sign * t
+            out[j, i] = sign * t
+
+
+@njit(cache=True)
+def _mv_sub(m, v, out):
+    """out -= m v."""
+    for i in range(m.shape[0]):
+        t = 0.0
+        for j in range(m.shape[1]):
+            t += m[i, j] * v[j]
+        out[i] -= t
+
+
+@njit(cache=True)
+def _mtv_sub(m, v, out):
+    """out -= m' v."""
+    for j in range(m.shape[1]):
+        t = 0.0
+        for i in range(m.shape[0]):
+            t += m[i, j] * v[i]
+        out[j] -= t
+
+
+@njit(cache=True)
+def _mv(m, v, out):
+    """out = m v."""
+    for i in range(m.shape[0]):
+        t = 0.0
+        for j in range(m.shape[1]):
+            t += m[i, j] * v[j]
+        out[i] = t
+
+
+@njit(cache=True)
+def _mtdm_sub(m, dinv, out):
+    """out -= m' dinv m (m: rows x 6, dinv: rows x rows, out 6 x 6)."""
+    r = m.shape[0]
+    tmp = np.empty((r, 6))
+    for i in range(r):
+        for b in range(6):
+            t = 0.0
+            for k in range(r):
+                t += dinv[i, k] * m[k, b]
+            tmp[i, b] = t
+    for a in range(6):
+        for b in range(a, 6):
+            t = 0.0
+            for i in range(r):
+                t += m[i, a] * tmp[i, b]
+            out[a, b] -= t
+            if b != a:
+                out[b, a] -= t
+
+
+@njit(cache=True)
+def _mdmt(m, dinv, out):
+    """out -= m dinv m' (m: rows x 6, dinv 6 x 6, out rows x rows)."""
+    r = m.shape[0]
+    tmp = np.empty((r, 6))
+    for i in range(r):
+        for b in range(6):
+            t = 0.0
+            for k in range(6):
+                t += m[i, k] * dinv[k, b]
+            tmp[i, b] = t
+    for i in range(r):
+        for j in range(i, r):
+            t = 0.0
+            for k in range(6):
+                t += tmp[i, k] * m[j, k]
+            out[i, j] -= t
+            if j != i:
+                out[j, i] -= t
 
 
 @njit(cache=True)
@@ -488,30 +577,42 @@ def _tree_solve(
 ):
     """Solve H x = r on the factored tree (``step_tree``), r given per body (rb, nb x 6), hinge
     node (rj, nj x 5) and friction node (rf, nc x 2); overwritten by x."""
+    t6 = np.empty(6)
+    t5 = np.empty(5)
+    t2 = np.empty(2)
     # forward: leaves to root
     for k in range(nb - 1, -1, -1):
         c = contact_first[k]
         while c >= 0:
-            t = dinv_contact[c] @ rf[c]
-            rb[k] -= jf[c].T @ t
+            _mv(dinv_contact[c], rf[c], t2)
+            _mtv_sub(jf[c], t2, rb[k])
             c = contact_next[c]
         if k == 0:
             break
         j = joint_of[k]
         p = parents[k]
-        rj[j] -= jc[j] @ (dinv_body[k] @ rb[k])
-        rb[p] -= jp[j].T @ (dinv_joint[j] @ rj[j])
+        _mv(dinv_body[k], rb[k], t6)
+        _mv_sub(jc[j], t6, rj[j])
+        _mv(dinv_joint[j], rj[j], t5)
+        _mtv_sub(jp[j], t5, rb[p])
     # backward: root to leaves
-    rb[0] = dinv_body[0] @ rb[0]
+    _mv(dinv_body[0], rb[0], t6)
+    rb[0, :] = t6
     for k in range(nb):
         if k > 0:
             j = joint_of[k]
             p = parents[k]
-            rj[j] = dinv_joint[j] @ (rj[j] - jp[j] @ rb[p])
-            rb[k] = dinv_body[k] @ (rb[k] - jc[j].T @ rj[j])
+            _mv_sub(jp[j], rb[p], rj[j])
+            _mv(dinv_joint[j], rj[j], t5)
+            rj[j, :] = t5
+            _mtv_sub(jc[j], rj[j], rb[k])
+            _mv(dinv_body[k], rb[k], t6)
+            rb[k, :] = t6
         c = contact_first[k]
         while c >= 0:
-            rf[c] = dinv_contact[c] @ (rf[c] - jf[c] @ rb[k])
+            _mv_sub(jf[c], rb[k], rf[c])
+            _mv(dinv_contact[c], rf[c], t2)
+            rf[c, :] = t2
             c = contact_next[c]
 
 
@@ -563,6 +664,7 @@ def step_tree(
     inv_inertia = np.empty((nb, 3, 3))
     force = np.empty((nb, 6))
     dbody = np.zeros((nb, 6, 6))
+    child_of = np.zeros(nj, dtype=np.int64)
     for k in range(nb):
         r = rotation_matrix(quat[k])
         rot[k] = r
@@ -580,9 +682,11 @@ def step_tree(
             dbody[k, a, a] = masses[k] / h
         for a in range(3):
             force[k, a] = masses[k] * gravity[a] - drag_linear * vel[k, a]
-        tq = gyroscopic_torque(inertia, spin[k], h, implicit_gyro) - drag_angular * spin[k]
+        tq = gyroscopic_torque(inertia, spin[k], h, implicit_gyro)
         for a in range(3):
-            force[k, 3 + a] = tq[a]
+            force[k, 3 + a] = tq[a] - drag_angular * spin[k, a]
+        if k > 0:
+            child_of[joint_of[k]] = k
     # hinge nodes (5 rows on child k and parent p) and their motor/stop rows (bounded)
     jc = np.zeros((nj, 5, 6))
     jp = np.zeros((nj, 5, 6))
@@ -594,18 +698,23 @@ def step_tree(
         p = parents[k]
         a1 = _mat_vec(rot[k], anchor_child[j])
         a2 = _mat_vec(rot[p], anchor_parent[j])
-        gap = pos[p] + a2 - pos[k] - a1
         for i in range(3):
-            e = np.zeros(3)
-            e[i] = 1.0
-            x1 = _cross(a1, e)
-            x2 = _cross(a2, e)
             jc[j, i, i] = 1.0
             jp[j, i, i] = -1.0
-            for a in range(3):
-                jc[j, i, 3 + a] = x1[a]
-                jp[j, i, 3 + a] = -x2[a]
-            cj[j, i] = k_joint * gap[i]
+            cj[j, i] = k_joint * (pos[p, i] + a2[i] - pos[k, i] - a1[i])
+        # angular parts: row i of -[a1]x on the child (a1 x e_i), of [a2]x on the parent
+        jc[j, 0, 4] = a1[2]
+        jc[j, 0, 5] = -a1[1]
+        jc[j, 1, 3] = -a1[2]
+        jc[j, 1, 5] = a1[0]
+        jc[j, 2, 3] = a1[1]
+        jc[j, 2, 4] = -a1[0]
+        jp[j, 0, 4] = -a2[2]
+        jp[j, 0, 5] = a2[1]
+        jp[j, 1, 3] = a2[2]
+        jp[j, 1, 5] = -a2[0]
+        jp[j, 2, 3] = -a2[1]
+        jp[j, 2, 4] = a2[0]
         ax1 = _mat_vec(rot[k], local_axes[j])
         ax2 = _mat_vec(rot[p], local_axes[j])
         t1, t2 = _plane_space(ax1)
@@ -659,37 +768,42 @@ def step_tree(
     # factor H from the leaves to the torso
     dinv_body = np.empty((nb, 6, 6))
     dinv_joint = np.empty((nj, 5, 5))
-    dinv_contact = np.empty((nc, 2, 2))
+    dinv_contact = np.zeros((nc, 2, 2))
+    dj = np.empty((5, 5))
     for k in range(nb - 1, -1, -1):
         c = contact_first[k]
         while c >= 0:
-            dinv_contact[c] = np.eye(2) * (-1.0 / slip)
-            dbody[k] -= jf[c].T @ dinv_contact[c] @ jf[c]
+            dinv_contact[c, 0, 0] = -1.0 / slip
+            dinv_contact[c, 1, 1] = -1.0 / slip
+            _mtdm_sub(jf[c], dinv_contact[c], dbody[k])
             c = contact_next[c]
-        dinv_body[k] = _inverse_definite(dbody[k], 1.0)
+        _inverse_definite(dbody[k], 1.0, dinv_body[k])
         if k == 0:
             break
         j = joint_of[k]
         p = parents[k]
-        dj = -joint_cfm * np.eye(5) - jc[j] @ dinv_body[k] @ jc[j].T
-        dinv_joint[j] = _inverse_definite(dj, -1.0)
-        dbody[p] -= jp[j].T @ dinv_joint[j] @ jp[j]
+        dj[:, :] = 0.0
+        for a in range(5):
+            dj[a, a] = -joint_cfm
+        _mdmt(jc[j], dinv_body[k], dj)
+        _inverse_definite(dj, -1.0, dinv_joint[j])
+        _mtdm_sub(jp[j], dinv_joint[j], dbody[p])
     # right-hand sides b = c - J free, unbounded and bounded
-    bj = np.empty((nj, 5))
+    bj = cj.copy()
     for k in range(1, nb):
         j = joint_of[k]
-        p = parents[k]
-        bj[j] = cj[j] - jc[j] @ free[k] - jp[j] @ free[p]
-    bf = np.empty((nc, 2))
+        _mv_sub(jc[j], free[k], bj[j])
+        _mv_sub(jp[j], free[parents[k]], bj[j])
+    bf = np.zeros((nc, 2))
     for i in range(nc):
-        bf[i] = -(jf[i] @ free[contact_body[i]])
+        _mv_sub(jf[i], free[contact_body[i]], bf[i])
     nbd = nj + nc
     bb = np.empty(nbd)
     lo = np.empty(nbd)
     hi = np.empty(nbd)
     cfm_b = np.empty(nbd)
-    for k in range(1, nb):
-        j = joint_of[k]
+    for j in range(nj):
+        k = child_of[j]
         p = parents[k]
         rel = 0.0
         for a in range(3):
@@ -699,7 +813,10 @@ def step_tree(
         hi[j] = motor_hi[j]
         cfm_b[j] = motor_cfm
     for i in range(nc):
-        bb[nj + i] = cn[i] - jn[i] @ free[contact_body[i]]
+        v = 0.0
+        for a in range(6):
+            v += jn[i, a] * free[contact_body[i], a]
+        bb[nj + i] = cn[i] - v
         lo[nj + i] = 0.0
         hi[nj + i] = np.inf
         cfm_b[nj + i] = contact_cfm
@@ -710,69 +827,67 @@ def step_tree(
     _tree_solve(
         nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, yb, yj, yf
     )
-    # forward passes of the bounded rows along their paths: z (bodies, hinges) and D^-1 z
+    # forward passes of the bounded rows along their paths to the torso: the bodies and hinges
+    # passed (path), z there and w = D^-1 z
+    depth_max = nb
+    path_b = np.empty((nbd, depth_max), dtype=np.int64)
+    path_j = np.empty((nbd, depth_max), dtype=np.int64)
+    len_b = np.zeros(nbd, dtype=np.int64)
+    len_j = np.zeros(nbd, dtype=np.int64)
     zb = np.zeros((nbd, nb, 6))
     zj = np.zeros((nbd, nj, 5))
-    on_body = np.zeros((nbd, nb), dtype=np.bool_)
-    on_joint = np.zeros((nbd, nj), dtype=np.bool_)
-    start = np.empty(nbd, dtype=np.int64)
+    wb = np.zeros((nbd, nb, 6))
+    wj = np.zeros((nbd, nj, 5))
     for r in range(nbd):
         if r < nj:
-            # the motor row of hinge r: +axis on its child, -axis on its parent
-            k = 0
-            for kk in range(1, nb):
-                if joint_of[kk] == r:
-                    k = kk
+            k = child_of[r]
             p = parents[k]
             for a in range(3):
                 zb[r, k, 3 + a] = motor_dir[r, a]
                 zb[r, p, 3 + a] = -motor_dir[r, a]
-            on_body[r, p] = True
         else:
             k = contact_body[r - nj]
-            zb[r, k] = jn[r - nj]
-        start[r] = k
-        # contributions of a body's contact nodes are zero (their r is zero): walk to the root
-        while k > 0:
-            on_body[r, k] = True
+            for a in range(6):
+                zb[r, k, a] = jn[r - nj, a]
+        while True:
+            path_b[r, len_b[r]] = k
+            len_b[r] += 1
+            _mv(dinv_body[k], zb[r, k], wb[r, k])
+            if k == 0:
+                break
             j = joint_of[k]
             p = parents[k]
-            zj[r, j] = -(jc[j] @ (dinv_body[k] @ zb[r, k]))
-            on_joint[r, j] = True
-            zb[r, p] -= jp[j].T @ (dinv_joint[j] @ zj[r, j])
+            _mv_sub(jc[j], wb[r, k], zj[r, j])
+            _mv(dinv_joint[j], zj[r, j], wj[r, j])
+            _mtv_sub(jp[j], wj[r, j], zb[r, p])
+            path_j[r, len_j[r]] = j
+            len_j[r] += 1
             k = p
-        on_body[r, 0] = True
+    # S = cfm_B + sum over the shared path of z_s' D^-1 z_r (z is zero off a row's path)
     schur = np.zeros((nbd, nbd))
     for r in range(nbd):
-        wb = np.zeros((nb, 6))
-        wj = np.zeros((nj, 5))
-        for k in range(nb):
-            if on_body[r, k]:
-                wb[k] = dinv_body[k] @ zb[r, k]
-        for j in range(nj):
-            if on_joint[r, j]:
-                wj[j] = dinv_joint[j] @ zj[r, j]
         for s in range(r, nbd):
             v = 0.0
-            for k in range(nb):
-                if on_body[r, k] and on_body[s, k]:
-                    for a in range(6):
-                        v += zb[s, k, a] * wb[k, a]
-            for j in range(nj):
-                if on_joint[r, j] and on_joint[s, j]:
-                    for a in range(5):
-                        v += zj[s, j, a] * wj[j, a]
+            for m in range(len_b[r]):
+                k = path_b[r, m]
+                for a in range(6):
+                    v += zb[s, k, a] * wb[r, k, a]
+            for m in range(len_j[r]):
+                j = path_j[r, m]
+                for a in range(5):
+                    v += zj[s, j, a] * wj[r, j, a]
             schur[r, s] = v
             schur[s, r] = v
         schur[r, r] += cfm_b[r]
     # the bounded rows' right-hand side: b_B - J_B y0
-    for k in range(1, nb):
-        j = joint_of[k]
+    for j in range(nj):
+        k = child_of[j]
         p = parents[k]
         for a in range(3):
             bb[j] -= motor_dir[j, a] * (yb[k, 3 + a] - yb[p, 3 + a])
     for i in range(nc):
-        bb[nj + i] -= jn[i] @ yb[contact_body[i]]
+        for a in range(6):
+            bb[nj + i] -= jn[i, a] * yb[contact_body[i], a]
     state = np.zeros(nbd, dtype=np.int64)
     for j in range(nj):
         state[j] = motor_state[j]
@@ -781,18 +896,17 @@ def step_tree(
         motor_state[j] = state[j]
     # the final solve: body right-hand side G lambda_B, unbounded rows' b
     rb = np.zeros((nb, 6))
-    for k in range(1, nb):
-        j = joint_of[k]
+    for j in range(nj):
+        k = child_of[j]
         p = parents[k]
         for a in range(3):
             rb[k, 3 + a] += motor_dir[j, a] * lam_b[j]
             rb[p, 3 + a] -= motor_dir[j, a] * lam_b[j]
     for i in range(nc):
-        rb[contact_body[i]] += jn[i] * lam_b[nj + i]
-    rj = bj.copy()
-    rf = bf.copy()
+        for a in range(6):
+            rb[contact_body[i], a] += jn[i, a] * lam_b[nj + i]
     _tree_solve(
-        nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, rj, rf
+        nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, bj, bf
     )
     out_pos = pos.copy()
     out_quat = quat.copy()
@@ -810,7 +924,7 @@ def step_tree(
     forces = np.empty((nc, 3))
     for i in range(nc):
         forces[i, 0] = lam_b[nj + i]
-        forces[i, 1] = -rf[i, 0]
-        forces[i, 2] = -rf[i, 1]
+        forces[i, 1] = -bf[i, 0]
+        forces[i, 2] = -bf[i, 1]
     torques = lam_b[:nj].copy()
     return out_pos, out_quat, out_vel, out_spin, forces, tangents, torques, iterations
