@@ -99,3 +99,17 @@ def test_direct_episodes_repeat_exactly_one_after_another() -> None:
         runner.evaluate(_gaits()["line-10"])
         again = runner.evaluate(load_gait())
     assert first.status == "ok" and (first.distance, first.fell, first.time) == (again.distance, again.fell, again.time)
+
+
+def test_the_episode_command_takes_either_path_and_refuses_others(capsys) -> None:
+    from optimizer.cli.episode import main
+
+    outputs = []
+    for path in ("direct", "socket"):
+        assert main(["--embedded-stub", path, "--walk-time", "1", "--json"]) == 0
+        walk = json.loads(capsys.readouterr().out)
+        outputs.append({k: v for k, v in walk.items() if k != "wall"})
+    assert outputs[0] == outputs[1] and outputs[0]["status"] == "ok"
+    with pytest.raises(SystemExit):
+        main(["--embedded-stub", "pipes"])
+    assert "invalid choice: 'pipes'" in capsys.readouterr().err

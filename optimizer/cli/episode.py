@@ -7,6 +7,11 @@
     python -m optimizer.episode --start -7 2 10          # start at x -7, y 2, heading 10 deg
     python -m optimizer.episode --repeat 10 --jitter 0.05 0.05 2 --seed 1
                                                          # 10 walks, each start moved by up to 5 cm and 2 deg
+    python -m optimizer.episode --embedded-stub socket   # the embedded stub as a process, over TCP
+
+The embedded stub runs inside this process (``--embedded-stub direct``, the default: no sockets,
+no text, the same results as over TCP, about twice as fast); ``--embedded-stub socket`` runs it as a
+``python -m server_stub`` process the agent talks to over TCP, as to any other server.
 
 The stub is deterministic, so repeated walks from one start are the same walk; ``--jitter`` moves
 each start by a seeded random amount, which is how a gait's stability shows on it (a real server
@@ -21,6 +26,7 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
+from dataclasses import replace
 
 from gait import DEFAULT_GAIT_PATH, GaitFileError, TFSParams, load_gait
 from optimizer.cli.common import (
@@ -74,6 +80,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--seed", type=int, default=0, help="seed of the embedded stub and of the --jitter draws (default 0)"
     )
+    p.add_argument(
+        "--embedded-stub",
+        choices=("direct", "socket"),
+        default="direct",
+        help="the embedded stub in this process with no sockets (direct, the default; the same results) "
+        "or as a process over TCP (socket); ignored with --server or --real",
+    )
     p.add_argument("--json", action="store_true", help="print JSON (one object per walk) instead of text")
     return p
 
@@ -116,6 +129,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     base = episode_config(
         args.walk_time or EPISODE_DEFAULTS["walk_time"], start, args.agent_mode or EPISODE_DEFAULTS["agent_mode"]
     )
+    base = replace(base, embedded_stub=args.embedded_stub)
     points = jittered_starts((*base.start, base.heading), args.jitter, args.repeat, args.seed)
     if isinstance(server, RealServerProcess):
         try:  # started before the first walk, so that a server that cannot start is said once, at once
