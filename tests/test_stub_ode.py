@@ -450,3 +450,38 @@ def test_maximal_step_keeps_a_flailing_robot_together():
             worst_gap = max(worst_gap, float(_gaps(robot).max()))
     assert worst_speed < 5.0
     assert worst_gap < 0.02
+
+
+def test_the_tree_solve_equals_the_dense_solve(monkeypatch):
+    """``ode_maximal.step_tree`` (Baraff's tree elimination, the bounded rows on a Schur
+    complement) gives ``step``'s velocities and contact forces (one dense LCP) on a flailing
+    robot: stops hit, feet and hands on the ground, motors at their torque limit; to rounding."""
+    tree = ode_maximal.step_tree
+    worst = [0.0, 0.0]
+    limits = [0]
+
+    def both(*args):
+        args = list(args)
+        state = args[22].copy()
+        dense = ode_maximal.step(*args)
+        args[22] = state
+        out = tree(*args)
+        worst[0] = max(worst[0], np.abs(out[2] - dense[2]).max(), np.abs(out[3] - dense[3]).max())
+        if out[4].size:
+            worst[1] = max(worst[1], np.abs(out[4] - dense[4]).max())
+        limits[0] += int(np.sum(np.abs(out[6]) >= 9.999))
+        return out
+
+    monkeypatch.setattr(ode_maximal, "step_tree", both)
+    rng = np.random.default_rng(4)
+    with World(MAX) as world:
+        robot = world.add_robot()
+        robot.beam(-3.0, 2.0, 0.0)
+        for step in range(150):
+            if step % 10 == 0:
+                for joint, speed in zip(JOINTS, rng.normal(size=22) * 5.0):
+                    robot.command(joint.effector, float(speed))
+            world.step()
+    assert limits[0] > 0
+    assert worst[0] < 1e-6  # m/s, rad/s (measured 5e-8: the stops' CFM 1e-8 makes it stiff)
+    assert worst[1] < 1e-4  # N

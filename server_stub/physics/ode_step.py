@@ -37,10 +37,14 @@ contact points carry the solved forces in pybullet's tuple layout for the FRP pe
 Every body has SimSpark's drag (docs/robot_and_server.md section 2): a force -0.01 v at its centre and a torque
 -0.01 w, added before the step as its DragController does (``linear_damping``, ``angular_damping``).
 
+With ``PhysicsConfig.ode_maximal`` the step is ODE's own in maximal coordinates instead
+(``server_stub.physics.ode_maximal``, ``_solve_maximal`` here): every body integrated on its own,
+the hinges held by ODE's joint rows with the world ERP 0.2 and CFM 1e-5, so their anchor copies
+drift apart by millimetres as on the real server; the same contacts and motor rules.
+
 Not (yet) modelled here: robot-robot, robot-ball and robot-goal contacts (the ball still moves in
-Bullet's step, the robots are not pushed back by it); ODE's joint-row softness and maximal
-coordinates (the hinges are exact here; ODE integrates each body on its own and pulls the joints
-back together with ERP 0.2).
+Bullet's step, the robots are not pushed back by it); in the reduced step, ODE's joint-row
+softness and maximal coordinates (see ``ode_maximal``).
 """
 
 from __future__ import annotations
