@@ -485,3 +485,39 @@ def test_the_tree_solve_equals_the_dense_solve(monkeypatch):
     assert limits[0] > 0
     assert worst[0] < 1e-6  # m/s, rad/s (measured 5e-8: the stops' CFM 1e-8 makes it stiff)
     assert worst[1] < 1e-4  # N
+
+
+def test_a_beam_moves_the_maximal_bodies_rigidly_and_keeps_the_joints_drift():
+    """SimSpark's beam (SoccerBase::MoveAndRotateAgent) moves every body with the torso and stops
+    them, keeping each hinge's anchor gap: after a beam the gaps are the ones before (then pulled
+    in by ERP 0.2 per step), not closed as a fresh placement from exact joints would close them."""
+    rng = np.random.default_rng(2)
+    with World(MAX) as world:
+        robot = world.add_robot()
+        robot.beam(-3.0, 2.0, 0.0)
+        for step in range(60):
+            if step % 10 == 0:
+                for joint, speed in zip(JOINTS, rng.normal(size=22) * 4.0):
+                    robot.command(joint.effector, float(speed))
+            world.step()
+        before = _gaps(robot)
+        bodies = robot._ode_bodies
+        centre = bodies.pos[0].copy()
+        robot.beam(-6.0, -1.0, 45.0)
+        world.step()
+        after = _gaps(robot)
+    worst = int(np.argmax(before))
+    assert before[worst] > 1e-4
+    assert after[worst] > 0.5 * before[worst]
+    assert np.linalg.norm(robot._ode_bodies.pos[0] - centre) > 3.0
+
+
+def test_moving_bodies_rigidly_keeps_their_relative_poses():
+    static, coms, quats, _, _, child, parent, _, _ = _free_robot(9)
+    coms = coms + np.random.default_rng(0).normal(size=coms.shape) * 1e-3  # drifted bodies
+    gaps = _free_gaps(static, (coms, quats), child, parent)
+    new_orientation = np.array(pb.getQuaternionFromEuler((0.0, 0.0, 0.7)))
+    ode_maximal.move_rigidly(coms, quats, coms[0].copy(), quats[0].copy(), np.array([1.0, 2.0, 0.4]), new_orientation)
+    assert np.allclose(coms[0], [1.0, 2.0, 0.4])
+    assert abs(abs(quats[0] @ new_orientation) - 1.0) < 1e-12
+    assert np.allclose(_free_gaps(static, (coms, quats), child, parent), gaps, atol=1e-12)

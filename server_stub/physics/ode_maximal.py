@@ -153,6 +153,21 @@ def anchor_gaps(parents, joint_of, coms, quats, anchor_child, anchor_parent):
 
 
 @njit(cache=True)
+def move_rigidly(pos, quat, old_position, old_orientation, new_position, new_orientation):
+    """Move every body (in place) by the rigid motion taking the torso from its old pose to its
+    new one, as SimSpark's beam moves an agent's bodies."""
+    turn = _qmul(new_orientation, _conj(old_orientation))
+    r = rotation_matrix(turn)
+    for k in range(pos.shape[0]):
+        d = pos[k] - old_position
+        moved = _mat_vec(r, d)
+        for a in range(3):
+            pos[k, a] = new_position[a] + moved[a]
+        q = _qmul(turn, quat[k])
+        quat[k] = q / np.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
+
+
+@njit(cache=True)
 def _invert3(m):
     """Inverse of a 3x3 matrix (ok False when singular)."""
     c00 = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]

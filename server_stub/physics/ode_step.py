@@ -271,6 +271,15 @@ def _reduced(position, orientation, velocity, spin, angles, rates) -> np.ndarray
     )
 
 
+def _is_rigid_move(written: np.ndarray, now: np.ndarray) -> bool:
+    """Whether pybullet's state differs from the one written only by the torso's pose and by
+    every velocity being zero (``Robot.beam`` / ``Robot.place``): joint angles kept."""
+    n = (written.shape[0] - 13) // 2
+    angles_kept = np.max(np.abs(written[13 : 13 + n] - now[13 : 13 + n]), initial=0.0) <= _RESYNC_TOLERANCE
+    still = not np.any(now[7:13]) and not np.any(now[13 + n :])
+    return bool(angles_kept and still)
+
+
 def _solve_maximal(robot, ground: int, static: _Static, config) -> Solved:
     """One step of ``ode_maximal`` (every body on its own, ODE's joint rows)."""
     client, body = robot._client, robot._body
@@ -282,7 +291,16 @@ def _solve_maximal(robot, ground: int, static: _Static, config) -> Solved:
     rates = np.array([s[1] for s in states])
     now = _reduced(position, orientation, v0, w0, angles, rates)
     bodies: _Bodies | None = getattr(robot, "_ode_bodies", None)
-    if bodies is None or bodies.written is None or np.max(np.abs(bodies.written - now)) > _RESYNC_TOLERANCE:
+    written = None if bodies is None else bodies.written
+    if bodies is not None and written is not None and np.max(np.abs(written - now)) <= _RESYNC_TOLERANCE:
+        pass  # pybullet holds what the last step wrote: the bodies go on from their own state
+    elif bodies is not None and written is not None and _is_rigid_move(written, now):
+        # a beam or a trainer's move: SimSpark moves every body rigidly with the torso (keeping
+        # the joints' drift) and stops them all (SoccerBase::MoveAndRotateAgent)
+        ode_maximal.move_rigidly(bodies.pos, bodies.quat, written[0:3], written[3:7], now[0:3], now[3:7])
+        bodies.vel[:] = 0.0
+        bodies.spin[:] = 0.0
+    else:
         links = pb.getLinkStates(body, static.indices, computeForwardKinematics=1, physicsClientId=client)
         coms = np.array([position] + [link[0] for link in links], dtype=float)
         quats = np.array([orientation] + [link[1] for link in links], dtype=float)
