@@ -10,7 +10,7 @@
     python -m optimizer.episode --embedded-stub socket   # the embedded stub as a process, over TCP
 
 The embedded stub runs inside this process (``--embedded-stub direct``, the default: no sockets,
-no text, the same results as over TCP, about twice as fast); ``--embedded-stub socket`` runs it as a
+no text, the same results as over TCP, faster); ``--embedded-stub socket`` runs it as a
 ``python -m server_stub`` process the agent talks to over TCP, as to any other server.
 
 The stub is deterministic, so repeated walks from one start are the same walk; ``--jitter`` moves

@@ -23,6 +23,7 @@ the same way, to the last digit, here and over the sockets.
 
 from __future__ import annotations
 
+import logging
 import math
 
 import numpy as np
@@ -42,6 +43,7 @@ from server_stub.config import PhysicsConfig, ServerConfig
 from server_stub.sensors.monitor_scene import MonitorConfig
 from server_stub.simulation import Simulation
 
+_stub_log = logging.getLogger("server_stub")
 #: Hinge effector name -> its index in ``JOINTS`` (``Robot.command_joint``).
 _HINGE_INDEX = {joint.effector: index for index, joint in enumerate(JOINTS)}
 _EFFECTORS = tuple(_HINGE_INDEX)
@@ -139,8 +141,10 @@ def _perception(sim: Simulation, state: AgentState) -> Perception:
     )
 
 
-def _ignore(problem: str, key: str) -> None:
-    raise EpisodeFailure(f"the stand-in refused the agent's command: {problem}")
+def _warn(problem: str, key: str) -> None:
+    """A command of the agent the stand-in ignores: said as the stand-in process says it (the
+    episode goes on, as over sockets)."""
+    _stub_log.warning("agent in process: %s", problem)
 
 
 class DirectStub:
@@ -181,7 +185,7 @@ class DirectStub:
                 delivered, to_agent = to_agent, None
                 for message in inbox:
                     if isinstance(message, bytes):
-                        sim.apply_frame(state, message, _ignore)
+                        sim.apply_frame(state, message, _warn)
                     else:
                         robot = state.robot
                         assert robot is not None
