@@ -138,16 +138,18 @@ def _pool_worker(way: str, real_command: str | None, episodes: int, out, go) -> 
         runner.evaluate(load_gait())
         out.put(("ready", os.getpid()))
         go.wait()
-        started = time.perf_counter()
+        started, cpu = time.perf_counter(), time.process_time()
         for _ in range(episodes):
             if runner.evaluate(load_gait()).status != "ok":
                 raise RuntimeError("an episode could not be run")
-        out.put(("done", time.perf_counter() - started))
+        out.put((time.perf_counter() - started, time.process_time() - cpu))
 
 
-def workers(way: str, count: int, episodes: int, real_command: str | None) -> float:
+def workers(way: str, count: int, episodes: int, real_command: str | None) -> tuple[float, float]:
     """Episodes per wall second of ``count`` workers walking ``episodes`` each: all warmed up
-    (server started, one walk), then started together; the slowest worker's time counts."""
+    (server started, one walk), then started together; the slowest worker's time counts. And the
+    workers' own CPU seconds per episode (for ``direct`` the whole episode's CPU): if it does not
+    grow with two workers, two free cores give two workers twice the rate."""
     context = multiprocessing.get_context("spawn")
     queue, go = context.Queue(), context.Event()
     procs = [context.Process(target=_pool_worker, args=(way, real_command, episodes, queue, go)) for _ in range(count)]
@@ -156,10 +158,10 @@ def workers(way: str, count: int, episodes: int, real_command: str | None) -> fl
     for _ in range(count):
         queue.get(timeout=600)  # ready
     go.set()
-    spans = [queue.get(timeout=600)[1] for _ in range(count)]
+    done = [queue.get(timeout=600) for _ in range(count)]
     for proc in procs:
         proc.join()
-    return count * episodes / max(spans)
+    return count * episodes / max(span for span, _ in done), sum(cpu for _, cpu in done) / (count * episodes)
 
 
 # ----- robots in one world -----
@@ -283,10 +285,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not args.skip_pool:
         print("\nworkers (shipped gait, one process per worker):")
         for way in [w for w in ("direct", "real") if w in ways]:
-            one = workers(way, 1, args.pool_episodes, real_command)
-            two = workers(way, 2, args.pool_episodes, real_command)
+            one, one_cpu = workers(way, 1, args.pool_episodes, real_command)
+            two, two_cpu = workers(way, 2, args.pool_episodes, real_command)
             print(
-                f"  {way:<7} 1 worker {one:5.2f} episodes/s, 2 workers {two:5.2f} episodes/s: {two / one:4.2f}x"
+                f"  {way:<7} 1 worker {one:5.2f} episodes/s, 2 workers {two:5.2f} episodes/s: {two / one:4.2f}x;"
+                f" worker CPU per episode {one_cpu:.3f} s alone, {two_cpu:.3f} s two at once"
                 f" (load {os.getloadavg()[0]:.2f})"
             )
     if not args.skip_robots:
