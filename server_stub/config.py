@@ -65,11 +65,11 @@ class PhysicsConfig:
     #: every body integrated on its own (true inertias, no floor), each hinge held by ODE's 5 joint
     #: rows (world ERP ``ode_joint_erp``, world CFM ``global_cfm``) plus its motor or limit row;
     #: contacts as the reduced step makes them, from the bodies' own poses. Off: the reduced step.
-    #: One step equals libode 0.16.2's dWorldStep to 1e-10. Measured (bench/RESULTS.md): standing
-    #: 0.3839 m, 22.60 N a foot; knee anchors 3.4 / 5.6-5.8 mm apart (mean / max) on the 13.26 m
-    #: gait (real 3.0-3.6 / 4.9-5.8); its first 50 cycles' GYR within 4.3 deg/s rms of the real
-    #: server's (reduced: 56); training set Spearman 0.96-0.98, falls 0.88-0.91, median |1-ratio|
-    #: 0.06-0.07 (reduced, same session: 0.81 / 0.75 / 0.077); walk probe 9-10/24; 0.45 ms a cycle.
+    #: One step equals libode 0.16.2's dWorldStep to 1e-10, contacts included. Measured (bench/RESULTS.md):
+    #: standing 0.3839 m, 22.60 N a foot; knee anchors 3.4 / 5.6-5.8 mm apart (mean / max) on the
+    #: 13.26 m gait (real 3.0-3.6 / 4.9-5.8); the calibration fixture's GYR within 0.12 deg/s of the
+    #: real run for 60 cycles; training set Spearman 0.95-0.98, falls 0.88-0.94, median |1-ratio|
+    #: 0.05-0.13 (reduced: 0.78-0.81 / 0.75-0.81 / 0.07-0.14); walk probe 9-11/24; 0.30 ms a cycle.
     ode_maximal: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_MAX", "0") == "1")
     #: ``ode_maximal`` only: the world ERP of the hinges' joint rows. SimSpark never sets it
     #: (spark.rb sets gravity, CFM, auto-disable and the surface layer only), so ODE's default 0.2.
