@@ -230,6 +230,8 @@ def step(
     gravity,
     drag_linear,
     drag_angular,
+    drag_vel,
+    drag_spin,
     implicit_gyro,
     contact_body,
     contact_point,
@@ -250,7 +252,9 @@ def step(
 ):
     """One dWorldStep of one robot's bodies. Returns (positions, quaternions, velocities, spins,
     contact forces (points x 3: normal, t1, t2), tangents (points x 2 x 3), motor/stop torques,
-    solver passes). ``motor_state`` (hinges): the bounded rows' active-set guess, updated."""
+    solver passes). ``motor_state`` (hinges): the bounded rows' active-set guess, updated. The
+    drag acts on ``drag_vel`` / ``drag_spin`` (the velocities SimSpark's DragControllers read: the
+    bodies' own, except in the step after a beam)."""
     nb = masses.shape[0]
     nj = local_axes.shape[0]
     nc = contact_point.shape[0]
@@ -271,8 +275,8 @@ def step(
                 inertia[a, b] = s
                 inv_inertia[k, a, b] = t
         for a in range(3):
-            force[k, a] = masses[k] * gravity[a] - drag_linear * vel[k, a]
-        tq = gyroscopic_torque(inertia, spin[k], h, implicit_gyro) - drag_angular * spin[k]
+            force[k, a] = masses[k] * gravity[a] - drag_linear * drag_vel[k, a]
+        tq = gyroscopic_torque(inertia, spin[k], h, implicit_gyro) - drag_angular * drag_spin[k]
         for a in range(3):
             force[k, 3 + a] = tq[a]
     # rows: unbounded first (5 per hinge, 2 friction per contact), then bounded (motor per hinge,
@@ -647,6 +651,8 @@ def step_tree(
     gravity,
     drag_linear,
     drag_angular,
+    drag_vel,
+    drag_spin,
     implicit_gyro,
     contact_body,
     contact_point,
@@ -696,10 +702,10 @@ def step_tree(
                 dbody[k, 3 + a, 3 + b] = s / h
             dbody[k, a, a] = masses[k] / h
         for a in range(3):
-            force[k, a] = masses[k] * gravity[a] - drag_linear * vel[k, a]
+            force[k, a] = masses[k] * gravity[a] - drag_linear * drag_vel[k, a]
         tq = gyroscopic_torque(inertia, spin[k], h, implicit_gyro)
         for a in range(3):
-            force[k, 3 + a] = tq[a] - drag_angular * spin[k, a]
+            force[k, 3 + a] = tq[a] - drag_angular * drag_spin[k, a]
         if k > 0:
             child_of[joint_of[k]] = k
     # hinge nodes (5 rows on child k and parent p) and their motor/stop rows (bounded)

@@ -292,12 +292,20 @@ def _solve_maximal(robot, ground: int, static: _Static, config) -> Solved:
     now = _reduced(position, orientation, v0, w0, angles, rates)
     bodies: _Bodies | None = getattr(robot, "_ode_bodies", None)
     written = None if bodies is None else bodies.written
+    drag_vel = drag_spin = None
     if bodies is not None and written is not None and np.max(np.abs(written - now)) <= _RESYNC_TOLERANCE:
         pass  # pybullet holds what the last step wrote: the bodies go on from their own state
     elif bodies is not None and written is not None and _is_rigid_move(written, now):
         # a beam or a trainer's move: SimSpark moves every body rigidly with the torso (keeping
-        # the joints' drift) and stops them all (SoccerBase::MoveAndRotateAgent)
+        # the joints' drift) and stops them all (SoccerBase::MoveAndRotateAgent). The torso's
+        # DragController ran before the BeamEffector in that cycle's PrePhysicsUpdate (children
+        # first, the torso's body before the effectors in nao_hetero.rsg), so its drag in the
+        # next step is the one of its velocity before the beam; every other body's comes after.
         ode_maximal.move_rigidly(bodies.pos, bodies.quat, written[0:3], written[3:7], now[0:3], now[3:7])
+        drag_vel = np.zeros_like(bodies.vel)
+        drag_spin = np.zeros_like(bodies.spin)
+        drag_vel[0] = bodies.vel[0]
+        drag_spin[0] = bodies.spin[0]
         bodies.vel[:] = 0.0
         bodies.spin[:] = 0.0
     else:
@@ -322,6 +330,8 @@ def _solve_maximal(robot, ground: int, static: _Static, config) -> Solved:
             child, parent = bodies.anchor_child, bodies.anchor_parent
         bodies = _Bodies(coms, quats, vel, spin, child, parent)
         robot._ode_bodies = bodies
+    if drag_vel is None or drag_spin is None:
+        drag_vel, drag_spin = bodies.vel, bodies.spin
     parts, points, depths = ode_kernels.ground_contacts(
         static.shape_body, static.shape_kind, static.shape_size, bodies.pos, bodies.quat, config.ode_box_points
     )
@@ -348,6 +358,8 @@ def _solve_maximal(robot, ground: int, static: _Static, config) -> Solved:
         np.array([0.0, 0.0, config.gravity]),
         config.linear_damping,
         config.angular_damping,
+        drag_vel,
+        drag_spin,
         config.ode_gyroscopic == "implicit",
         parts,
         points,
@@ -529,6 +541,8 @@ def _warm_up_maximal() -> None:
             np.array([0.0, 0.0, -9.81]),
             0.01,
             0.01,
+            vel,
+            spin,
             True,
             np.array([1], dtype=np.int64),
             np.array([[0.0, 0.0, 0.0]]),
