@@ -12,11 +12,6 @@ from protocol.cli_values import listening_port, positive_float, whole
 from server_stub.config import ServerConfig
 
 
-def _interrupt(*_: object) -> None:
-    """SIGTERM stops the server like Ctrl-C does (select() is retried after a handler that returns)."""
-    raise KeyboardInterrupt
-
-
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m server_stub", description=__doc__)
     p.add_argument("--host", default="127.0.0.1", help="listen address (default 127.0.0.1)")
@@ -98,11 +93,11 @@ def main(argv: list[str] | None = None) -> int:
         file=ports_out,
         flush=True,
     )
-    signal.signal(signal.SIGTERM, _interrupt)
-    try:
-        server.serve_forever()
-    except KeyboardInterrupt:
-        pass
+    # SIGTERM and Ctrl-C end the loop after the cycle in hand (``StubServer.stop``), so neither
+    # lands inside a physics kernel as an exception
+    for signum in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(signum, lambda *_: server.stop())
+    server.serve_forever()
     return 0
 
 

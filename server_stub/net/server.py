@@ -56,6 +56,13 @@ class StubServer:
         self._monitor_listener = self._listen(config.monitor_port, "monitor")
         self.agent_port = self._agent_listener.getsockname()[1]
         self.monitor_port = self._monitor_listener.getsockname()[1]
+        # ``stop`` writes a byte here so that a loop waiting in select() wakes at once: a signal
+        # handler may call it, and ending the loop this way (not by raising KeyboardInterrupt
+        # into whatever runs, a compiled physics kernel included) lets the cycle finish cleanly
+        self._wakeup, self._waker = socket.socketpair()
+        self._wakeup.setblocking(False)
+        self._waker.setblocking(False)
+        self._selector.register(self._wakeup, selectors.EVENT_READ, "wakeup")
 
     @property
     def world(self) -> World:
@@ -190,6 +197,9 @@ class StubServer:
             while self.running:
                 timeout = self._select_timeout(next_tick)
                 for key, events in self._selector.select(timeout):
+                    if key.data == "wakeup":
+                        self._drain_wakeup()
+                        continue
                     if key.data in ("agent", "monitor"):
                         assert isinstance(key.fileobj, socket.socket)  # the listeners registered so
                         self._accept(key.fileobj, key.data)
@@ -352,17 +362,30 @@ class StubServer:
         self.running = False
 
     def stop(self) -> None:
+        """End ``serve_forever`` after the work in hand; safe to call from a signal handler."""
         self.running = False
+        try:
+            self._waker.send(b"x")
+        except OSError:  # full (a wake-up is pending anyway) or closed
+            pass
+
+    def _drain_wakeup(self) -> None:
+        try:
+            while self._wakeup.recv(64):
+                pass
+        except OSError:
+            pass
 
     def close(self) -> None:
         for client in list(self._agents) + list(self._monitors):
             client.flush()
             self._drop(client, None)
-        for listener in (self._agent_listener, self._monitor_listener):
+        for listener in (self._agent_listener, self._monitor_listener, self._wakeup):
             try:
                 self._selector.unregister(listener)
             except (KeyError, ValueError):
                 pass
             listener.close()
+        self._waker.close()
         self._selector.close()
         self.sim.close()
