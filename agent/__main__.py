@@ -25,6 +25,14 @@ def _team(text: str) -> str:
     return checked(text, ok, f"team name must be 1-15 letters, digits, '_' or '-', got {text!r}")
 
 
+def _rebeam_cycle(text: str) -> int | None:
+    if text == "none":
+        return None
+    value = whole(text)
+    last = AgentConfig.settle_cycles - 1
+    return checked(value, 0 <= value <= last, f"must be a settle cycle 0-{last} or 'none', got {value}")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m agent", description=__doc__)
     p.add_argument("--host", default="127.0.0.1", help="server address (default 127.0.0.1)")
@@ -44,6 +52,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=positive_float, help="seconds of walking after the gait starts, then exit")
     p.add_argument("--type", dest="robot_type", type=int, choices=ROBOT_TYPES, default=0, help="robot type 0-4")
     p.add_argument("--start-now", action="store_true", help="walk right after settling, without waiting for PlayOn")
+    p.add_argument(
+        "--rebeam-cycle",
+        type=_rebeam_cycle,
+        default=AgentConfig.rebeam_cycle,
+        metavar="N|none",
+        help=f"settle cycle at which the beam is repeated, or none (default {AgentConfig.rebeam_cycle})",
+    )
     p.add_argument("--timeout", type=positive_float, default=10.0, help="seconds to wait for the server (default 10)")
     p.add_argument("-v", "--verbose", action="store_true", help="log the handshake and gait start")
     return p
@@ -73,6 +88,7 @@ def main(argv: list[str] | None = None) -> int:
         duration=args.duration,
         robot_type=args.robot_type,
         start_now=args.start_now,
+        rebeam_cycle=args.rebeam_cycle,
         timeout=args.timeout,
     )
     try:

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
 
+from agent import AgentConfig
+
 #: A start point on the field: x, y (m) and heading (deg, 0 = +x).
 Start = tuple[float, float, float]
 
@@ -54,6 +56,9 @@ class EpisodeConfig:
     episode_timeout: float = 60.0
     team: str = "GALA"
     unum: int = 1
+    #: Settle cycle at which the agent repeats its beam (None: never); part of how a walk starts,
+    #: and the real server's walk depends on it (``agent.AgentConfig.rebeam_cycle``).
+    rebeam_cycle: int | None = AgentConfig.rebeam_cycle
     #: Fall rule (community run benchmark): torso up-vector z below / torso height below.
     fall_up_z: float = 0.6
     fall_height: float = 0.25
@@ -72,6 +77,9 @@ class EpisodeConfig:
             raise ValueError(f"embedded_stub must be 'direct' or 'socket', got {self.embedded_stub!r}")
         if not self.episode_timeout > 0:
             raise ValueError(f"episode_timeout must be > 0 s, got {self.episode_timeout}")
+        last = AgentConfig.settle_cycles - 1
+        if self.rebeam_cycle is not None and not 0 <= self.rebeam_cycle <= last:
+            raise ValueError(f"rebeam_cycle must be a settle cycle 0-{last} or None, got {self.rebeam_cycle}")
 
 
 @dataclass(frozen=True)

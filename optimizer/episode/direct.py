@@ -170,7 +170,12 @@ class DirectStub:
         sim.set_game_time(0.0)
         sim.set_ball((sx, sy + 5.0, 0.042), (0.0, 0.0, 0.0))
         agent_config = AgentConfig(
-            team=config.team, unum=config.unum, beam=(sx, sy, config.heading), sync=True, start_now=True
+            team=config.team,
+            unum=config.unum,
+            beam=(sx, sy, config.heading),
+            sync=True,
+            start_now=True,
+            rebeam_cycle=config.rebeam_cycle,
         )
         behaviour = WalkBehaviour(agent_config, TFSGait(params))
         state = sim.join()

@@ -186,6 +186,7 @@ class EpisodeRunner:
             sync=True,
             duration=None,
             start_now=True,
+            rebeam_cycle=config.rebeam_cycle,
             timeout=config.episode_timeout,
             syn_nudge_interval=nudge,
         )
@@ -262,6 +263,8 @@ class EpisodeRunner:
             str(config.heading),
             "--sync",
             "--start-now",
+            "--rebeam-cycle",
+            "none" if config.rebeam_cycle is None else str(config.rebeam_cycle),
             "--timeout",
             str(config.episode_timeout),
         ]
