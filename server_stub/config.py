@@ -67,11 +67,11 @@ class PhysicsConfig:
     #: contacts as the reduced step makes them, from the bodies' own poses. Off: the reduced step.
     #: One step equals libode 0.16.2's dWorldStep to 1e-10, contacts included. Measured (bench/RESULTS.md):
     #: standing 0.3839 m, 22.60 N a foot; knee anchors 3.4 / 5.6-5.8 mm apart (mean / max) on the
-    #: 13.26 m gait (real 3.0-3.6 / 4.9-5.8); the calibration fixture's GYR within 0.12 deg/s of the
-    #: real run for 60 cycles; training set Spearman 0.95-0.98, falls 0.88-0.94, median |1-ratio|
-    #: 0.05-0.13 (reduced: 0.78-0.81 / 0.75-0.81 / 0.07-0.14); walk probe: falls where the real
-    #: server falls in 67 of 72 starts (the real server falls from 31 of them; reduced 63, bullet 41);
-    #: 0.30 ms a cycle.
+    #: 13.26 m gait (real 3.0-3.6 / 4.9-5.8); the calibration fixture's GYR within 1 deg/s of the
+    #: real run for 100 cycles; training set Spearman 0.97-0.99, falls 0.88-0.91, median |1-ratio|
+    #: 0.03-0.06 (reduced: 0.78-0.81 / 0.75-0.81 / 0.07-0.14), 106 of 128 walks inside the real
+    #: server's own spread (reduced 61); walk probe: falls where the real server falls in 69 of 72
+    #: starts (the real server falls from 31 of them; reduced 63, bullet 41); 0.30 ms a cycle.
     ode_maximal: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_MAX", "0") == "1")
     #: ``ode_maximal`` only: the world ERP of the hinges' joint rows. SimSpark never sets it
     #: (spark.rb sets gravity, CFM, auto-disable and the surface layer only), so ODE's default 0.2.
