@@ -11,7 +11,7 @@ import pytest
 
 from protocol.nao import JOINTS
 from server_stub.config import PhysicsConfig
-from server_stub.physics import calibration_walk, ode_kernels, ode_maximal, ode_step
+from server_stub.physics import calibration_walk, contact, ode_kernels, ode_maximal, ode_step
 from server_stub.physics.world import World
 
 ODE = dataclasses.replace(PhysicsConfig(), backend="ode")
@@ -164,7 +164,7 @@ def test_standing_numbers_match_the_real_server(standing):
     assert sorted(pressure) == ["lf", "rf"]
     for _, force in pressure.values():
         assert force[2] == pytest.approx(22.59, abs=0.1)
-    loaded = [c for c in robot._contacts() if c[9] > 0.0]
+    loaded = contact.loaded(robot.contact_points())
     assert len(loaded) == 8
     start = robot.torso_position()
     for _ in range(100):

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from protocol.nao import JOINTS, SPEED_CAP
 from server_stub.config import PhysicsConfig
 from server_stub.field import BALL_RADIUS
-from server_stub.physics import nao_model
+from server_stub.physics import contact, nao_model
 from server_stub.physics.world import World
 
 DEG_PER_CYCLE_AT_CAP = math.degrees(SPEED_CAP * 0.02)  # 7.035
@@ -113,8 +113,7 @@ def test_a_flat_foot_touches_at_its_four_sole_corners_and_holds_still(world):
     settle(world, 1.0)
     for _ in range(25):
         world.step()
-        loaded = [c for c in pb.getContactPoints(bodyA=robot.body_id, physicsClientId=world._client) if c[9] > 0.0]
-        assert len(loaded) == 8
+        assert len(contact.loaded(robot.contact_points())) == 8
         assert max(abs(g) for g in robot.gyro()) < 0.1
 
 

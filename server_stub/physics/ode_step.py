@@ -133,7 +133,7 @@ class Solved(NamedTuple):
 
 
 def solve(robot, ground: int, config) -> Solved:
-    """One ODE-like step of ``robot`` (its motors already set by ``Robot._before_step``), from
+    """One ODE-like step of ``robot`` (its motors already set by ``Robot.begin_step``), from
     the state pybullet holds now; nothing is written."""
     client, body = robot._client, robot._body
     static = getattr(robot, "_ode_static", None)
@@ -445,7 +445,7 @@ def apply(robot, solved: Solved) -> None:
     pb.resetJointStatesMultiDof(
         body, robot._ode_static.indices, solved.angles, targetVelocities=solved.rates, physicsClientId=client
     )
-    robot._after_substep()
+    robot.after_substep()
     robot._contact_points = solved.contacts
     robot._ode_torques = solved.torques
 

@@ -18,7 +18,7 @@ import pybullet as pb
 
 from protocol.nao import JOINTS
 from server_stub.config import PhysicsConfig
-from server_stub.physics import motors, nao_model, slip
+from server_stub.physics import contact, motors, nao_model, slip
 from server_stub.physics.rotations import body_poses
 
 _N = len(JOINTS)
@@ -62,7 +62,7 @@ class Robot:
         self._part_names = ("torso", *names)
         self._link_index = {name: i for i, name in enumerate(names)}
         self._head_link = self._link_index["head"]
-        #: Tangential slip force applied to each link in the last sub-step (see _before_substep).
+        #: Tangential slip force applied to each link in the last sub-step (see before_substep).
         self._slip_force: dict[int, list[float]] = {}
         self._foot_keys = {names.index(part): key for key, part in nao_model.FOOT_PARTS.items()}
         # rad/s by joint index, NaN where no command came
@@ -106,7 +106,9 @@ class Robot:
             raise ValueError(f"velocities must be {_N} finite numbers, got {velocities!r}")
         np.clip(velocities, -self._caps_array, self._caps_array, out=self._requested)
 
-    def _before_step(self) -> None:
+    # ----- the step, as ``World.step`` drives it: begin_step, then per physics sub-step
+    # before_substep / (the solve) / after_substep, then end_step -----
+    def begin_step(self) -> None:
         """Apply last interval's commands (the latency rule) and set this step's motors
         (``server_stub.physics.motors``)."""
         angles, rates, torques = self._joint_state()
@@ -144,21 +146,21 @@ class Robot:
             )
             self._sent = (target, force)
 
-    def _before_substep(self) -> None:
+    def before_substep(self) -> None:
         """Force-dependent slip (docs/robot_and_server.md section 4; ``server_stub.physics.slip``) at
         every contact point that carried load in the last step (ODE only makes contacts for touching geometry, while
         Bullet also keeps points up to ``contact_breaking_threshold`` apart)."""
         self._slip_force = {}
         cfg = self._config
-        touching = [c for c in self._contacts() if c[9] > 0.0]
+        touching = contact.loaded(self._contacts())
         if not touching or cfg.slip <= 0.0:
             return
         forces, self._slip_torque = slip.contact_forces(
             self._skeleton,
             self._state_for_slip(),
-            np.array([c[3] + 1 for c in touching]),
-            np.array([c[5] for c in touching]),
-            np.array([c[7] for c in touching]),
+            np.array([c[contact.LINK_A] + 1 for c in touching]),
+            np.array([c[contact.POSITION_ON_A] for c in touching]),
+            np.array([c[contact.NORMAL_ON_B] for c in touching]),
             self._motor_load,
             self._yielding,
             self._slip_torque,
@@ -166,8 +168,11 @@ class Robot:
             cfg.cycle / cfg.sub_steps,
         )
         for c, force in zip(touching, forces.tolist()):
-            pb.applyExternalForce(self._body, c[3], force, c[5], pb.WORLD_FRAME, physicsClientId=self._client)
-            total = self._slip_force.setdefault(c[3], [0.0, 0.0, 0.0])
+            link = c[contact.LINK_A]
+            pb.applyExternalForce(
+                self._body, link, force, c[contact.POSITION_ON_A], pb.WORLD_FRAME, physicsClientId=self._client
+            )
+            total = self._slip_force.setdefault(link, [0.0, 0.0, 0.0])
             total[0] += force[0]
             total[1] += force[1]
             total[2] += force[2]
@@ -197,11 +202,13 @@ class Robot:
             self._config.motor_torque,
         )
 
-    def _after_substep(self) -> None:
+    def after_substep(self) -> None:
+        """The bodies moved: every cached reading is stale."""
         self._new = False
         self._invalidate()
 
-    def _after_step(self) -> None:
+    def end_step(self) -> None:
+        """Keep the torso's velocity before and after the step for the accelerometer."""
         self._prev_velocity = self._velocity
         self._velocity = self._base_motion()[0]
 
@@ -282,6 +289,11 @@ class Robot:
             )
         return self._contact_points
 
+    def contact_points(self) -> tuple:
+        """Every contact point of this robot after the last step, in pybullet's tuple layout
+        (fields named in ``server_stub.physics.contact``), whichever backend made them."""
+        return self._contacts()
+
     def _base_pose(self) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
         """(position, rotation as 9 floats row-major, quaternion), cached until the next step."""
         if self._pose is None:
@@ -334,45 +346,15 @@ class Robot:
 
     def foot_pressure(self) -> dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]]:
         """FRP per foot that touches: (centre of pressure, total contact force), both in the
-        foot's frame (origin at the foot centre, so the sole is z = -0.01). The centre is the
-        contact points' mean weighted by normal force (plain mean when none carries load); the
-        force includes the slip (friction) force. As on the real server, a foot that touches is
-        reported even with no load on it (ODE makes a contact for touching geometry; the real
-        walk shows 7% of its FRPs under 1 N), and a foot that does not is absent."""
-        sums: dict[int, list[float]] = {}
-        for c in self._contacts():
-            normal = c[9]
-            if not (normal > 0.0 or c[8] <= 0.0) or c[3] not in self._foot_keys:
-                continue
-            s = sums.setdefault(c[3], [0.0] * 11)
-            (nx, ny, nz), (ax, ay, az), (bx, by, bz) = c[7], c[11], c[13]
-            f1, f2 = c[10], c[12]
-            s[0] += normal * nx + f1 * ax + f2 * bx
-            s[1] += normal * ny + f1 * ay + f2 * by
-            s[2] += normal * nz + f1 * az + f2 * bz
-            px, py, pz = c[5]
-            weight = max(normal, 0.0)
-            s[3] += weight * px
-            s[4] += weight * py
-            s[5] += weight * pz
-            s[6] += weight
-            s[7] += px
-            s[8] += py
-            s[9] += pz
-            s[10] += 1.0
-        if not sums:
+        foot's frame (origin at the foot centre, so the sole is z = -0.01), as
+        ``contact.link_pressure`` sums them; a foot that does not touch is absent."""
+        touching = contact.link_pressure(self._contacts(), self._foot_keys, self._slip_force)
+        if not touching:
             return {}
         states = self._link_states()
         result = {}
-        for link in sorted(sums):
-            state, s = states[link], sums[link]
-            drag = self._slip_force.get(link, (0.0, 0.0, 0.0))
-            force = (s[0] + drag[0], s[1] + drag[1], s[2] + drag[2])
-            if s[6] > 0.0:
-                point = (s[3] / s[6], s[4] / s[6], s[5] / s[6])
-            else:
-                point = (s[7] / s[10], s[8] / s[10], s[9] / s[10])
-            (ox, oy, oz), rotation = state[0], pb.getMatrixFromQuaternion(state[1])
+        for link, (point, force) in touching.items():
+            (ox, oy, oz), rotation = states[link][0], pb.getMatrixFromQuaternion(states[link][1])
             centre = (point[0] - ox, point[1] - oy, point[2] - oz)
             result[self._foot_keys[link]] = (_to_local(rotation, centre), _to_local(rotation, force))
         return result

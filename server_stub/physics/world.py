@@ -215,21 +215,21 @@ class World:
     # ----- time -----
     def step(self) -> None:
         """One server cycle: motors from the commands of two cycles ago, then the physics
-        sub-steps, each after the contact slip forces of its start (``Robot._before_substep``)."""
+        sub-steps, each after the contact slip forces of its start (``Robot.before_substep``)."""
         for robot in self._robots:
-            robot._before_step()
+            robot.begin_step()
         if self.config.backend == "ode":
             self._step_ode()
             return
         for _ in range(self.config.sub_steps):
             for robot in self._robots:
-                robot._before_substep()
+                robot.before_substep()
             pb.stepSimulation(physicsClientId=self._client)
             for robot in self._robots:
-                robot._after_substep()
+                robot.after_substep()
         self.time += self.config.cycle
         for robot in self._robots:
-            robot._after_step()
+            robot.end_step()
 
     def _step_ode(self) -> None:
         """The "ode" backend's cycle (``server_stub.physics.ode_step``): each robot solved by the stub,
@@ -240,7 +240,7 @@ class World:
             ode_step.apply(robot, state)
         self.time += self.config.cycle
         for robot in self._robots:
-            robot._after_step()
+            robot.end_step()
 
     # ----- ball -----
     def set_ball(self, pos, vel=(0.0, 0.0, 0.0)) -> None:
