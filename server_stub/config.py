@@ -31,12 +31,15 @@ class PhysicsConfig:
     gravity: float = -9.81
 
     # --- backend ---
-    #: "bullet": Bullet's multibody step with slip solved beside it (``server_stub.physics.slip``).
-    #: "ode": one ODE-like step per cycle solved by the stub itself, contacts, slip friction and
-    #: motors in one LCP, Bullet only finding contacts (``server_stub.physics.ode_step``). The environment
+    #: "ode" (default): one ODE-like step per cycle solved by the stub itself, contacts, slip
+    #: friction and motors in one LCP (``server_stub.physics.ode_step``; with ``ode_maximal``, as
+    #: ODE's own dWorldStep). "bullet": Bullet's multibody step with slip solved beside it
+    #: (``server_stub.physics.slip``), the default before: it matches the real server standing and
+    #: on the slow walk, but not at walking speed (fidelity benchmark: Spearman -0.09, fall
+    #: agreement 0.52; it walks from starts where the real server falls). The environment
     #: variable ``NAO_STUB_PHYSICS`` picks the default, so stand-ins started in subprocesses (the
     #: fidelity benchmark's) follow it.
-    backend: str = field(default_factory=lambda: os.environ.get("NAO_STUB_PHYSICS", "bullet"))
+    backend: str = field(default_factory=lambda: os.environ.get("NAO_STUB_PHYSICS", "ode"))
     #: "ode" backend only: joint stops as ODE's limit rows (one-sided; the motor pushing into the
     #: stop with its full torque), not as the "bullet" backend's two-sided stop motor. Training
     #: set (bench/RESULTS.md): no change either way.
@@ -65,6 +68,7 @@ class PhysicsConfig:
     #: every body integrated on its own (true inertias, no floor), each hinge held by ODE's 5 joint
     #: rows (world ERP ``ode_joint_erp``, world CFM ``global_cfm``) plus its motor or limit row;
     #: contacts as the reduced step makes them, from the bodies' own poses. Off: the reduced step.
+    #: On by default (``NAO_STUB_ODE_MAX=0`` turns it off).
     #: One step equals libode 0.16.2's dWorldStep to 1e-10, contacts included. Measured (bench/RESULTS.md):
     #: standing 0.3839 m, 22.60 N a foot; knee anchors 3.4 / 5.6-5.8 mm apart (mean / max) on the
     #: 13.26 m gait (real 3.0-3.6 / 4.9-5.8); the calibration fixture's GYR within 1 deg/s of the
@@ -72,7 +76,7 @@ class PhysicsConfig:
     #: 0.03-0.06 (reduced: 0.78-0.81 / 0.75-0.81 / 0.07-0.14), 106 of 128 walks inside the real
     #: server's own spread (reduced 61); walk probe: falls where the real server falls in 69 of 72
     #: starts (the real server falls from 31 of them; reduced 63, bullet 41); 0.30 ms a cycle.
-    ode_maximal: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_MAX", "0") == "1")
+    ode_maximal: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_MAX", "1") == "1")
     #: ``ode_maximal`` only: the world ERP of the hinges' joint rows. SimSpark never sets it
     #: (spark.rb sets gravity, CFM, auto-disable and the surface layer only), so ODE's default 0.2.
     ode_joint_erp: float = 0.2
@@ -80,6 +84,41 @@ class PhysicsConfig:
     #: sets dxBodyGyroscopic; SimSpark never clears it) and computed implicitly ("implicit",
     #: step.cpp: (I (I - h [L]x)^-1 - 1) L / h, L = I w); "explicit" (-w x I w) for comparison.
     ode_gyroscopic: str = "implicit"
+    #: ``ode_maximal`` only: contacts besides the ground (``server_stub.physics.ode_contacts``):
+    #: robot-robot, robot-ball, robot-goal/border, ball-goal/border, and the ball as a body of the
+    #: stub's own solve (its ground contact too); touching bodies are solved in one LCP
+    #: (``ode_island``). Off: each robot against the ground only and Bullet steps the ball.
+    ode_contacts: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_CONTACTS", "1") == "1")
+    #: The surfaces SimSpark gives each kind of collider, (soft ERP, soft CFM, slip, bounce, minimum
+    #: bounce velocity), None where its ContactJointHandler leaves that mode off. Two surfaces
+    #: combine as SimSpark's ContactJointHandlerImp::CalcSurfaceParamInternal does
+    #: (plugin/odeimps/odecontactjointhandler.cpp): a value set on both sides is their mean, on one
+    #: side that side's; a mode off on both leaves ODE's world value (ERP ``ode_joint_erp`` 0.2,
+    #: CFM ``global_cfm`` 1e-5, no slip: friction CFM 1e-5, no bounce); mu is the mean of two
+    #: infinities (every handler keeps Initialize()'s dInfinity), so friction is unbounded.
+    #: Only the handler of ODE's first geom acts (ContactJointHandler::IsSymmetricHandler is
+    #: false): one contact joint per point, up to 4 points a pair (odespace.cpp, nContacts = 4).
+    #: A robot's own parts never collide (nao_hetero.rsg: its Space has disableInnerCollision).
+    #: A robot part: rsg/agent/nao/contactjointhandler.rsg (bounce off, ERP 0.6, CFM 1e-4, slip 5e-3).
+    ode_surface_robot: tuple = (0.6, 1e-4, 5e-3, None, None)
+    #: The ball: rsg/agent/ball.rsg (bounce 0.8 above 0.8 m/s, slip 0.6, ERP 0.5, CFM 0.05).
+    ode_surface_ball: tuple = (0.5, 0.05, 0.6, 0.8, 0.8)
+    #: The ground: soccer.rsg's PlaneCollider (bounce off, ERP 0.2; its "setContactSoftCFM true"
+    #: sets a value without the mode, so no CFM; "setContactSlip 0.1 0.1" fails, taking one
+    #: argument (contactjointhandler_c.cpp), leaving the mode on with Initialize()'s 5e-3). The
+    #: robot-ground contact keeps ``contact_erp`` / ``contact_cfm`` / ``slip``, the same mix.
+    ode_surface_ground: tuple = (0.2, None, 5e-3, None, None)
+    #: Goal boxes (goal.rsg: the two side "posts" 0.6 x 0.04 x 0.8 m, the back wall, the top
+    #: plate) and the four border walls (soccer.rsg): BoxColliders with no handler, which
+    #: Collider::PrePhysicsUpdateInternal gives a default ContactJointHandler (Initialize():
+    #: mode bounce only, bounce 0.8, minimum bounce velocity 2.0). The goal's own box collider
+    #: has a RecorderHandler and so no contact handler: it makes no contacts.
+    ode_surface_static: tuple = (None, None, None, 0.8, 2.0)
+    #: The ball's DragController (ball.rsg): linear 0.01, angular 5e-5; its mass and radius are
+    #: naosoccersim.rb's BallMass 0.026 kg and BallRadius 0.042 m (``server_stub.field``), its
+    #: inertia a solid sphere's (ball.rsg setSphereTotal: 2/5 m r^2).
+    ode_ball_drag_linear: float = 0.01
+    ode_ball_drag_angular: float = 5e-5
 
     # --- solver ---
     #: "dantzig": pybullet's exact MLCP solver, like ODE's dWorldStep (section 4). Measured: a

@@ -30,7 +30,7 @@ TINY = [
     "--workers",
     "2",
     "--seed",
-    "7",
+    "4",
     "--check-repeats",
     "3",
     "--quiet",
@@ -65,7 +65,7 @@ def test_tiny_gala_on_the_stub_writes_every_output(tmp_path: Path) -> None:
     done = _gala(*TINY, "--out", str(out))
     assert done.returncode == 0, done.stderr
     manifest = json.loads((out / "manifest.json").read_text())
-    assert manifest["seed"] == 7 and "pybullet" in json.dumps(manifest["versions"])
+    assert manifest["seed"] == 4 and "pybullet" in json.dumps(manifest["versions"])
     logged = _log(out)
     assert all(r["status"] == "ok" for r in logged), [r["reason"] for r in logged if r["status"] != "ok"]
     assert all(r["fitness"] == pytest.approx(10 * r["distance"]) for r in logged)
@@ -93,7 +93,7 @@ def test_tiny_gala_on_the_stub_writes_every_output(tmp_path: Path) -> None:
     assert best == load_gait(out / "best_gait-pc0.8.json")
     results = json.loads((out / "results.json").read_text())
     assert json.dumps(results)  # parses and re-serialises
-    fastest = max((r for r in records if not r["fell"]), key=lambda r: r["fitness"])  # seed 7: one walk stands
+    fastest = max((r for r in records if not r["fell"]), key=lambda r: r["fitness"])  # seed 4: one walk of 2 s stands (most random gaits fall in 0.5 s)
     assert load_gait(out / "fastest_gait.json") == TFSParams.from_array(fastest["genes"])
     assert results["fastest_episode"]["key"] == results["fastest_check"]["key"] == fastest["key"]
     assert results["fastest_check"]["repeats"] == 3
