@@ -325,18 +325,28 @@ def test_the_gate_runs_end_to_end_and_writes_its_files(gate: Path) -> None:
 
 @pytest.mark.real_server
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=False,
-    reason="stand-in not yet faithful at walking speed (issue 15): measured on all 50 "
-    "gaits, 3 real walks each: Spearman -0.09, fall agreement 0.52, |1-ratio| median 1.00 and worst "
-    "1.05 over the 22 gaits walking >= 3 m on the real server, heading change up to 6.8x apart; "
-    "the 13.27 m gait falls at 0.46 s on the stand-in",
-)
-def test_the_gate_meets_the_issue_targets(gate: Path) -> None:
+def test_the_gate_meets_the_issue_targets_for_distance_and_falls(gate: Path) -> None:
+    """Issue 15's targets on the gate's gaits. Measured (default physics, one real walk each):
+    Spearman 1.00, fall agreement 1.00, |1-ratio| median 0.06, worst 0.12."""
     summary = json.loads((gate / "fidelity.json").read_text())["summary"]
     targets = FidelityTargets()
     assert summary["spearman"] is not None and summary["spearman"] >= targets.spearman
     assert summary["fall_agreement"] >= targets.fall_agreement
     assert summary["median_ratio_error"] is not None and summary["median_ratio_error"] <= targets.median_ratio_error
     assert summary["worst_ratio_error"] <= targets.worst_ratio_error
-    assert summary["worst_turn_factor"] <= targets.turn_factor
+    by_name = {item["name"]: item for item in json.loads((gate / "fidelity.json").read_text())["gaits"]}
+    fast = by_name["line-10"]["stand_in"]
+    assert not fast["fell"] and fast["distance"] >= 11.0  # the 13.4 m real walk (issue 15)
+
+
+@pytest.mark.real_server
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=False,
+    reason="turning is the stand-in's weakest figure (issue 15): over all 50 gaits, 3 real walks each, "
+    "the heading change is a median 1.9x and at worst 11.5x apart (target 2x); the real server's own "
+    "walks of one gait turn up to 40 deg apart",
+)
+def test_the_gate_meets_the_issue_target_for_turning(gate: Path) -> None:
+    summary = json.loads((gate / "fidelity.json").read_text())["summary"]
+    assert summary["worst_turn_factor"] <= FidelityTargets().turn_factor
