@@ -348,12 +348,16 @@ def test_ball_rests_on_the_ground_and_can_be_set(world):
     settle(world, 0.5)
     x, y, z = world.ball_position()
     assert (x, y) == pytest.approx((0.0, 0.0), abs=1e-6)
-    # radius 0.042, sunk into the ground by at most ODE's contact surface layer (docs/robot_and_server.md section 4)
-    assert BALL_RADIUS - PhysicsConfig().contact_slop - 1e-4 <= z <= BALL_RADIUS + 1e-4
+    # radius 0.042, sunk into the ground by ODE's contact surface layer (docs/robot_and_server.md
+    # section 4) and, on the "ode" backend, by the ball's soft contact (ball.rsg: CFM 0.05, ERP
+    # 0.35 with the ground: 0.73 mm more under its weight)
+    assert BALL_RADIUS - PhysicsConfig().contact_slop - 1e-3 <= z <= BALL_RADIUS + 1e-4
     world.set_ball((1.0, 2.0, 0.042), (1.0, 0.0, 0.0))
     world.step()
     x, y, _ = world.ball_position()
-    assert x == pytest.approx(1.02, abs=0.002) and y == pytest.approx(2.0, abs=1e-6)
+    # "bullet": slides at 1 m/s; "ode": rolls at once at 5/7 of it (ODE's friction, no Coulomb
+    # limit), as the real server's ball does (tests/test_stub_ode.py, the recorded roll)
+    assert 1.013 <= x <= 1.022 and y == pytest.approx(2.0, abs=1e-6)
 
 
 def test_part_poses_cover_every_part(standing):

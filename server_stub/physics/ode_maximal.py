@@ -19,6 +19,8 @@ ode.cpp, and SimSpark's rsg/agent/nao/hingejoint.rsg, spark.rb, dragcontroller.c
   one-sided limit row (ERP 0.8, bounce 1, CFM 1e-8) and the motor's full torque as an outside
   torque when it drives into the stop (times the fudge factor 1e-5 when away, i.e. nothing): the
   targets and bounds are ``server_stub.physics.motors``' and ``ode_step._motor_rows``';
+- (contacts with other robots, the ball and the goals: ``ode_contacts`` / ``ode_island``, the same
+  rows generalised to islands of several robots)
 - ground contacts as the reduced "ode" backend makes them (``ode_kernels.ground_contacts``, from
   the bodies' own poses): a normal row (>= 0, ERP 0.4 on depth less the surface layer 0.001,
   CFM 1e-4) and two friction rows (unbounded, CFM = slip 0.005);

@@ -42,9 +42,12 @@ With ``PhysicsConfig.ode_maximal`` the step is ODE's own in maximal coordinates 
 the hinges held by ODE's joint rows with the world ERP 0.2 and CFM 1e-5, so their anchor copies
 drift apart by millimetres as on the real server; the same contacts and motor rules.
 
-Not (yet) modelled here: robot-robot, robot-ball and robot-goal contacts (the ball still moves in
-Bullet's step, the robots are not pushed back by it); in the reduced step, ODE's joint-row
-softness and maximal coordinates (see ``ode_maximal``).
+Contacts besides the ground (robot-robot, robot-ball, robot-goal/border, with the ball a body of
+the stub's own solve and touching robots solved in one island) are the maximal step's only
+(``server_stub.physics.ode_contacts``, ``PhysicsConfig.ode_contacts``). The reduced step stays
+without them: there each robot meets only the ground, the ball moves in Bullet's step and the
+robots are not pushed back by it; nor has it ODE's joint-row softness and maximal coordinates
+(see ``ode_maximal``).
 """
 
 from __future__ import annotations
@@ -136,11 +139,7 @@ def solve(robot, ground: int, config) -> Solved:
     """One ODE-like step of ``robot`` (its motors already set by ``Robot.begin_step``), from
     the state pybullet holds now; nothing is written."""
     client, body = robot._client, robot._body
-    static = getattr(robot, "_ode_static", None)
-    if static is None or static.masses.shape[0] != len(robot._indices) + 1:
-        true_inertia = config.ode_true_inertia or config.ode_maximal
-        static = _Static(client, body, ground, robot.robot_type if true_inertia else None)
-        robot._ode_static = static
+    static = static_of(robot, ground, config)
     if config.ode_maximal:
         return _solve_maximal(robot, ground, static, config)
     h = config.cycle
@@ -280,10 +279,106 @@ def _is_rigid_move(written: np.ndarray, now: np.ndarray) -> bool:
     return bool(angles_kept and still)
 
 
+class Prepared(NamedTuple):
+    """A robot ready for its maximal step: its bodies (synchronised with pybullet), the
+    velocities its drag acts on, and its motor rows."""
+
+    bodies: _Bodies
+    drag_vel: np.ndarray
+    drag_spin: np.ndarray
+    target: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    push: np.ndarray
+
+
+def static_of(robot, ground: int, config) -> _Static:
+    """What does not change about ``robot``'s body (made on first use)."""
+    static = getattr(robot, "_ode_static", None)
+    if static is None or static.masses.shape[0] != len(robot._indices) + 1:
+        true_inertia = config.ode_true_inertia or config.ode_maximal
+        static = _Static(robot._client, robot._body, ground, robot.robot_type if true_inertia else None)
+        robot._ode_static = static
+    return static
+
+
 def _solve_maximal(robot, ground: int, static: _Static, config) -> Solved:
     """One step of ``ode_maximal`` (every body on its own, ODE's joint rows)."""
+    return solve_prepared(robot, static, prepare_maximal(robot, static, config), ground, config)
+
+
+def solve_prepared(robot, static: _Static, prep: Prepared, ground: int, config) -> Solved:
+    """The maximal step of a prepared robot against the ground alone."""
+    bodies = prep.bodies
+    parts, points, depths = ode_kernels.ground_contacts(
+        static.shape_body, static.shape_kind, static.shape_size, bodies.pos, bodies.quat, config.ode_box_points
+    )
+    pos, quat, vel, spin, forces, tangents, torques, iterations = ode_maximal.step_tree(
+        static.masses,
+        static.principal,
+        static.parents,
+        static.joint_of,
+        static.local_axes,
+        bodies.anchor_child,
+        bodies.anchor_parent,
+        bodies.pos,
+        bodies.quat,
+        bodies.vel,
+        bodies.spin,
+        np.array([0.0, 0.0, config.gravity]),
+        config.linear_damping,
+        config.angular_damping,
+        prep.drag_vel,
+        prep.drag_spin,
+        config.ode_gyroscopic == "implicit",
+        parts,
+        points,
+        depths,
+        prep.target,
+        prep.lo,
+        prep.hi,
+        prep.push,
+        static.motor_state,
+        config.cycle,
+        config.ode_joint_erp,
+        config.global_cfm,
+        MOTOR_CFM,
+        config.contact_erp,
+        config.contact_cfm,
+        config.slip,
+        config.contact_slop,
+    )
+    contacts = ground_tuples(robot._body, ground, parts, points, depths, forces, tangents)
+    return finish_maximal(robot, static, bodies, pos, quat, vel, spin, contacts, torques, iterations)
+
+
+def ground_tuples(body: int, ground: int, parts, points, depths, forces, tangents) -> tuple:
+    """A robot's ground contacts in pybullet's tuple layout, with their solved forces."""
+    return tuple(
+        (
+            0,
+            body,
+            ground,
+            k - 1,
+            -1,
+            p,
+            (p[0], p[1], 0.0),
+            (0.0, 0.0, 1.0),
+            -d,
+            f[0],
+            f[1],
+            tuple(t[0]),
+            f[2],
+            tuple(t[1]),
+        )
+        for k, p, d, f, t in zip(parts.tolist(), points.tolist(), depths.tolist(), forces.tolist(), tangents.tolist())
+    )
+
+
+def prepare_maximal(robot, static: _Static, config) -> Prepared:
+    """Bring ``robot``'s bodies in line with pybullet (a beam or a trainer's move shifts them
+    rigidly, anything else re-places them) and make its motor rows."""
     client, body = robot._client, robot._body
-    h = config.cycle
     position, orientation = pb.getBasePositionAndOrientation(body, physicsClientId=client)
     v0, w0 = pb.getBaseVelocity(body, physicsClientId=client)
     states = pb.getJointStates(body, static.indices, physicsClientId=client)
@@ -332,9 +427,6 @@ def _solve_maximal(robot, ground: int, static: _Static, config) -> Solved:
         robot._ode_bodies = bodies
     if drag_vel is None or drag_spin is None:
         drag_vel, drag_spin = bodies.vel, bodies.spin
-    parts, points, depths = ode_kernels.ground_contacts(
-        static.shape_body, static.shape_kind, static.shape_size, bodies.pos, bodies.quat, config.ode_box_points
-    )
     target, force = robot._sent
     nj = len(static.indices)
     if target.shape[0] != nj:
@@ -343,63 +435,17 @@ def _solve_maximal(robot, ground: int, static: _Static, config) -> Solved:
     lo, hi, push = _motor_rows(
         angles, np.asarray(force, dtype=float), robot._motor, config.motor_torque, True, FUDGE_FACTOR
     )
-    pos, quat, vel, spin, forces, tangents, torques, iterations = ode_maximal.step_tree(
-        static.masses,
-        static.principal,
-        static.parents,
-        static.joint_of,
-        static.local_axes,
-        bodies.anchor_child,
-        bodies.anchor_parent,
-        bodies.pos,
-        bodies.quat,
-        bodies.vel,
-        bodies.spin,
-        np.array([0.0, 0.0, config.gravity]),
-        config.linear_damping,
-        config.angular_damping,
-        drag_vel,
-        drag_spin,
-        config.ode_gyroscopic == "implicit",
-        parts,
-        points,
-        depths,
-        np.asarray(target, dtype=float),
-        lo,
-        hi,
-        push,
-        static.motor_state,
-        h,
-        config.ode_joint_erp,
-        config.global_cfm,
-        MOTOR_CFM,
-        config.contact_erp,
-        config.contact_cfm,
-        config.slip,
-        config.contact_slop,
-    )
+    return Prepared(bodies, drag_vel, drag_spin, np.asarray(target, dtype=float), lo, hi, push)
+
+
+def finish_maximal(
+    robot, static: _Static, bodies: _Bodies, pos, quat, vel, spin, contacts, torques, iterations
+) -> Solved:
+    """Keep a robot's solved bodies and measure what pybullet gets: torso state, hinge angles and
+    rates as the real server reads them."""
     bodies.pos, bodies.quat, bodies.vel, bodies.spin = pos, quat, vel, spin
     new_angles, new_rates = ode_maximal.measure(quat, spin, static.parents, static.joint_of, static.local_axes)
     bodies.written = _reduced(pos[0], quat[0], vel[0], spin[0], new_angles, new_rates)
-    contacts = tuple(
-        (
-            0,
-            body,
-            ground,
-            k - 1,
-            -1,
-            p,
-            (p[0], p[1], 0.0),
-            (0.0, 0.0, 1.0),
-            -d,
-            f[0],
-            f[1],
-            tuple(t[0]),
-            f[2],
-            tuple(t[1]),
-        )
-        for k, p, d, f, t in zip(parts.tolist(), points.tolist(), depths.tolist(), forces.tolist(), tangents.tolist())
-    )
     return Solved(
         pos[0].tolist(),
         quat[0].tolist(),

@@ -15,7 +15,7 @@ import pybullet as pb
 
 from server_stub import field
 from server_stub.config import PhysicsConfig
-from server_stub.physics import motors, nao_model, ode_step, rotations, slip
+from server_stub.physics import motors, nao_model, ode_contacts, ode_step, rotations, slip
 from server_stub.physics.robot import Robot
 
 #: docs/robot_and_server.md section 6: a new robot appears with its torso here, in the air.
@@ -112,7 +112,9 @@ class World:
         # adds one point per step, so with one step per cycle a standing robot rocked on 2.
         ground = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[_GROUND_HALF, _GROUND_HALF, 1.0], physicsClientId=c)
         self._ground = pb.createMultiBody(0.0, ground, basePosition=(0.0, 0.0, -1.0), physicsClientId=c)
-        boxes = _static_boxes()
+        maximal = self.config.backend == "ode" and self.config.ode_maximal and self.config.ode_contacts
+        # the maximal step collides robots and ball with the boxes SimSpark's field has
+        boxes = ode_contacts.static_boxes() if maximal else _static_boxes()
         shapes = pb.createCollisionShapeArray(
             [pb.GEOM_BOX] * len(boxes),
             halfExtents=[b[0] for b in boxes],
@@ -130,6 +132,9 @@ class World:
             linearDamping=self.config.linear_damping,
             angularDamping=self.config.angular_damping,
             physicsClientId=c,
+        )
+        self._ode_stepper = (
+            ode_contacts.Stepper(self.config, c, self._ground, self._ball, self._static) if maximal else None
         )
 
     # ----- robots -----
@@ -233,7 +238,15 @@ class World:
 
     def _step_ode(self) -> None:
         """The "ode" backend's cycle (``server_stub.physics.ode_step``): each robot solved by the stub,
-        then Bullet steps the rest (the ball), and the robots get their solved state back."""
+        then Bullet steps the rest (the ball), and the robots get their solved state back. The
+        maximal step with ``ode_contacts`` solves the ball and every contact itself
+        (``server_stub.physics.ode_contacts``): Bullet only finds the contacts."""
+        if self._ode_stepper is not None:
+            self._ode_stepper.step(self._robots)
+            self.time += self.config.cycle
+            for robot in self._robots:
+                robot.end_step()
+            return
         solved = [ode_step.solve(robot, self._ground, self.config) for robot in self._robots]
         pb.stepSimulation(physicsClientId=self._client)
         for robot, state in zip(self._robots, solved):

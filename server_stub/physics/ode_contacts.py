@@ -1,0 +1,490 @@
+"""Contacts besides the ground for the maximal step (``PhysicsConfig.ode_maximal`` with
+``ode_contacts``): robot-robot, robot-ball, robot-goal/border and ball-goal/border, made and
+solved as SimSpark and ODE make and solve them, and the ball as a body of the stub's own solve.
+
+Facts (SimSpark's odecontactjointhandler.cpp, contactjointhandler.cpp, collider.cpp, space.cpp,
+odespace.cpp; rsg/agent/nao/contactjointhandler.rsg, nao_hetero.rsg, ball.rsg, soccer.rsg,
+goal.rsg; each value's source is in ``PhysicsConfig``):
+
+- which pairs collide: any two colliders in different spaces (each robot has its own space with
+  inner collision disabled, so its own parts never touch each other); the goal's sensor box has
+  no contact handler and makes no contacts; the goals' side boxes, back walls and top plates and
+  the four border walls do (a default handler is added to a collider without one);
+- a pair makes up to 4 contact points (``dCollide`` asked for 4), each one contact joint whose
+  surface is the two colliders' surfaces combined (``surface``);
+- ODE groups bodies connected by joints or contacts into islands and solves each in one LCP.
+
+Here the contacts are found by Bullet's collision pass on the bodies pybullet holds (the robots
+as the last step wrote them, the ball, the static boxes of SimSpark's field); Bullet's manifold
+keeps up to 4 points a pair of shapes, and only touching or overlapping points are taken (ODE's
+colliders make no others). A robot's point is carried from its pybullet link into its own
+maximal body (which may have drifted off the exact joints by millimetres) by the link's pose.
+Robots (and the ball) joined by contacts are one island, solved by ``ode_island.step_island``;
+a robot that touches nothing but the ground takes ``ode_step``'s per-robot path unchanged.
+Robot-ground contacts are the per-robot path's own (``ode_kernels.ground_contacts``); the ball's
+ground contact is ODE's sphere-plane one (the lowest point, depth radius - height).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pybullet as pb
+
+from server_stub import field
+from server_stub.physics import ode_island, ode_kernels, ode_step
+
+#: No bounce: a minimum bounce velocity no contact reaches.
+_NO_BOUNCE = np.inf
+#: SimSpark's goal and field geometry (goal.rsg, soccer.rsg, naosoccersim.rb): the goals' bar
+#: diameter, the border walls' size and distance.
+_BAR = 0.04
+_SIDE_EXT = 1.0
+_BORDER_LENGTH = field.LENGTH * 0.333
+_BORDER_WIDTH = field.WIDTH * 0.75
+
+
+def static_boxes() -> list[tuple[tuple[float, float, float], tuple[float, float, float]]]:
+    """(half extents, centre) of the static boxes that make contacts on the real server: per goal
+    the two side boxes ("posts", goal depth x bar x goal height), the back wall and the top plate
+    (goal.rsg, the goal box centred at the goal line + half its depth), and the four border walls
+    (soccer.rsg, 1 m thick, centred on the ground)."""
+    depth, width, height = field.GOAL_DEPTH, field.GOAL_WIDTH, field.GOAL_HEIGHT
+    boxes = []
+    for side in (-1.0, 1.0):
+        cx = side * (field.LENGTH / 2 + depth / 2)
+        for y in (-1.0, 1.0):
+            boxes.append(((depth / 2, _BAR / 2, height / 2), (cx, y * (width / 2 + _BAR / 2), height / 2)))
+        boxes.append(((_BAR / 2, width / 2, height / 2), (cx + side * (depth / 2 - _BAR / 2), 0.0, height / 2)))
+        boxes.append(((depth / 2, width / 2 + _BAR, _BAR / 2), (cx, 0.0, height + _BAR / 2)))
+    side_width = _SIDE_EXT + field.WIDTH + 2 * _BORDER_WIDTH
+    side_length = _SIDE_EXT + field.LENGTH + 2 * _BORDER_LENGTH
+    for side in (-1.0, 1.0):
+        boxes.append(
+            ((_SIDE_EXT / 2, side_width / 2, _SIDE_EXT / 2), (side * (field.LENGTH / 2 + _BORDER_LENGTH), 0.0, 0.0))
+        )
+        boxes.append(
+            ((side_length / 2, _SIDE_EXT / 2, _SIDE_EXT / 2), (0.0, side * (field.WIDTH / 2 + _BORDER_WIDTH), 0.0))
+        )
+    return boxes
+
+
+def surface(a: tuple, b: tuple, config) -> np.ndarray:
+    """Two colliders' surfaces combined as SimSpark does (``PhysicsConfig.ode_surface_robot``):
+    (ERP, CFM, slip, bounce, minimum bounce velocity) of their contact joint."""
+
+    def mix(x, y):
+        if x is None:
+            return y
+        if y is None:
+            return x
+        return (x + y) / 2.0
+
+    erp = mix(a[0], b[0])
+    cfm = mix(a[1], b[1])
+    slip = mix(a[2], b[2])
+    bounce = mix(a[3], b[3])
+    bounce_vel = mix(a[4], b[4])
+    return np.array(
+        [
+            config.ode_joint_erp if erp is None else erp,
+            config.global_cfm if cfm is None else cfm,
+            config.global_cfm if slip is None else slip,
+            0.0 if bounce is None else bounce,
+            _NO_BOUNCE if bounce_vel is None else bounce_vel,
+        ]
+    )
+
+
+class _Surfaces:
+    """Every pair's combined surface, per config (robot, ball, static, ground)."""
+
+    def __init__(self, config) -> None:
+        r, b, s, g = (
+            config.ode_surface_robot,
+            config.ode_surface_ball,
+            config.ode_surface_static,
+            config.ode_surface_ground,
+        )
+        self.robot_robot = surface(r, r, config)
+        self.robot_ball = surface(r, b, config)
+        self.robot_static = surface(r, s, config)
+        self.ball_static = surface(b, s, config)
+        self.ball_ground = surface(b, g, config)
+        # the per-robot path's own ground values (the same mix, kept bit for bit)
+        self.robot_ground = np.array([config.contact_erp, config.contact_cfm, config.slip, 0.0, _NO_BOUNCE])
+
+
+def _rotation(q) -> np.ndarray:
+    return np.array(pb.getMatrixFromQuaternion(q)).reshape(3, 3)
+
+
+class _Entity:
+    """A dynamic thing of this step: a robot (its prepared bodies) or the ball."""
+
+    def __init__(self, index: int, robot=None) -> None:
+        self.index = index
+        self.robot = robot
+        self.frames: dict[int, tuple[np.ndarray, np.ndarray]] | None = None  # link -> (centre, rotation) in pybullet
+        self.ground: tuple | None = None
+        self.static: list = []  # (body, point, normal, depth, surface)
+        self.pairs = 0
+
+    def map_point(self, link: int, point, body_pos, body_quat) -> np.ndarray:
+        """A world point on pybullet's link carried to the same place on our body."""
+        if self.robot is None:
+            return np.asarray(point, dtype=float)
+        centre, rot = self._frame(link)
+        local = rot.T @ (np.asarray(point) - centre)
+        return body_pos + _rotation(body_quat) @ local
+
+    def map_dir(self, link: int, d, body_quat) -> np.ndarray:
+        if self.robot is None:
+            return np.asarray(d, dtype=float)
+        _, rot = self._frame(link)
+        return _rotation(body_quat) @ (rot.T @ np.asarray(d))
+
+    def _frame(self, link: int) -> tuple[np.ndarray, np.ndarray]:
+        if self.frames is None:
+            self.frames = {}
+        if link not in self.frames:
+            robot = self.robot
+            if link < 0:
+                c, q = pb.getBasePositionAndOrientation(robot._body, physicsClientId=robot._client)
+            else:
+                st = pb.getLinkState(robot._body, link, computeForwardKinematics=1, physicsClientId=robot._client)
+                c, q = st[0], st[1]
+            self.frames[link] = (np.asarray(c, dtype=float), _rotation(q))
+        return self.frames[link]
+
+
+class Stepper:
+    """The maximal step of a whole world, contacts between its robots, ball and field included."""
+
+    def __init__(self, config, client: int, ground: int, ball: int, static: int) -> None:
+        self.config = config
+        self.client = client
+        self.ground = ground
+        self.ball = ball
+        self.static = static
+        self.surfaces = _Surfaces(config)
+        r = field.BALL_RADIUS
+        self.ball_mass = field.BALL_MASS
+        self.ball_inertia = 0.4 * field.BALL_MASS * r * r
+        self.gravity = np.array([0.0, 0.0, config.gravity])
+        pb.setCollisionFilterPair(ground, ball, -1, -1, 0, physicsClientId=client)
+        ode_island.warm_up()
+
+    def step(self, robots) -> None:
+        """One cycle of every robot and the ball; writes the new state into pybullet."""
+        cfg = self.config
+        c = self.client
+        ground = self.ground
+        statics = [ode_step.static_of(robot, ground, cfg) for robot in robots]
+        preps = [ode_step.prepare_maximal(robot, st, cfg) for robot, st in zip(robots, statics)]
+        entities = [_Entity(i, robot) for i, robot in enumerate(robots)]
+        ball = _Entity(len(robots))
+        entities.append(ball)
+        by_body = {robot._body: i for i, robot in enumerate(robots)}
+        by_body[self.ball] = len(robots)
+        parent = list(range(len(entities)))
+
+        def find(i: int) -> int:
+            while parent[i] != i:
+                parent[i] = parent[parent[i]]
+                i = parent[i]
+            return i
+
+        pb.performCollisionDetection(physicsClientId=c)
+        pairs = []
+        for pt in pb.getContactPoints(physicsClientId=c):
+            if pt[8] > 0.0:
+                continue
+            a = by_body.get(pt[1], -1)
+            b = by_body.get(pt[2], -1)
+            if a < 0 and b < 0:
+                continue
+            if a >= 0 and b >= 0:
+                pairs.append(pt)
+                ra, rb = find(a), find(b)
+                if ra != rb:
+                    parent[ra] = rb
+                entities[a].pairs += 1
+                entities[b].pairs += 1
+            elif pt[1] == self.static or pt[2] == self.static:
+                entities[max(a, b)].static.append(pt)
+        # the ball's state and its ground contact (ODE's sphere-plane)
+        bpos, bquat = pb.getBasePositionAndOrientation(self.ball, physicsClientId=c)
+        bvel, bspin = pb.getBaseVelocity(self.ball, physicsClientId=c)
+        ball_state = (np.array([bpos]), np.array([bquat]), np.array([bvel]), np.array([bspin]))
+        # islands
+        members: dict[int, list[int]] = {}
+        for i in range(len(entities)):
+            members.setdefault(find(i), []).append(i)
+        for group in members.values():
+            if len(group) == 1 and group[0] < len(robots) and not entities[group[0]].static:
+                i = group[0]
+                robot = robots[i]
+                solved = ode_step.solve_prepared(robot, statics[i], preps[i], ground, cfg)
+                ode_step.apply(robot, solved)
+                continue
+            self._solve_island(group, robots, statics, preps, entities, pairs, ball_state, by_body)
+
+    def _solve_island(self, group, robots, statics, preps, entities, pairs, ball_state, by_body) -> None:
+        cfg = self.config
+        nrob = len(robots)
+        offsets: dict[int, int] = {}
+        parts = []  # per entity: its bodies, hinges, state, drag
+        n = 0
+        nj = 0
+        joint_offsets: dict[int, int] = {}
+        for i in group:
+            offsets[i] = n
+            joint_offsets[i] = nj
+            if i < nrob:
+                st, pr = statics[i], preps[i]
+                b = pr.bodies
+                nb = st.masses.shape[0]
+                par = st.parents.copy() + n
+                par[0] = -1
+                parts.append(
+                    (
+                        st.masses,
+                        st.principal,
+                        par,
+                        st.joint_of + nj,
+                        st.local_axes,
+                        b.anchor_child,
+                        b.anchor_parent,
+                        b.pos,
+                        b.quat,
+                        b.vel,
+                        b.spin,
+                        pr.drag_vel,
+                        pr.drag_spin,
+                        np.full(nb, cfg.linear_damping),
+                        np.full(nb, cfg.angular_damping),
+                    )
+                )
+                n += nb
+                nj += st.local_axes.shape[0]
+            else:
+                pos, quat, vel, spin = ball_state
+                parts.append(
+                    (
+                        np.array([self.ball_mass]),
+                        np.full((1, 3), self.ball_inertia),
+                        np.array([-1], dtype=np.int64),
+                        np.array([0], dtype=np.int64),
+                        np.zeros((0, 3)),
+                        np.zeros((0, 3)),
+                        np.zeros((0, 3)),
+                        pos,
+                        quat,
+                        vel,
+                        spin,
+                        vel,
+                        spin,
+                        np.array([cfg.ode_ball_drag_linear]),
+                        np.array([cfg.ode_ball_drag_angular]),
+                    )
+                )
+                n += 1
+        cols = list(zip(*parts))
+        masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = (
+            np.concatenate(x) for x in cols[:7]
+        )
+        pos, quat, vel, spin, drag_vel, drag_spin, drag_lin, drag_ang = (np.concatenate(x) for x in cols[7:])
+        parents = parents.astype(np.int64)
+        joint_of = joint_of.astype(np.int64)
+        # motors
+        targets, los, his, pushes, states = [], [], [], [], []
+        for i in group:
+            if i < nrob:
+                pr = preps[i]
+                targets.append(pr.target)
+                los.append(pr.lo)
+                his.append(pr.hi)
+                pushes.append(pr.push)
+                states.append(statics[i].motor_state)
+        empty = np.zeros(0)
+        motor_state = np.concatenate(states) if states else np.zeros(0, dtype=np.int64)
+        # one-body contacts: ground, goals and walls
+        c_body: list[int] = []
+        c_point: list = []
+        c_normal: list = []
+        c_depth: list[float] = []
+        c_surface: list = []
+        ground_ranges: dict[int, tuple[int, np.ndarray, np.ndarray, np.ndarray]] = {}
+        s = self.surfaces
+        for i in group:
+            off = offsets[i]
+            if i < nrob:
+                st = statics[i]
+                b = preps[i].bodies
+                gp, gpt, gd = ode_kernels.ground_contacts(
+                    st.shape_body, st.shape_kind, st.shape_size, b.pos, b.quat, cfg.ode_box_points
+                )
+                ground_ranges[i] = (len(c_body), gp, gpt, gd)
+                for k, p, d in zip(gp.tolist(), gpt, gd.tolist()):
+                    c_body.append(off + k)
+                    c_point.append(p)
+                    c_normal.append((0.0, 0.0, 1.0))
+                    c_depth.append(d)
+                    c_surface.append(s.robot_ground)
+                surf = s.robot_static
+            else:
+                z = ball_state[0][0, 2]
+                depth = field.BALL_RADIUS - z
+                ground_ranges[i] = (len(c_body), np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros(0))
+                if depth >= 0.0:
+                    c_body.append(off)
+                    c_point.append(ball_state[0][0] - np.array([0.0, 0.0, field.BALL_RADIUS]))
+                    c_normal.append((0.0, 0.0, 1.0))
+                    c_depth.append(depth)
+                    c_surface.append(s.ball_ground)
+                surf = s.ball_static
+            ent = entities[i]
+            for pt in ent.static:
+                mine_a = by_body.get(pt[1]) == i
+                link = pt[3] if mine_a else pt[4]
+                k = off + link + 1 if i < nrob else off
+                mid = 0.5 * (np.asarray(pt[5]) + np.asarray(pt[6]))
+                normal = np.asarray(pt[7]) if mine_a else -np.asarray(pt[7])
+                c_body.append(k)
+                c_point.append(ent.map_point(link, mid, pos[k], quat[k]))
+                c_normal.append(ent.map_dir(link, normal, quat[k]))
+                c_depth.append(-pt[8])
+                c_surface.append(surf)
+        # two-body contacts
+        members = set(group)
+        p_b1, p_b2, p_point, p_normal, p_depth, p_surface, p_info = [], [], [], [], [], [], []
+        for pt in pairs:
+            a, b = by_body[pt[1]], by_body[pt[2]]
+            if a not in members:
+                continue
+            ka = offsets[a] + (pt[3] + 1 if a < nrob else 0)
+            kb = offsets[b] + (pt[4] + 1 if b < nrob else 0)
+            pa = entities[a].map_point(pt[3], pt[5], pos[ka], quat[ka])
+            pbb = entities[b].map_point(pt[4], pt[6], pos[kb], quat[kb])
+            p_b1.append(ka)
+            p_b2.append(kb)
+            p_point.append(0.5 * (pa + pbb))
+            p_normal.append(entities[b].map_dir(pt[4], pt[7], quat[kb]))
+            p_depth.append(-pt[8])
+            p_surface.append(s.robot_robot if (a < nrob and b < nrob) else s.robot_ball)
+            p_info.append((a, b, pt[3], pt[4]))
+
+        def arr(x, shape):
+            return np.array(x, dtype=float).reshape(shape)
+
+        out = ode_island.step_island(
+            masses,
+            principal,
+            parents,
+            joint_of,
+            local_axes,
+            anchor_child,
+            anchor_parent,
+            pos,
+            quat,
+            vel,
+            spin,
+            self.gravity,
+            drag_lin,
+            drag_ang,
+            drag_vel,
+            drag_spin,
+            cfg.ode_gyroscopic == "implicit",
+            np.concatenate(targets) if targets else empty,
+            np.concatenate(los) if los else empty,
+            np.concatenate(his) if his else empty,
+            np.concatenate(pushes) if pushes else empty,
+            motor_state,
+            np.array(c_body, dtype=np.int64),
+            arr(c_point, (-1, 3)),
+            arr(c_normal, (-1, 3)),
+            arr(c_depth, (-1,)),
+            arr(c_surface, (-1, 5)),
+            np.array(p_b1, dtype=np.int64),
+            np.array(p_b2, dtype=np.int64),
+            arr(p_point, (-1, 3)),
+            arr(p_normal, (-1, 3)),
+            arr(p_depth, (-1,)),
+            arr(p_surface, (-1, 5)),
+            cfg.cycle,
+            cfg.ode_joint_erp,
+            cfg.global_cfm,
+            ode_step.MOTOR_CFM,
+            cfg.contact_slop,
+        )
+        npos, nquat, nvel, nspin, forces, tangents, p_forces, p_tangents, torques, iterations = out
+        # motor states back into each robot, then each robot's and the ball's new state
+        for i in group:
+            if i < nrob:
+                jo = joint_offsets[i]
+                st = statics[i]
+                nji = st.local_axes.shape[0]
+                st.motor_state[:] = motor_state[jo : jo + nji]
+        extra: dict[int, list] = {i: [] for i in group}
+        bodies = {i: body for body, i in by_body.items()}
+        c_point_arr = arr(c_point, (-1, 3))
+        for i in group:
+            first, gp, gpt, gd = ground_ranges[i]
+            ng = gp.shape[0]
+            n_static = len(entities[i].static)
+            if i >= nrob:
+                continue
+            robot = robots[i]
+            for m in range(ng, ng + n_static):
+                ci = first + m
+                k = c_body[ci] - offsets[i]
+                f, t = forces[ci], tangents[ci]
+                p = c_point_arr[ci]
+                extra[i].append(
+                    (0, robot._body, self.static, k - 1, -1, tuple(p), tuple(p), tuple(c_normal[ci]), -c_depth[ci])
+                    + (float(f[0]), float(f[1]), tuple(t[0]), float(f[2]), tuple(t[1]))
+                )
+        for m, (a, b, la, lb) in enumerate(p_info):
+            f, t = p_forces[m], p_tangents[m]
+            p = tuple(p_point[m])
+            nrm = tuple(p_normal[m])
+            if a < nrob:
+                extra[a].append(
+                    (0, robots[a]._body, bodies[b], la, lb, p, p, nrm, -p_depth[m])
+                    + (float(f[0]), float(f[1]), tuple(t[0]), float(f[2]), tuple(t[1]))
+                )
+            if b < nrob:
+                neg = tuple(-x for x in nrm)
+                extra[b].append(
+                    (0, robots[b]._body, bodies[a], lb, la, p, p, neg, -p_depth[m])
+                    + (float(f[0]), float(-f[1]), tuple(t[0]), float(-f[2]), tuple(t[1]))
+                )
+        for i in group:
+            off = offsets[i]
+            if i < nrob:
+                robot = robots[i]
+                st = statics[i]
+                nb = st.masses.shape[0]
+                first, gp, gpt, gd = ground_ranges[i]
+                ng = gp.shape[0]
+                contacts = ode_step.ground_tuples(
+                    robot._body, self.ground, gp, gpt, gd, forces[first : first + ng], tangents[first : first + ng]
+                ) + tuple(extra[i])
+                solved = ode_step.finish_maximal(
+                    robot,
+                    st,
+                    preps[i].bodies,
+                    npos[off : off + nb].copy(),
+                    nquat[off : off + nb].copy(),
+                    nvel[off : off + nb].copy(),
+                    nspin[off : off + nb].copy(),
+                    contacts,
+                    torques[joint_offsets[i] : joint_offsets[i] + st.local_axes.shape[0]].copy(),
+                    iterations,
+                )
+                ode_step.apply(robot, solved)
+            else:
+                pb.resetBasePositionAndOrientation(
+                    self.ball, npos[off].tolist(), nquat[off].tolist(), physicsClientId=self.client
+                )
+                pb.resetBaseVelocity(self.ball, nvel[off].tolist(), nspin[off].tolist(), physicsClientId=self.client)
