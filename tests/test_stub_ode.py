@@ -859,3 +859,23 @@ def test_the_ball_follows_the_real_servers_recorded_path(case, ball, velocity, b
     offset = 3 if case == "roll" else 2
     ours = np.round(np.array(path)[offset : offset + 3 * len(real) : 3], 2)
     assert np.abs(ours - real).max() <= tolerance + 1e-9
+
+
+def test_robots_beamed_onto_one_spot_are_pushed_apart_in_reasonable_time():
+    """Four robots beamed onto one spot (hundreds of contact points; at most
+    ``ode_contacts.MAX_PAIR_POINTS`` kept a pair, the island solved by block pivoting): ten steps
+    take seconds, not minutes (measured 0.05 s a step; 165 s for the first before), and the
+    robots spread out."""
+    import time
+
+    with World(MAX) as world:
+        robots = [world.add_robot() for _ in range(4)]
+        for robot in robots:
+            robot.beam(-3.0, 0.0, 0.0)
+        start = time.process_time()
+        for _ in range(10):
+            world.step()
+        elapsed = time.process_time() - start
+        spread = np.ptp(np.array([robot.torso_position() for robot in robots]), axis=0)
+    assert elapsed < 10.0
+    assert max(spread) > 0.05

@@ -54,6 +54,83 @@ def _contact_c(erp, depth, surface_layer, h, bounce, bounce_vel, outgoing):
     return c
 
 
+#: Islands with more bounded rows than this are solved by block principal pivoting first
+#: (``_block_pivot``), the active-set ``box_qp`` only finishing; smaller ones by ``box_qp`` alone.
+BLOCK_PIVOT_ROWS = 100
+#: Most block-pivoting passes before ``box_qp`` takes over from the last guess.
+BLOCK_PIVOT_PASSES = 40
+
+
+@njit(cache=True)
+def _block_pivot(a, b, lo, hi, state):
+    """The boxed LCP of ``box_qp`` (A symmetric positive definite) by block principal pivoting
+    (Judice and Pires): solve the free rows with the others at their bounds, then move every row
+    that breaks its bound or its sign condition at once; a few passes of LAPACK solves where the
+    active-set method changes one row per pass (hundreds in a pile of robots); when the count of
+    wrong rows stops falling, one row a pass (Murty's rule). ``state`` (in/out)
+    as ``box_qp``'s. Returns (x, converged, passes); not converged: ``state`` is the last guess."""
+    n = b.shape[0]
+    x = np.zeros(n)
+    passes = 0
+    best = n + 1
+    stalled = 0
+    for passes in range(1, BLOCK_PIVOT_PASSES + 1):
+        for i in range(n):
+            if state[i] < 0 and np.isfinite(lo[i]):
+                x[i] = lo[i]
+            elif state[i] > 0 and np.isfinite(hi[i]):
+                x[i] = hi[i]
+            else:
+                state[i] = 0
+        free = np.nonzero(state == 0)[0]
+        bound = np.nonzero(state != 0)[0]
+        nf = free.size
+        if nf > 0:
+            sub = np.empty((nf, nf))
+            rhs = np.empty(nf)
+            for ii in range(nf):
+                i = free[ii]
+                t = b[i]
+                for k in bound:
+                    t -= a[i, k] * x[k]
+                rhs[ii] = t
+                for jj in range(nf):
+                    sub[ii, jj] = a[i, free[jj]]
+            sol = np.linalg.solve(sub, rhs)
+            for ii in range(nf):
+                x[free[ii]] = sol[ii]
+        w = a @ x - b
+        wrong = np.zeros(n, dtype=np.bool_)
+        for i in range(n):
+            if state[i] == 0:
+                wrong[i] = x[i] < lo[i] or x[i] > hi[i]
+            elif state[i] < 0:
+                wrong[i] = w[i] < 0.0
+            else:
+                wrong[i] = w[i] > 0.0
+        count = int(np.sum(wrong))
+        if count == 0:
+            return x, True, passes
+        if count < best:
+            best = count
+            stalled = 0
+        else:
+            stalled += 1
+        last = n - 1
+        while not wrong[last]:
+            last -= 1
+        for i in range(n):
+            # all at once; after 3 passes without fewer wrong rows, only the last wrong one
+            # (Murty's rule, finite for positive definite A)
+            if not wrong[i] or (stalled >= 3 and i != last):
+                continue
+            if state[i] == 0:
+                state[i] = -1 if x[i] < lo[i] else 1
+            else:
+                state[i] = 0
+    return x, False, passes
+
+
 @njit(cache=True)
 def _forest_solve(
     nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, rj, rf
@@ -424,7 +501,11 @@ def step_island(
     state = np.zeros(nbd, dtype=np.int64)
     for j in range(nj):
         state[j] = motor_state[j]
-    lam_b, iterations = box_qp(schur, bb, lo, hi, state)
+    converged = False
+    if nbd > BLOCK_PIVOT_ROWS:
+        lam_b, converged, iterations = _block_pivot(schur, bb, lo, hi, state)
+    if not converged:
+        lam_b, iterations = box_qp(schur, bb, lo, hi, state)
     for j in range(nj):
         motor_state[j] = state[j]
     rb = np.zeros((nb, 6))
