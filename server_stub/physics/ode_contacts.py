@@ -40,6 +40,13 @@ from server_stub.physics import ode_island, ode_kernels, ode_step
 #: robots beamed into each other make hundreds (4 robots on one spot: 1600 rows, 15-165 s for the
 #: first step); robots bumping into each other make 1-20.
 MAX_PAIR_POINTS = 32
+#: ODE's auto-disable, on in SimSpark (spark.rb: setAutoDisableFlag true) with ODE 0.16's
+#: defaults (dWorldCreate: 10 idle steps, no idle time, 1 sample, thresholds 0.01^2 on |v|^2 and
+#: |w|^2), applied to the ball only: a ball resting that long is no longer stepped (nor costs a
+#: solve) until a robot touches it (ODE enables a disabled body joined to an enabled one) or the
+#: trainer or the referee moves it (trainercommandparser.cpp, soccerruleaspect.cpp: Enable()).
+BALL_IDLE_STEPS = 10
+BALL_IDLE_SPEED = 0.01
 #: No bounce: a minimum bounce velocity no contact reaches.
 _NO_BOUNCE = np.inf
 #: SimSpark's goal and field geometry (goal.rsg, soccer.rsg, naosoccersim.rb): the goals' bar
@@ -179,6 +186,9 @@ class Stepper:
         self.gravity = np.array([0.0, 0.0, config.gravity])
         pb.setCollisionFilterPair(ground, ball, -1, -1, 0, physicsClientId=client)
         ode_island.warm_up()
+        self._ball_written: tuple | None = None
+        self._ball_asleep = False
+        self._ball_steps_left = BALL_IDLE_STEPS
 
     def step(self, robots) -> None:
         """One cycle of every robot and the ball; writes the new state into pybullet."""
@@ -225,11 +235,18 @@ class Stepper:
         bpos, bquat = pb.getBasePositionAndOrientation(self.ball, physicsClientId=c)
         bvel, bspin = pb.getBaseVelocity(self.ball, physicsClientId=c)
         ball_state = (np.array([bpos]), np.array([bquat]), np.array([bvel]), np.array([bspin]))
+        if (bpos, bquat, bvel, bspin) != self._ball_written:
+            self._wake_ball()  # the trainer or the referee moved it: SimSpark enables its body
         # islands
         members: dict[int, list[int]] = {}
         for i in range(len(entities)):
             members.setdefault(find(i), []).append(i)
+        ball_index = len(robots)
         for group in members.values():
+            if group == [ball_index] and self._ball_asleep:
+                continue  # ODE's auto-disable: a resting ball is not stepped until touched or moved
+            if ball_index in group and self._ball_asleep:
+                self._wake_ball()  # touched by an enabled body
             if len(group) == 1 and group[0] < len(robots) and not entities[group[0]].static:
                 i = group[0]
                 robot = robots[i]
@@ -493,7 +510,27 @@ class Stepper:
                 )
                 ode_step.apply(robot, solved)
             else:
-                pb.resetBasePositionAndOrientation(
-                    self.ball, npos[off].tolist(), nquat[off].tolist(), physicsClientId=self.client
-                )
-                pb.resetBaseVelocity(self.ball, nvel[off].tolist(), nspin[off].tolist(), physicsClientId=self.client)
+                self._write_ball(npos[off], nquat[off], nvel[off], nspin[off])
+
+    def _wake_ball(self) -> None:
+        self._ball_asleep = False
+        self._ball_steps_left = BALL_IDLE_STEPS
+
+    def _write_ball(self, pos, quat, vel, spin) -> None:
+        """The ball's new state into pybullet, after ODE's auto-disable check (util.cpp,
+        dInternalHandleAutoDisabling, one sample): ``BALL_IDLE_STEPS`` steps in a row with
+        |v|^2 and |w|^2 under ``BALL_IDLE_SPEED``^2 and the body is disabled, its velocities zeroed."""
+        if float(vel @ vel) > BALL_IDLE_SPEED**2 or float(spin @ spin) > BALL_IDLE_SPEED**2:
+            self._ball_steps_left = BALL_IDLE_STEPS
+        else:
+            self._ball_steps_left -= 1
+            if self._ball_steps_left <= 0:
+                self._ball_asleep = True
+                vel = np.zeros(3)
+                spin = np.zeros(3)
+        c = self.client
+        pb.resetBasePositionAndOrientation(self.ball, pos.tolist(), quat.tolist(), physicsClientId=c)
+        pb.resetBaseVelocity(self.ball, vel.tolist(), spin.tolist(), physicsClientId=c)
+        p, q = pb.getBasePositionAndOrientation(self.ball, physicsClientId=c)
+        v, w = pb.getBaseVelocity(self.ball, physicsClientId=c)
+        self._ball_written = (p, q, v, w)
