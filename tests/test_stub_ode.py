@@ -173,12 +173,13 @@ def test_standing_numbers_match_the_real_server(standing):
 
 
 @pytest.mark.xfail(
-    reason="measured: the ode backend falls in this start (walk probe: 10 of 24 perturbed "
-    "starts ok, the rest fall in the first 1.5 s); the bullet backend stays the default",
-    strict=False,
+    reason="measured: the reduced-coordinate step falls from the calibration walk's own start, where "
+    "the real server walks 2.9-3.1 m (its bodies are re-placed from exact joints, so a foot lands a "
+    "cycle late); the default maximal step walks it (test_calibration_walk_on_the_maximal_step)",
+    strict=True,
 )
-def test_calibration_walk_on_the_ode_backend():
-    with World(ODE) as world:
+def test_calibration_walk_on_the_reduced_step():
+    with World(dataclasses.replace(ODE, ode_maximal=False)) as world:
         result = calibration_walk.run(world)
     assert not result.fell
     assert result.dx == pytest.approx(3.0, rel=0.15)
