@@ -16,7 +16,8 @@ class PhysicsConfig:
 
     # --- timing (docs/robot_and_server.md section 4: one 0.02 s ODE step per cycle, no sub-steps) ---
     cycle: float = CYCLE
-    #: pybullet steps per cycle (World.step runs them one by one, the slip force renewed before
+    #: "bullet" backend only (the ODE step takes one step per cycle, as the real server): pybullet
+    #: steps per cycle (World.step runs them one by one, the slip force renewed before
     #: each). 1, as ODE. Walk probe = the calibration gait from 72 perturbed starts (rebeam cycle
     #: 10-14 or none, beams 0 or 1 step late, heading +-1 deg, anywhere on the own half, first
     #: beam after 2-4 steps); "ok" = no fall and 3.0 m +-15%. Flail probe = 336 robots driven
@@ -50,13 +51,14 @@ class PhysicsConfig:
     #: the real server stands dead still at 0.383 m, so does ours; with 3 ours tips slowly at
     #: 0.380 m, and the 13.26 m gait's per-cycle gyro leaves the real one 5 cycles earlier.
     ode_box_points: int = field(default_factory=lambda: int(os.environ.get("NAO_STUB_ODE_BOX_POINTS", "4")))
-    #: "ode" backend only: contacts found where ODE's bodies would be: each hinge's anchor copies
+    #: "ode" backend's reduced step only: contacts found where ODE's bodies would be: each hinge's anchor copies
     #: drift apart and its child turns off the hinge by ODE's per-body integration, pulled back by
     #: its world ERP 0.2 (``ode_kernels.joint_drift``); the dynamics stay in exact joints.
     #: Measured on the real server's monitor stream (the 13.26 m gait): knees 3-6 mm apart, as
     #: this model predicts; 0.02 mm standing. Off: see ``ode_true_inertia``.
     ode_joint_drift: bool = field(default_factory=lambda: os.environ.get("NAO_STUB_ODE_DRIFT", "0") == "1")
-    #: "ode" backend only: the parts' true principal moments (docs section 2, uniform solids), not
+    #: "ode" backend's reduced step only (the maximal step always has them): the parts' true
+    #: principal moments (docs section 2, uniform solids), not
     #: raised to ``inertia_floor`` (which Bullet's own solver needs). With this and the drift the
     #: 13.26 m gait's first 10 walking cycles match the real server's GYR and FRP to 1-2 deg/s,
     #: but over the fidelity sets they walk worse (training: Spearman 0.891 against 0.845 without
@@ -121,14 +123,15 @@ class PhysicsConfig:
     ode_ball_drag_angular: float = 5e-5
 
     # --- solver ---
-    #: "dantzig": pybullet's exact MLCP solver, like ODE's dWorldStep (section 4). Measured: a
+    #: "bullet" backend only: "dantzig": pybullet's exact MLCP solver, like ODE's dWorldStep (section 4). Measured: a
     #: beamed NAO with zero motor speeds keeps every joint within 0.01 deg for 15 s; with the
     #: iterative "pgs" solver it sags and falls within 1.5 s even at 100 iterations (20 would need
     #: an inertia floor and still drifts), because the motor rows along the leg chains converge
     #: slowly.
     solver: str = "dantzig"
-    #: iterations for "pgs" (and the Dantzig solver's fallback when it fails).
+    #: "bullet" backend only: iterations for "pgs" (and the Dantzig solver's fallback when it fails).
     solver_iterations: int = 20
+    #: "bullet" backend (and the reduced ODE step without ``ode_true_inertia``) only:
     #: rotational-inertia floor on every link, kg m^2 (a measured choice, standing in for geared
     #: rotor inertia, which the model lacks). Flail probe: 0 blow-ups; without it (the model's own tiny
     #: inertias, e.g. the hip and ankle links) 2-3 of 96 robots kicked at 5 m/s or exploded at
@@ -150,7 +153,7 @@ class PhysicsConfig:
     #: 24/24, 0.5 23/24.
     contact_erp: float = 0.4
     contact_cfm: float = 1e-4
-    #: distance (m) within which Bullet keeps a contact point. 0.002 (default 0.02): ODE only
+    #: "bullet" backend only: distance (m) within which Bullet keeps a contact point. 0.002 (default 0.02): ODE only
     #: makes contacts for touching geometry (surface layer 0.001 m). Walk probe (24 starts):
     #: 0.001 and 0.004 24/24 as well; Bullet's default 0.02 19/24, turning up to 2.5 m aside.
     contact_breaking_threshold: float = 0.002
@@ -165,7 +168,8 @@ class PhysicsConfig:
     #: up to 1.62 m; flail 0 blow-ups in 336 (torso <= 2.72 m/s). 0.0005: 4 falls in 24;
     #: 0.0015 / 0.002: both feet 15.2% / 18.6%.
     contact_slop: float = 0.001
-    #: Coulomb mu of robot parts (the ground has 1; Bullet multiplies them). 0: the real server has
+    #: "bullet" backend only: Coulomb mu of robot parts (the ground has 1; Bullet multiplies
+    #: them). 0: the real server has
     #: no Coulomb limit (mu infinite); its tangential contact force comes from force-dependent
     #: slip alone (``slip``). Measured before the slip model: with mu 0.5 alone, 2 of 12 starts
     #: walked 3.0 m +-15% and 6 fell (rebeam at cycle 12: 3.37 m, at 13: 0.56 m); mu >= 1
@@ -177,11 +181,13 @@ class PhysicsConfig:
     #: Walk probe: 0.005 72/72; 0.006 24/24; 0.004 21/24 (3 falls, 1 flail blow-up); in the
     #: earlier per-point damper only an effective 0.027 was stable, and walked 2.6-3.2 m.
     slip: float = 0.005
-    #: ODE has neither rolling nor spinning friction (spinning friction 0.002-0.01 changed nothing
+    #: "bullet" backend only: ODE has neither rolling nor spinning friction (spinning friction
+    #: 0.002-0.01 changed nothing
     #: in the walk with Coulomb friction; the MLCP solver ignores it).
     rolling_friction: float = 0.0
     spinning_friction: float = 0.0
-    #: bounce off (docs/robot_and_server.md section 4).
+    #: "bullet" backend only (the ODE step takes each surface's bounce, ``ode_surface_*``): bounce off
+    #: for robots (docs/robot_and_server.md section 4).
     restitution: float = 0.0
 
     # --- bodies and motors (docs/robot_and_server.md sections 2-3) ---
