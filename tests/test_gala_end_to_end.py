@@ -93,7 +93,8 @@ def test_tiny_gala_on_the_stub_writes_every_output(tmp_path: Path) -> None:
     assert best == load_gait(out / "best_gait-pc0.8.json")
     results = json.loads((out / "results.json").read_text())
     assert json.dumps(results)  # parses and re-serialises
-    fastest = max((r for r in records if not r["fell"]), key=lambda r: r["fitness"])  # seed 4: one walk of 2 s stands (most random gaits fall in 0.5 s)
+    # seed 4: one walk of 2 s stands (most random gaits fall within 0.5 s)
+    fastest = max((r for r in records if not r["fell"]), key=lambda r: r["fitness"])
     assert load_gait(out / "fastest_gait.json") == TFSParams.from_array(fastest["genes"])
     assert results["fastest_episode"]["key"] == results["fastest_check"]["key"] == fastest["key"]
     assert results["fastest_check"]["repeats"] == 3
