@@ -316,12 +316,13 @@ class Stepper:
                 )
                 n += 1
         cols = list(zip(*parts))
-        masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = (
-            np.concatenate(x) for x in cols[:7]
-        )
-        pos, quat, vel, spin, drag_vel, drag_spin, drag_lin, drag_ang = (np.concatenate(x) for x in cols[7:])
-        parents = parents.astype(np.int64)
-        joint_of = joint_of.astype(np.int64)
+        # masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent, pos, quat,
+        # vel, spin: ``step_island``'s first arguments
+        body_cols = [np.concatenate(x) for x in cols[:11]]
+        body_cols[2] = body_cols[2].astype(np.int64)
+        body_cols[3] = body_cols[3].astype(np.int64)
+        pos, quat = body_cols[7], body_cols[8]
+        drag_vel, drag_spin, drag_lin, drag_ang = (np.concatenate(x) for x in cols[11:])
         # motors
         targets, los, his, pushes, states = [], [], [], [], []
         for i in group:
@@ -403,18 +404,8 @@ class Stepper:
         def arr(x, shape):
             return np.array(x, dtype=float).reshape(shape)
 
-        out = ode_island.step_island(
-            masses,
-            principal,
-            parents,
-            joint_of,
-            local_axes,
-            anchor_child,
-            anchor_parent,
-            pos,
-            quat,
-            vel,
-            spin,
+        island_args = (
+            *body_cols,
             self.gravity,
             drag_lin,
             drag_ang,
@@ -443,6 +434,7 @@ class Stepper:
             ode_step.MOTOR_CFM,
             cfg.contact_slop,
         )
+        out = ode_island.step_island(*island_args)
         npos, nquat, nvel, nspin, forces, tangents, p_forces, p_tangents, torques, iterations = out
         # motor states back into each robot, then each robot's and the ball's new state
         for i in group:

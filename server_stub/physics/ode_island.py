@@ -2,7 +2,8 @@
 robots and the ball that touch each other, solved together in one LCP, as ODE's dWorldStep solves
 every island of bodies connected by joints or contacts.
 
-The kernel is ``ode_maximal.step_tree`` generalised (same facts, same Baraff 1996 tree solve):
+The kernel is ``ode_maximal.step_tree`` generalised (same facts, same Baraff 1996 tree solve, the
+same helpers of ``ode_maximal`` for the pieces they have in common):
 
 - the bodies form a forest (one tree per robot, torso at its root; the ball a tree of one body);
   ``parents`` is -1 at a root, and every parent's index is below its children's;
@@ -26,32 +27,22 @@ from numba import njit
 
 from server_stub.physics.ode_kernels import _cross, _plane_space, box_qp
 from server_stub.physics.ode_maximal import (
-    _inverse_definite,
-    _mat_vec,
-    _mdmt,
-    _mtdm_sub,
-    _mtv_sub,
-    _mv,
-    _mv_sub,
-    _qmul,
-    gyroscopic_torque,
+    _advance,
+    _body_terms,
+    _bounded_rows,
+    _contact_c,
+    _contact_forces,
+    _contact_nodes,
+    _factor,
+    _free_velocities,
+    _hinge_nodes,
+    _schur,
+    _tree_solve,
+    _unbounded_rhs,
 )
-from server_stub.physics.rotations import rotation_matrix
 
 #: columns of a surface row: soft ERP, soft CFM, slip, bounce, minimum bounce velocity (inf: none)
 ERP, CFM, SLIP, BOUNCE, BOUNCE_VEL = range(5)
-
-
-@njit(cache=True)
-def _contact_c(erp, depth, surface_layer, h, bounce, bounce_vel, outgoing):
-    """ODE 0.16's right-hand side of a contact's normal row."""
-    d = depth - surface_layer
-    c = erp * d / h if d > 0.0 else 0.0
-    if bounce_vel >= 0.0 and -outgoing > bounce_vel:
-        newc = -bounce * outgoing
-        if newc > c:
-            c = newc
-    return c
 
 
 #: Islands with more bounded rows than this are solved by block principal pivoting first
@@ -132,43 +123,14 @@ def _block_pivot(a, b, lo, hi, state):
 
 
 @njit(cache=True)
-def _forest_solve(
-    nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, rj, rf
-):
-    """``ode_maximal._tree_solve`` on a forest (roots have parent -1)."""
-    t6 = np.empty(6)
-    t5 = np.empty(5)
-    t2 = np.empty(2)
-    for k in range(nb - 1, -1, -1):
-        c = contact_first[k]
-        while c >= 0:
-            _mv(dinv_contact[c], rf[c], t2)
-            _mtv_sub(jf[c], t2, rb[k])
-            c = contact_next[c]
-        p = parents[k]
-        if p < 0:
-            continue
-        j = joint_of[k]
-        _mv(dinv_body[k], rb[k], t6)
-        _mv_sub(jc[j], t6, rj[j])
-        _mv(dinv_joint[j], rj[j], t5)
-        _mtv_sub(jp[j], t5, rb[p])
-    for k in range(nb):
-        p = parents[k]
-        if p >= 0:
-            j = joint_of[k]
-            _mv_sub(jp[j], rb[p], rj[j])
-            _mv(dinv_joint[j], rj[j], t5)
-            rj[j, :] = t5
-            _mtv_sub(jc[j], rj[j], rb[k])
-        _mv(dinv_body[k], rb[k], t6)
-        rb[k, :] = t6
-        c = contact_first[k]
-        while c >= 0:
-            _mv_sub(jf[c], rb[k], rf[c])
-            _mv(dinv_contact[c], rf[c], t2)
-            rf[c, :] = t2
-            c = contact_next[c]
+def _rows_sub(gb, gj, vel, out):
+    """out -= J v for the bounded rows (each on up to two bodies: gb, gj) and body velocities v."""
+    for r in range(out.shape[0]):
+        for x in range(2):
+            k = gb[r, x]
+            if k >= 0:
+                for a in range(6):
+                    out[r] -= gj[r, x, a] * vel[k, a]
 
 
 @njit(cache=True)
@@ -223,103 +185,20 @@ def step_island(
     nj = local_axes.shape[0]
     nc = c_point.shape[0]
     npc = p_point.shape[0]
-    rot = np.empty((nb, 3, 3))
-    inv_inertia = np.empty((nb, 3, 3))
-    force = np.empty((nb, 6))
-    dbody = np.zeros((nb, 6, 6))
-    child_of = np.zeros(nj, dtype=np.int64)
-    for k in range(nb):
-        r = rotation_matrix(quat[k])
-        rot[k] = r
-        inertia = np.empty((3, 3))
-        for a in range(3):
-            for b in range(3):
-                s = 0.0
-                t = 0.0
-                for cc in range(3):
-                    s += r[a, cc] * principal[k, cc] * r[b, cc]
-                    t += r[a, cc] / principal[k, cc] * r[b, cc]
-                inertia[a, b] = s
-                inv_inertia[k, a, b] = t
-                dbody[k, 3 + a, 3 + b] = s / h
-            dbody[k, a, a] = masses[k] / h
-        for a in range(3):
-            force[k, a] = masses[k] * gravity[a] - drag_linear[k] * drag_vel[k, a]
-        tq = gyroscopic_torque(inertia, spin[k], h, implicit_gyro)
-        for a in range(3):
-            force[k, 3 + a] = tq[a] - drag_angular[k] * drag_spin[k, a]
-        if parents[k] >= 0:
-            child_of[joint_of[k]] = k
-    jc = np.zeros((nj, 5, 6))
-    jp = np.zeros((nj, 5, 6))
-    cj = np.zeros((nj, 5))
-    motor_dir = np.zeros((nj, 3))
-    k_joint = joint_erp / h
-    for k in range(nb):
-        p = parents[k]
-        if p < 0:
-            continue
-        j = joint_of[k]
-        a1 = _mat_vec(rot[k], anchor_child[j])
-        a2 = _mat_vec(rot[p], anchor_parent[j])
-        for i in range(3):
-            jc[j, i, i] = 1.0
-            jp[j, i, i] = -1.0
-            cj[j, i] = k_joint * (pos[p, i] + a2[i] - pos[k, i] - a1[i])
-        jc[j, 0, 4] = a1[2]
-        jc[j, 0, 5] = -a1[1]
-        jc[j, 1, 3] = -a1[2]
-        jc[j, 1, 5] = a1[0]
-        jc[j, 2, 3] = a1[1]
-        jc[j, 2, 4] = -a1[0]
-        jp[j, 0, 4] = -a2[2]
-        jp[j, 0, 5] = a2[1]
-        jp[j, 1, 3] = a2[2]
-        jp[j, 1, 5] = -a2[0]
-        jp[j, 2, 3] = -a2[1]
-        jp[j, 2, 4] = a2[0]
-        ax1 = _mat_vec(rot[k], local_axes[j])
-        ax2 = _mat_vec(rot[p], local_axes[j])
-        t1, t2 = _plane_space(ax1)
-        err = _cross(ax1, ax2)
-        for i in range(2):
-            d = t1 if i == 0 else t2
-            for a in range(3):
-                jc[j, 3 + i, 3 + a] = d[a]
-                jp[j, 3 + i, 3 + a] = -d[a]
-            cj[j, 3 + i] = k_joint * (err[0] * d[0] + err[1] * d[1] + err[2] * d[2])
-        motor_dir[j] = ax1
-        for a in range(3):
-            force[k, 3 + a] += push[j] * ax1[a]
-            force[p, 3 + a] -= push[j] * ax1[a]
+    rot, inv_inertia, force, dbody = _body_terms(
+        masses, principal, quat, spin, gravity, drag_linear, drag_angular, drag_vel, drag_spin, h, implicit_gyro
+    )
+    jc, jp, cj, motor_dir, child_of = _hinge_nodes(
+        parents, joint_of, nj, rot, pos, anchor_child, anchor_parent, local_axes, push, force, h, joint_erp
+    )
     # one-body contacts: friction nodes of the tree, normal rows bounded
-    jf = np.zeros((nc, 2, 6))
-    jn = np.zeros((nc, 6))
+    jn, jf, tangents, contact_first, contact_next = _contact_nodes(nb, c_body, c_point, c_normal, pos)
     cn = np.zeros(nc)
-    tangents = np.empty((nc, 2, 3))
-    contact_first = np.full(nb, -1, dtype=np.int64)
-    contact_next = np.full(nc, -1, dtype=np.int64)
-    for i in range(nc - 1, -1, -1):
+    for i in range(nc):
         k = c_body[i]
-        contact_next[i] = contact_first[k]
-        contact_first[k] = i
-        normal = c_normal[i].copy()
-        t1, t2 = _plane_space(normal)
-        tangents[i, 0] = t1
-        tangents[i, 1] = t2
-        arm = c_point[i] - pos[k]
-        an = _cross(arm, normal)
-        a1 = _cross(arm, t1)
-        a2 = _cross(arm, t2)
         outgoing = 0.0
         for a in range(3):
-            jn[i, a] = normal[a]
-            jn[i, 3 + a] = an[a]
-            jf[i, 0, a] = t1[a]
-            jf[i, 0, 3 + a] = a1[a]
-            jf[i, 1, a] = t2[a]
-            jf[i, 1, 3 + a] = a2[a]
-            outgoing += normal[a] * vel[k, a] + an[a] * spin[k, a]
+            outgoing += jn[i, a] * vel[k, a] + jn[i, 3 + a] * spin[k, a]
         sf = c_surface[i]
         cn[i] = _contact_c(sf[ERP], c_depth[i], surface_layer, h, sf[BOUNCE], sf[BOUNCE_VEL], outgoing)
     # bounded rows: motors, one-body normals, then 3 rows per two-body contact; each acts on up
@@ -327,10 +206,7 @@ def step_island(
     nbd = nj + nc + 3 * npc
     gb = np.full((nbd, 2), -1, dtype=np.int64)
     gj = np.zeros((nbd, 2, 6))
-    bb = np.empty(nbd)
-    lo = np.empty(nbd)
-    hi = np.empty(nbd)
-    cfm_b = np.empty(nbd)
+    bb, lo, hi, cfm_b = _bounded_rows(nbd, motor_target, motor_lo, motor_hi, motor_cfm)
     for j in range(nj):
         k = child_of[j]
         gb[j, 0] = k
@@ -338,10 +214,6 @@ def step_island(
         for a in range(3):
             gj[j, 0, 3 + a] = motor_dir[j, a]
             gj[j, 1, 3 + a] = -motor_dir[j, a]
-        bb[j] = motor_target[j]
-        lo[j] = motor_lo[j]
-        hi[j] = motor_hi[j]
-        cfm_b[j] = motor_cfm
     for i in range(nc):
         r = nj + i
         gb[r, 0] = c_body[i]
@@ -387,66 +259,23 @@ def step_island(
                 lo[r] = -np.inf
                 cfm_b[r] = sf[SLIP]
             hi[r] = np.inf
-    free = np.empty((nb, 6))
-    for k in range(nb):
-        for a in range(3):
-            free[k, a] = vel[k, a] + h * force[k, a] / masses[k]
-        ang = _mat_vec(inv_inertia[k], force[k, 3:6])
-        for a in range(3):
-            free[k, 3 + a] = spin[k, a] + h * ang[a]
+    free = _free_velocities(vel, spin, force, masses, inv_inertia, h)
     # factor H from the leaves to the roots
-    dinv_body = np.empty((nb, 6, 6))
-    dinv_joint = np.empty((nj, 5, 5))
-    dinv_contact = np.zeros((nc, 2, 2))
-    dj = np.empty((5, 5))
-    for k in range(nb - 1, -1, -1):
-        c = contact_first[k]
-        while c >= 0:
-            dinv_contact[c, 0, 0] = -1.0 / c_surface[c, SLIP]
-            dinv_contact[c, 1, 1] = -1.0 / c_surface[c, SLIP]
-            _mtdm_sub(jf[c], dinv_contact[c], dbody[k])
-            c = contact_next[c]
-        _inverse_definite(dbody[k], 1.0, dinv_body[k])
-        p = parents[k]
-        if p < 0:
-            continue
-        j = joint_of[k]
-        dj[:, :] = 0.0
-        for a in range(5):
-            dj[a, a] = -joint_cfm
-        _mdmt(jc[j], dinv_body[k], dj)
-        _inverse_definite(dj, -1.0, dinv_joint[j])
-        _mtdm_sub(jp[j], dinv_joint[j], dbody[p])
-    bj = cj.copy()
-    for k in range(nb):
-        if parents[k] >= 0:
-            j = joint_of[k]
-            _mv_sub(jc[j], free[k], bj[j])
-            _mv_sub(jp[j], free[parents[k]], bj[j])
-    bf = np.zeros((nc, 2))
-    for i in range(nc):
-        _mv_sub(jf[i], free[c_body[i]], bf[i])
-    for r in range(nbd):
-        for x in range(2):
-            k = gb[r, x]
-            if k >= 0:
-                for a in range(6):
-                    bb[r] -= gj[r, x, a] * free[k, a]
+    dinv_body, dinv_joint, dinv_contact = _factor(
+        parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, c_surface[:, SLIP].copy(), joint_cfm
+    )
+    bj, bf = _unbounded_rhs(parents, joint_of, c_body, jc, jp, jf, cj, free)
+    _rows_sub(gb, gj, free, bb)
     yb = np.zeros((nb, 6))
     yj = bj.copy()
     yf = bf.copy()
-    _forest_solve(
+    _tree_solve(
         nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, yb, yj, yf
     )
-    # forward passes of the bounded rows along the union of their bodies' paths to the roots
+    # the bounded rows' Jacobians on their bodies and the union of their paths to the roots
     path_b = np.empty((nbd, nb), dtype=np.int64)
-    path_j = np.empty((nbd, nb), dtype=np.int64)
     len_b = np.zeros(nbd, dtype=np.int64)
-    len_j = np.zeros(nbd, dtype=np.int64)
     zb = np.zeros((nbd, nb, 6))
-    zj = np.zeros((nbd, nj, 5))
-    wb = np.zeros((nbd, nb, 6))
-    wj = np.zeros((nbd, nj, 5))
     mark = np.zeros(nb, dtype=np.bool_)
     for r in range(nbd):
         mark[:] = False
@@ -463,41 +292,11 @@ def step_island(
                 mark[k] = True
                 k = parents[k]
         for k in range(top, -1, -1):
-            if not mark[k]:
-                continue
-            path_b[r, len_b[r]] = k
-            len_b[r] += 1
-            _mv(dinv_body[k], zb[r, k], wb[r, k])
-            p = parents[k]
-            if p < 0:
-                continue
-            j = joint_of[k]
-            _mv_sub(jc[j], wb[r, k], zj[r, j])
-            _mv(dinv_joint[j], zj[r, j], wj[r, j])
-            _mtv_sub(jp[j], wj[r, j], zb[r, p])
-            path_j[r, len_j[r]] = j
-            len_j[r] += 1
-    schur = np.zeros((nbd, nbd))
-    for r in range(nbd):
-        for s in range(r, nbd):
-            v = 0.0
-            for m in range(len_b[r]):
-                k = path_b[r, m]
-                for a in range(6):
-                    v += zb[s, k, a] * wb[r, k, a]
-            for m in range(len_j[r]):
-                j = path_j[r, m]
-                for a in range(5):
-                    v += zj[s, j, a] * wj[r, j, a]
-            schur[r, s] = v
-            schur[s, r] = v
-        schur[r, r] += cfm_b[r]
-    for r in range(nbd):
-        for x in range(2):
-            k = gb[r, x]
-            if k >= 0:
-                for a in range(6):
-                    bb[r] -= gj[r, x, a] * yb[k, a]
+            if mark[k]:
+                path_b[r, len_b[r]] = k
+                len_b[r] += 1
+    schur = _schur(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b)
+    _rows_sub(gb, gj, yb, bb)
     state = np.zeros(nbd, dtype=np.int64)
     for j in range(nj):
         state[j] = motor_state[j]
@@ -515,27 +314,11 @@ def step_island(
             if k >= 0:
                 for a in range(6):
                     rb[k, a] += gj[r, x, a] * lam_b[r]
-    _forest_solve(
+    _tree_solve(
         nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, bj, bf
     )
-    out_pos = pos.copy()
-    out_quat = quat.copy()
-    out_vel = np.empty((nb, 3))
-    out_spin = np.empty((nb, 3))
-    for k in range(nb):
-        for a in range(3):
-            out_vel[k, a] = free[k, a] + rb[k, a]
-            out_spin[k, a] = free[k, 3 + a] + rb[k, 3 + a]
-            out_pos[k, a] = pos[k, a] + h * out_vel[k, a]
-        w = np.array([out_spin[k, 0], out_spin[k, 1], out_spin[k, 2], 0.0])
-        dq = _qmul(w, quat[k])
-        qn = quat[k] + 0.5 * h * dq
-        out_quat[k] = qn / np.sqrt(qn[0] ** 2 + qn[1] ** 2 + qn[2] ** 2 + qn[3] ** 2)
-    forces = np.empty((nc, 3))
-    for i in range(nc):
-        forces[i, 0] = lam_b[nj + i]
-        forces[i, 1] = -bf[i, 0]
-        forces[i, 2] = -bf[i, 1]
+    out_pos, out_quat, out_vel, out_spin = _advance(pos, quat, free + rb, h)
+    forces = _contact_forces(lam_b, nj, bf)
     p_forces = np.empty((npc, 3))
     for i in range(npc):
         for x in range(3):

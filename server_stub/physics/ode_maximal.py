@@ -260,27 +260,9 @@ def step(
     nb = masses.shape[0]
     nj = local_axes.shape[0]
     nc = contact_point.shape[0]
-    rot = np.empty((nb, 3, 3))
-    inv_inertia = np.empty((nb, 3, 3))
-    force = np.empty((nb, 6))
-    for k in range(nb):
-        r = rotation_matrix(quat[k])
-        rot[k] = r
-        inertia = np.empty((3, 3))
-        for a in range(3):
-            for b in range(3):
-                s = 0.0
-                t = 0.0
-                for c in range(3):
-                    s += r[a, c] * principal[k, c] * r[b, c]
-                    t += r[a, c] / principal[k, c] * r[b, c]
-                inertia[a, b] = s
-                inv_inertia[k, a, b] = t
-        for a in range(3):
-            force[k, a] = masses[k] * gravity[a] - drag_linear * drag_vel[k, a]
-        tq = gyroscopic_torque(inertia, spin[k], h, implicit_gyro) - drag_angular * drag_spin[k]
-        for a in range(3):
-            force[k, 3 + a] = tq[a]
+    rot, inv_inertia, force, _ = _robot_body_terms(
+        masses, principal, quat, spin, gravity, drag_linear, drag_angular, drag_vel, drag_spin, h, implicit_gyro
+    )
     # rows: unbounded first (5 per hinge, 2 friction per contact), then bounded (motor per hinge,
     # normal per contact). Each row acts on body1 (Jacobian j1) and body2 (j2; -1 none).
     n_unb = 5 * nj + 2 * nc
@@ -358,8 +340,7 @@ def step(
             for a in range(3):
                 j1[r, a] = d[a]
                 j1[r, 3 + a] = ang[a]
-        depth = contact_depth[i] - surface_layer
-        c[rn] = contact_erp * depth / h if depth > 0.0 else 0.0
+        c[rn] = _contact_c(contact_erp, contact_depth[i], surface_layer, h, 0.0, np.inf, 0.0)
         cfm[rn] = contact_cfm
         lo[rn] = 0.0
         cfm[5 * nj + 2 * i] = slip
@@ -383,13 +364,7 @@ def step(
             ang = _mat_vec(inv_inertia[k], j2[r, 3:6])
             for a in range(3):
                 m2[r, 3 + a] = ang[a]
-    free = np.empty((nb, 6))
-    for k in range(nb):
-        for a in range(3):
-            free[k, a] = vel[k, a] + h * force[k, a] / masses[k]
-        ang = _mat_vec(inv_inertia[k], force[k, 3:6])
-        for a in range(3):
-            free[k, 3 + a] = spin[k, a] + h * ang[a]
+    free = _free_velocities(vel, spin, force, masses, inv_inertia, h)
     # A = h J M^-1 J' + cfm, b = c - J free
     big_a = np.zeros((nr, nr))
     rhs = c.copy()
@@ -464,19 +439,7 @@ def step(
         if k >= 0:
             for a in range(6):
                 new_vel[k, a] += h * m2[r, a] * lam[r]
-    out_pos = pos.copy()
-    out_quat = quat.copy()
-    out_vel = np.empty((nb, 3))
-    out_spin = np.empty((nb, 3))
-    for k in range(nb):
-        for a in range(3):
-            out_vel[k, a] = new_vel[k, a]
-            out_spin[k, a] = new_vel[k, 3 + a]
-            out_pos[k, a] = pos[k, a] + h * new_vel[k, a]
-        w = np.array([out_spin[k, 0], out_spin[k, 1], out_spin[k, 2], 0.0])
-        dq = _qmul(w, quat[k])
-        qn = quat[k] + 0.5 * h * dq
-        out_quat[k] = qn / np.sqrt(qn[0] ** 2 + qn[1] ** 2 + qn[2] ** 2 + qn[3] ** 2)
+    out_pos, out_quat, out_vel, out_spin = _advance(pos, quat, new_vel, h)
     forces = np.empty((nc, 3))
     for i in range(nc):
         forces[i, 0] = lam[n_unb + nj + i]
@@ -596,45 +559,354 @@ def _mdmt(m, dinv, out):
 def _tree_solve(
     nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, rj, rf
 ):
-    """Solve H x = r on the factored tree (``step_tree``), r given per body (rb, nb x 6), hinge
-    node (rj, nj x 5) and friction node (rf, nc x 2); overwritten by x."""
+    """Solve H x = r on the factored forest (``step_tree``, ``ode_island.step_island``; roots
+    have parent -1), r given per body (rb, nb x 6), hinge node (rj, nj x 5) and friction node
+    (rf, nc x 2); overwritten by x."""
     t6 = np.empty(6)
     t5 = np.empty(5)
     t2 = np.empty(2)
-    # forward: leaves to root
+    # forward: leaves to roots
     for k in range(nb - 1, -1, -1):
         c = contact_first[k]
         while c >= 0:
             _mv(dinv_contact[c], rf[c], t2)
             _mtv_sub(jf[c], t2, rb[k])
             c = contact_next[c]
-        if k == 0:
-            break
-        j = joint_of[k]
         p = parents[k]
+        if p < 0:
+            continue
+        j = joint_of[k]
         _mv(dinv_body[k], rb[k], t6)
         _mv_sub(jc[j], t6, rj[j])
         _mv(dinv_joint[j], rj[j], t5)
         _mtv_sub(jp[j], t5, rb[p])
-    # backward: root to leaves
-    _mv(dinv_body[0], rb[0], t6)
-    rb[0, :] = t6
+    # backward: roots to leaves
     for k in range(nb):
-        if k > 0:
+        p = parents[k]
+        if p >= 0:
             j = joint_of[k]
-            p = parents[k]
             _mv_sub(jp[j], rb[p], rj[j])
             _mv(dinv_joint[j], rj[j], t5)
             rj[j, :] = t5
             _mtv_sub(jc[j], rj[j], rb[k])
-            _mv(dinv_body[k], rb[k], t6)
-            rb[k, :] = t6
+        _mv(dinv_body[k], rb[k], t6)
+        rb[k, :] = t6
         c = contact_first[k]
         while c >= 0:
             _mv_sub(jf[c], rb[k], rf[c])
             _mv(dinv_contact[c], rf[c], t2)
             rf[c, :] = t2
             c = contact_next[c]
+
+
+@njit(cache=True)
+def _body_terms(
+    masses, principal, quat, spin, gravity, drag_linear, drag_angular, drag_vel, drag_spin, h, implicit_gyro
+):
+    """Each body's rotation, world inverse inertia, forces before the step (gravity, drag with
+    per-body coefficients ``drag_linear`` / ``drag_angular``, gyroscopic torque) and diagonal
+    block of H (M/h, the tree solve's)."""
+    nb = masses.shape[0]
+    rot = np.empty((nb, 3, 3))
+    inv_inertia = np.empty((nb, 3, 3))
+    force = np.empty((nb, 6))
+    dbody = np.zeros((nb, 6, 6))
+    for k in range(nb):
+        r = rotation_matrix(quat[k])
+        rot[k] = r
+        inertia = np.empty((3, 3))
+        for a in range(3):
+            for b in range(3):
+                s = 0.0
+                t = 0.0
+                for cc in range(3):
+                    s += r[a, cc] * principal[k, cc] * r[b, cc]
+                    t += r[a, cc] / principal[k, cc] * r[b, cc]
+                inertia[a, b] = s
+                inv_inertia[k, a, b] = t
+                dbody[k, 3 + a, 3 + b] = s / h
+            dbody[k, a, a] = masses[k] / h
+        for a in range(3):
+            force[k, a] = masses[k] * gravity[a] - drag_linear[k] * drag_vel[k, a]
+        tq = gyroscopic_torque(inertia, spin[k], h, implicit_gyro)
+        for a in range(3):
+            force[k, 3 + a] = tq[a] - drag_angular[k] * drag_spin[k, a]
+    return rot, inv_inertia, force, dbody
+
+
+@njit(cache=True)
+def _robot_body_terms(
+    masses, principal, quat, spin, gravity, drag_linear, drag_angular, drag_vel, drag_spin, h, implicit_gyro
+):
+    """``_body_terms`` with one drag coefficient for all bodies (one robot's)."""
+    nb = masses.shape[0]
+    dl = np.full(nb, drag_linear)
+    da = np.full(nb, drag_angular)
+    return _body_terms(masses, principal, quat, spin, gravity, dl, da, drag_vel, drag_spin, h, implicit_gyro)
+
+
+@njit(cache=True)
+def _bounded_rows(nbd, motor_target, motor_lo, motor_hi, motor_cfm):
+    """The bounded rows' right-hand sides, bounds and CFM, the motor/stop rows' (the first, one
+    per hinge: b = the target speed) filled in. Returns (b, lo, hi, cfm)."""
+    bb = np.empty(nbd)
+    lo = np.empty(nbd)
+    hi = np.empty(nbd)
+    cfm_b = np.empty(nbd)
+    for j in range(motor_target.shape[0]):
+        bb[j] = motor_target[j]
+        lo[j] = motor_lo[j]
+        hi[j] = motor_hi[j]
+        cfm_b[j] = motor_cfm
+    return bb, lo, hi, cfm_b
+
+
+@njit(cache=True)
+def _hinge_nodes(parents, joint_of, nj, rot, pos, anchor_child, anchor_parent, local_axes, push, force, h, joint_erp):
+    """The hinges of a forest (``parents`` -1 at the roots): each one's node of 5 unbounded rows
+    on its child k and parent p (Jacobians jc, jp, right-hand sides cj), its motor/stop row's
+    direction (the child's axis) and child; the motor's outside torque ``push`` added to
+    ``force``. Returns (jc, jp, cj, motor_dir, child_of)."""
+    jc = np.zeros((nj, 5, 6))
+    jp = np.zeros((nj, 5, 6))
+    cj = np.zeros((nj, 5))
+    motor_dir = np.zeros((nj, 3))
+    child_of = np.zeros(nj, dtype=np.int64)
+    k_joint = joint_erp / h
+    for k in range(parents.shape[0]):
+        p = parents[k]
+        if p < 0:
+            continue
+        j = joint_of[k]
+        child_of[j] = k
+        a1 = _mat_vec(rot[k], anchor_child[j])
+        a2 = _mat_vec(rot[p], anchor_parent[j])
+        for i in range(3):
+            jc[j, i, i] = 1.0
+            jp[j, i, i] = -1.0
+            cj[j, i] = k_joint * (pos[p, i] + a2[i] - pos[k, i] - a1[i])
+        # angular parts: row i of -[a1]x on the child (a1 x e_i), of [a2]x on the parent
+        jc[j, 0, 4] = a1[2]
+        jc[j, 0, 5] = -a1[1]
+        jc[j, 1, 3] = -a1[2]
+        jc[j, 1, 5] = a1[0]
+        jc[j, 2, 3] = a1[1]
+        jc[j, 2, 4] = -a1[0]
+        jp[j, 0, 4] = -a2[2]
+        jp[j, 0, 5] = a2[1]
+        jp[j, 1, 3] = a2[2]
+        jp[j, 1, 5] = -a2[0]
+        jp[j, 2, 3] = -a2[1]
+        jp[j, 2, 4] = a2[0]
+        ax1 = _mat_vec(rot[k], local_axes[j])
+        ax2 = _mat_vec(rot[p], local_axes[j])
+        t1, t2 = _plane_space(ax1)
+        err = _cross(ax1, ax2)
+        for i in range(2):
+            d = t1 if i == 0 else t2
+            for a in range(3):
+                jc[j, 3 + i, 3 + a] = d[a]
+                jp[j, 3 + i, 3 + a] = -d[a]
+            cj[j, 3 + i] = k_joint * (err[0] * d[0] + err[1] * d[1] + err[2] * d[2])
+        motor_dir[j] = ax1
+        for a in range(3):
+            force[k, 3 + a] += push[j] * ax1[a]
+            force[p, 3 + a] -= push[j] * ax1[a]
+    return jc, jp, cj, motor_dir, child_of
+
+
+@njit(cache=True)
+def _contact_nodes(nb, c_body, c_point, c_normal, pos):
+    """Contacts with one body (the ground, a goal, a wall; ``c_normal`` into the body): each
+    one's normal row (Jacobian jn, bounded) and friction node of 2 unbounded rows (jf), its
+    tangents, and the contacts listed per body (``contact_first`` / ``contact_next``). Returns
+    (jn, jf, tangents, contact_first, contact_next)."""
+    nc = c_point.shape[0]
+    jf = np.zeros((nc, 2, 6))
+    jn = np.zeros((nc, 6))
+    tangents = np.empty((nc, 2, 3))
+    contact_first = np.full(nb, -1, dtype=np.int64)
+    contact_next = np.full(nc, -1, dtype=np.int64)
+    t1 = np.empty(3)
+    t2 = np.empty(3)
+    for i in range(nc - 1, -1, -1):
+        k = c_body[i]
+        contact_next[i] = contact_first[k]
+        contact_first[k] = i
+        normal = c_normal[i]
+        if i == nc - 1 or not (
+            normal[0] == c_normal[i + 1, 0] and normal[1] == c_normal[i + 1, 1] and normal[2] == c_normal[i + 1, 2]
+        ):  # else the last contact's tangents
+            t1, t2 = _plane_space(normal)
+        tangents[i, 0] = t1
+        tangents[i, 1] = t2
+        arm = c_point[i] - pos[k]
+        an = _cross(arm, normal)
+        a1 = _cross(arm, t1)
+        a2 = _cross(arm, t2)
+        for a in range(3):
+            jn[i, a] = normal[a]
+            jn[i, 3 + a] = an[a]
+            jf[i, 0, a] = t1[a]
+            jf[i, 0, 3 + a] = a1[a]
+            jf[i, 1, a] = t2[a]
+            jf[i, 1, 3 + a] = a2[a]
+    return jn, jf, tangents, contact_first, contact_next
+
+
+@njit(cache=True)
+def _contact_c(erp, depth, surface_layer, h, bounce, bounce_vel, outgoing):
+    """ODE 0.16's right-hand side of a contact's normal row (``bounce_vel`` inf: no bounce)."""
+    d = depth - surface_layer
+    c = erp * d / h if d > 0.0 else 0.0
+    if bounce_vel >= 0.0 and -outgoing > bounce_vel:
+        newc = -bounce * outgoing
+        if newc > c:
+            c = newc
+    return c
+
+
+@njit(cache=True)
+def _free_velocities(vel, spin, force, masses, inv_inertia, h):
+    """Each body's velocity and spin without the constraints: v + h M^-1 f."""
+    nb = masses.shape[0]
+    free = np.empty((nb, 6))
+    for k in range(nb):
+        for a in range(3):
+            free[k, a] = vel[k, a] + h * force[k, a] / masses[k]
+        ang = _mat_vec(inv_inertia[k], force[k, 3:6])
+        for a in range(3):
+            free[k, 3 + a] = spin[k, a] + h * ang[a]
+    return free
+
+
+@njit(cache=True)
+def _factor(parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, slip, joint_cfm):
+    """Factor H from the leaves to the roots (``parents`` -1 there): ``dbody`` (M/h) is
+    overwritten by each body's block; ``slip`` per contact. Returns the inverted blocks
+    (dinv_body, dinv_joint, dinv_contact)."""
+    nb = dbody.shape[0]
+    nj = jc.shape[0]
+    dinv_body = np.empty((nb, 6, 6))
+    dinv_joint = np.empty((nj, 5, 5))
+    dinv_contact = np.zeros((jf.shape[0], 2, 2))
+    dj = np.empty((5, 5))
+    for k in range(nb - 1, -1, -1):
+        c = contact_first[k]
+        while c >= 0:
+            dinv_contact[c, 0, 0] = -1.0 / slip[c]
+            dinv_contact[c, 1, 1] = -1.0 / slip[c]
+            _mtdm_sub(jf[c], dinv_contact[c], dbody[k])
+            c = contact_next[c]
+        _inverse_definite(dbody[k], 1.0, dinv_body[k])
+        p = parents[k]
+        if p < 0:
+            continue
+        j = joint_of[k]
+        dj[:, :] = 0.0
+        for a in range(5):
+            dj[a, a] = -joint_cfm
+        _mdmt(jc[j], dinv_body[k], dj)
+        _inverse_definite(dj, -1.0, dinv_joint[j])
+        _mtdm_sub(jp[j], dinv_joint[j], dbody[p])
+    return dinv_body, dinv_joint, dinv_contact
+
+
+@njit(cache=True)
+def _unbounded_rhs(parents, joint_of, c_body, jc, jp, jf, cj, free):
+    """The unbounded rows' right-hand sides b = c - J free: hinge nodes (bj) and friction nodes
+    (bf; c = 0)."""
+    bj = cj.copy()
+    for k in range(parents.shape[0]):
+        if parents[k] >= 0:
+            j = joint_of[k]
+            _mv_sub(jc[j], free[k], bj[j])
+            _mv_sub(jp[j], free[parents[k]], bj[j])
+    bf = np.zeros((jf.shape[0], 2))
+    for i in range(jf.shape[0]):
+        _mv_sub(jf[i], free[c_body[i]], bf[i])
+    return bj, bf
+
+
+@njit(cache=True)
+def _schur(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b):
+    """S = cfm_B + G' H^-1 G of the bounded rows, from one forward pass each: row r's z starts as
+    its Jacobian on its bodies (zb[r]) and is carried through the bodies path_b[r, :len_b[r]]
+    (leaves first, the union of its bodies' paths to their roots; z is zero off them) and the
+    hinges between them, w = D^-1 z there. Then S[r, s] = cfm + sum over row r's path of
+    z_s' w_r. ``zb`` is overwritten."""
+    nbd = zb.shape[0]
+    nb = zb.shape[1]
+    nj = jc.shape[0]
+    path_j = np.empty((nbd, nb), dtype=np.int64)
+    len_j = np.zeros(nbd, dtype=np.int64)
+    zj = np.zeros((nbd, nj, 5))
+    wb = np.zeros((nbd, nb, 6))
+    wj = np.zeros((nbd, nj, 5))
+    for r in range(nbd):
+        for m in range(len_b[r]):
+            k = path_b[r, m]
+            _mv(dinv_body[k], zb[r, k], wb[r, k])
+            p = parents[k]
+            if p < 0:
+                continue
+            j = joint_of[k]
+            _mv_sub(jc[j], wb[r, k], zj[r, j])
+            _mv(dinv_joint[j], zj[r, j], wj[r, j])
+            _mtv_sub(jp[j], wj[r, j], zb[r, p])
+            path_j[r, len_j[r]] = j
+            len_j[r] += 1
+    schur = np.zeros((nbd, nbd))
+    for r in range(nbd):
+        for s in range(r, nbd):
+            v = 0.0
+            for m in range(len_b[r]):
+                k = path_b[r, m]
+                for a in range(6):
+                    v += zb[s, k, a] * wb[r, k, a]
+            for m in range(len_j[r]):
+                j = path_j[r, m]
+                for a in range(5):
+                    v += zj[s, j, a] * wj[r, j, a]
+            schur[r, s] = v
+            schur[s, r] = v
+        schur[r, r] += cfm_b[r]
+    return schur
+
+
+@njit(cache=True)
+def _advance(pos, quat, new_vel, h):
+    """The bodies' new velocities and spins (``new_vel``, nb x 6), then x += h v and ODE's
+    infinitesimal rotation q += h/2 (0, w) q, normalised. Returns (positions, quaternions,
+    velocities, spins)."""
+    nb = pos.shape[0]
+    out_pos = pos.copy()
+    out_quat = quat.copy()
+    out_vel = np.empty((nb, 3))
+    out_spin = np.empty((nb, 3))
+    for k in range(nb):
+        for a in range(3):
+            out_vel[k, a] = new_vel[k, a]
+            out_spin[k, a] = new_vel[k, 3 + a]
+            out_pos[k, a] = pos[k, a] + h * new_vel[k, a]
+        w = np.array([out_spin[k, 0], out_spin[k, 1], out_spin[k, 2], 0.0])
+        dq = _qmul(w, quat[k])
+        qn = quat[k] + 0.5 * h * dq
+        out_quat[k] = qn / np.sqrt(qn[0] ** 2 + qn[1] ** 2 + qn[2] ** 2 + qn[3] ** 2)
+    return out_pos, out_quat, out_vel, out_spin
+
+
+@njit(cache=True)
+def _contact_forces(lam_b, first, bf):
+    """One-body contacts' forces (normal, t1, t2): the normals' from the bounded rows (from row
+    ``first``), the friction's from the unbounded solve."""
+    nc = bf.shape[0]
+    forces = np.empty((nc, 3))
+    for i in range(nc):
+        forces[i, 0] = lam_b[first + i]
+        forces[i, 1] = -bf[i, 0]
+        forces[i, 2] = -bf[i, 1]
+    return forces
 
 
 @njit(cache=True)
@@ -683,158 +955,38 @@ def step_tree(
     nb = masses.shape[0]
     nj = local_axes.shape[0]
     nc = contact_point.shape[0]
-    rot = np.empty((nb, 3, 3))
-    inv_inertia = np.empty((nb, 3, 3))
-    force = np.empty((nb, 6))
-    dbody = np.zeros((nb, 6, 6))
-    child_of = np.zeros(nj, dtype=np.int64)
-    for k in range(nb):
-        r = rotation_matrix(quat[k])
-        rot[k] = r
-        inertia = np.empty((3, 3))
-        for a in range(3):
-            for b in range(3):
-                s = 0.0
-                t = 0.0
-                for cc in range(3):
-                    s += r[a, cc] * principal[k, cc] * r[b, cc]
-                    t += r[a, cc] / principal[k, cc] * r[b, cc]
-                inertia[a, b] = s
-                inv_inertia[k, a, b] = t
-                dbody[k, 3 + a, 3 + b] = s / h
-            dbody[k, a, a] = masses[k] / h
-        for a in range(3):
-            force[k, a] = masses[k] * gravity[a] - drag_linear * drag_vel[k, a]
-        tq = gyroscopic_torque(inertia, spin[k], h, implicit_gyro)
-        for a in range(3):
-            force[k, 3 + a] = tq[a] - drag_angular * drag_spin[k, a]
-        if k > 0:
-            child_of[joint_of[k]] = k
+    roots = parents.copy()
+    roots[0] = -1  # the torso: the tree's root
+    rot, inv_inertia, force, dbody = _robot_body_terms(
+        masses, principal, quat, spin, gravity, drag_linear, drag_angular, drag_vel, drag_spin, h, implicit_gyro
+    )
     # hinge nodes (5 rows on child k and parent p) and their motor/stop rows (bounded)
-    jc = np.zeros((nj, 5, 6))
-    jp = np.zeros((nj, 5, 6))
-    cj = np.zeros((nj, 5))
-    motor_dir = np.zeros((nj, 3))
-    k_joint = joint_erp / h
-    for k in range(1, nb):
-        j = joint_of[k]
-        p = parents[k]
-        a1 = _mat_vec(rot[k], anchor_child[j])
-        a2 = _mat_vec(rot[p], anchor_parent[j])
-        for i in range(3):
-            jc[j, i, i] = 1.0
-            jp[j, i, i] = -1.0
-            cj[j, i] = k_joint * (pos[p, i] + a2[i] - pos[k, i] - a1[i])
-        # angular parts: row i of -[a1]x on the child (a1 x e_i), of [a2]x on the parent
-        jc[j, 0, 4] = a1[2]
-        jc[j, 0, 5] = -a1[1]
-        jc[j, 1, 3] = -a1[2]
-        jc[j, 1, 5] = a1[0]
-        jc[j, 2, 3] = a1[1]
-        jc[j, 2, 4] = -a1[0]
-        jp[j, 0, 4] = -a2[2]
-        jp[j, 0, 5] = a2[1]
-        jp[j, 1, 3] = a2[2]
-        jp[j, 1, 5] = -a2[0]
-        jp[j, 2, 3] = -a2[1]
-        jp[j, 2, 4] = a2[0]
-        ax1 = _mat_vec(rot[k], local_axes[j])
-        ax2 = _mat_vec(rot[p], local_axes[j])
-        t1, t2 = _plane_space(ax1)
-        err = _cross(ax1, ax2)
-        for i in range(2):
-            d = t1 if i == 0 else t2
-            for a in range(3):
-                jc[j, 3 + i, 3 + a] = d[a]
-                jp[j, 3 + i, 3 + a] = -d[a]
-            cj[j, 3 + i] = k_joint * (err[0] * d[0] + err[1] * d[1] + err[2] * d[2])
-        motor_dir[j] = ax1
-        for a in range(3):
-            force[k, 3 + a] += push[j] * ax1[a]
-            force[p, 3 + a] -= push[j] * ax1[a]
+    jc, jp, cj, motor_dir, child_of = _hinge_nodes(
+        roots, joint_of, nj, rot, pos, anchor_child, anchor_parent, local_axes, push, force, h, joint_erp
+    )
     # contacts: friction nodes (2 rows) and normal rows (bounded), listed per body
-    jf = np.zeros((nc, 2, 6))
-    jn = np.zeros((nc, 6))
+    normals = np.zeros((nc, 3))
+    normals[:, 2] = 1.0
+    jn, jf, tangents, contact_first, contact_next = _contact_nodes(nb, contact_body, contact_point, normals, pos)
     cn = np.zeros(nc)
-    tangents = np.empty((nc, 2, 3))
-    contact_first = np.full(nb, -1, dtype=np.int64)
-    contact_next = np.full(nc, -1, dtype=np.int64)
-    normal = np.array([0.0, 0.0, 1.0])
-    t1, t2 = _plane_space(normal)
-    for i in range(nc - 1, -1, -1):
-        k = contact_body[i]
-        contact_next[i] = contact_first[k]
-        contact_first[k] = i
-        tangents[i, 0] = t1
-        tangents[i, 1] = t2
-        arm = contact_point[i] - pos[k]
-        an = _cross(arm, normal)
-        a1 = _cross(arm, t1)
-        a2 = _cross(arm, t2)
-        for a in range(3):
-            jn[i, a] = normal[a]
-            jn[i, 3 + a] = an[a]
-            jf[i, 0, a] = t1[a]
-            jf[i, 0, 3 + a] = a1[a]
-            jf[i, 1, a] = t2[a]
-            jf[i, 1, 3 + a] = a2[a]
-        depth = contact_depth[i] - surface_layer
-        cn[i] = contact_erp * depth / h if depth > 0.0 else 0.0
-    # free velocities v + h M^-1 f
-    free = np.empty((nb, 6))
-    for k in range(nb):
-        for a in range(3):
-            free[k, a] = vel[k, a] + h * force[k, a] / masses[k]
-        ang = _mat_vec(inv_inertia[k], force[k, 3:6])
-        for a in range(3):
-            free[k, 3 + a] = spin[k, a] + h * ang[a]
-    # factor H from the leaves to the torso
-    dinv_body = np.empty((nb, 6, 6))
-    dinv_joint = np.empty((nj, 5, 5))
-    dinv_contact = np.zeros((nc, 2, 2))
-    dj = np.empty((5, 5))
-    for k in range(nb - 1, -1, -1):
-        c = contact_first[k]
-        while c >= 0:
-            dinv_contact[c, 0, 0] = -1.0 / slip
-            dinv_contact[c, 1, 1] = -1.0 / slip
-            _mtdm_sub(jf[c], dinv_contact[c], dbody[k])
-            c = contact_next[c]
-        _inverse_definite(dbody[k], 1.0, dinv_body[k])
-        if k == 0:
-            break
-        j = joint_of[k]
-        p = parents[k]
-        dj[:, :] = 0.0
-        for a in range(5):
-            dj[a, a] = -joint_cfm
-        _mdmt(jc[j], dinv_body[k], dj)
-        _inverse_definite(dj, -1.0, dinv_joint[j])
-        _mtdm_sub(jp[j], dinv_joint[j], dbody[p])
-    # right-hand sides b = c - J free, unbounded and bounded
-    bj = cj.copy()
-    for k in range(1, nb):
-        j = joint_of[k]
-        _mv_sub(jc[j], free[k], bj[j])
-        _mv_sub(jp[j], free[parents[k]], bj[j])
-    bf = np.zeros((nc, 2))
     for i in range(nc):
-        _mv_sub(jf[i], free[contact_body[i]], bf[i])
+        cn[i] = _contact_c(contact_erp, contact_depth[i], surface_layer, h, 0.0, np.inf, 0.0)
+    free = _free_velocities(vel, spin, force, masses, inv_inertia, h)
+    # factor H from the leaves to the torso
+    dinv_body, dinv_joint, dinv_contact = _factor(
+        roots, joint_of, contact_first, contact_next, jc, jp, jf, dbody, np.full(nc, slip), joint_cfm
+    )
+    # right-hand sides b = c - J free, unbounded and bounded
+    bj, bf = _unbounded_rhs(roots, joint_of, contact_body, jc, jp, jf, cj, free)
     nbd = nj + nc
-    bb = np.empty(nbd)
-    lo = np.empty(nbd)
-    hi = np.empty(nbd)
-    cfm_b = np.empty(nbd)
+    bb, lo, hi, cfm_b = _bounded_rows(nbd, motor_target, motor_lo, motor_hi, motor_cfm)
     for j in range(nj):
         k = child_of[j]
         p = parents[k]
         rel = 0.0
         for a in range(3):
             rel += motor_dir[j, a] * (free[k, 3 + a] - free[p, 3 + a])
-        bb[j] = motor_target[j] - rel
-        lo[j] = motor_lo[j]
-        hi[j] = motor_hi[j]
-        cfm_b[j] = motor_cfm
+        bb[j] -= rel
     for i in range(nc):
         v = 0.0
         for a in range(6):
@@ -848,19 +1000,12 @@ def step_tree(
     yj = bj.copy()
     yf = bf.copy()
     _tree_solve(
-        nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, yb, yj, yf
+        nb, roots, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, yb, yj, yf
     )
-    # forward passes of the bounded rows along their paths to the torso: the bodies and hinges
-    # passed (path), z there and w = D^-1 z
-    depth_max = nb
-    path_b = np.empty((nbd, depth_max), dtype=np.int64)
-    path_j = np.empty((nbd, depth_max), dtype=np.int64)
+    # the bounded rows' Jacobians on their bodies and their paths to the torso
+    path_b = np.empty((nbd, nb), dtype=np.int64)
     len_b = np.zeros(nbd, dtype=np.int64)
-    len_j = np.zeros(nbd, dtype=np.int64)
     zb = np.zeros((nbd, nb, 6))
-    zj = np.zeros((nbd, nj, 5))
-    wb = np.zeros((nbd, nb, 6))
-    wj = np.zeros((nbd, nj, 5))
     for r in range(nbd):
         if r < nj:
             k = child_of[r]
@@ -872,36 +1017,11 @@ def step_tree(
             k = contact_body[r - nj]
             for a in range(6):
                 zb[r, k, a] = jn[r - nj, a]
-        while True:
+        while k >= 0:
             path_b[r, len_b[r]] = k
             len_b[r] += 1
-            _mv(dinv_body[k], zb[r, k], wb[r, k])
-            if k == 0:
-                break
-            j = joint_of[k]
-            p = parents[k]
-            _mv_sub(jc[j], wb[r, k], zj[r, j])
-            _mv(dinv_joint[j], zj[r, j], wj[r, j])
-            _mtv_sub(jp[j], wj[r, j], zb[r, p])
-            path_j[r, len_j[r]] = j
-            len_j[r] += 1
-            k = p
-    # S = cfm_B + sum over the shared path of z_s' D^-1 z_r (z is zero off a row's path)
-    schur = np.zeros((nbd, nbd))
-    for r in range(nbd):
-        for s in range(r, nbd):
-            v = 0.0
-            for m in range(len_b[r]):
-                k = path_b[r, m]
-                for a in range(6):
-                    v += zb[s, k, a] * wb[r, k, a]
-            for m in range(len_j[r]):
-                j = path_j[r, m]
-                for a in range(5):
-                    v += zj[s, j, a] * wj[r, j, a]
-            schur[r, s] = v
-            schur[s, r] = v
-        schur[r, r] += cfm_b[r]
+            k = roots[k]
+    schur = _schur(roots, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b)
     # the bounded rows' right-hand side: b_B - J_B y0
     for j in range(nj):
         k = child_of[j]
@@ -929,25 +1049,9 @@ def step_tree(
         for a in range(6):
             rb[contact_body[i], a] += jn[i, a] * lam_b[nj + i]
     _tree_solve(
-        nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, bj, bf
+        nb, roots, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, bj, bf
     )
-    out_pos = pos.copy()
-    out_quat = quat.copy()
-    out_vel = np.empty((nb, 3))
-    out_spin = np.empty((nb, 3))
-    for k in range(nb):
-        for a in range(3):
-            out_vel[k, a] = free[k, a] + rb[k, a]
-            out_spin[k, a] = free[k, 3 + a] + rb[k, 3 + a]
-            out_pos[k, a] = pos[k, a] + h * out_vel[k, a]
-        w = np.array([out_spin[k, 0], out_spin[k, 1], out_spin[k, 2], 0.0])
-        dq = _qmul(w, quat[k])
-        qn = quat[k] + 0.5 * h * dq
-        out_quat[k] = qn / np.sqrt(qn[0] ** 2 + qn[1] ** 2 + qn[2] ** 2 + qn[3] ** 2)
-    forces = np.empty((nc, 3))
-    for i in range(nc):
-        forces[i, 0] = lam_b[nj + i]
-        forces[i, 1] = -bf[i, 0]
-        forces[i, 2] = -bf[i, 1]
+    out_pos, out_quat, out_vel, out_spin = _advance(pos, quat, free + rb, h)
+    forces = _contact_forces(lam_b, nj, bf)
     torques = lam_b[:nj].copy()
     return out_pos, out_quat, out_vel, out_spin, forces, tangents, torques, iterations
