@@ -215,25 +215,7 @@ def solve(robot, ground: int, config) -> Solved:
     new_position = np.array(position) + h * v
     new_orientation = ode_kernels.integrate_orientation(np.array(orientation, dtype=float), w, h)
     new_angles = angles + h * qd
-    contacts = tuple(
-        (
-            0,
-            body,
-            ground,
-            k - 1,
-            -1,
-            p,
-            (p[0], p[1], 0.0),
-            (0.0, 0.0, 1.0),
-            -d,
-            f[0],
-            f[1],
-            tuple(t[0]),
-            f[2],
-            tuple(t[1]),
-        )
-        for k, p, d, f, t in zip(parts.tolist(), points.tolist(), depths.tolist(), forces.tolist(), tangents.tolist())
-    )
+    contacts = ground_tuples(body, ground, parts, points, depths, forces, tangents)
     return Solved(
         new_position.tolist(),
         new_orientation.tolist(),
