@@ -14,7 +14,8 @@ from server_stub.config import PhysicsConfig
 from server_stub.physics import calibration_walk, contact, ode_contacts, ode_island, ode_kernels, ode_maximal, ode_step
 from server_stub.physics.world import World
 
-ODE = dataclasses.replace(PhysicsConfig(), backend="ode")
+#: the reduced-coordinate ODE step (the default is the maximal one, ``MAX`` below)
+ODE = dataclasses.replace(PhysicsConfig(), backend="ode", ode_maximal=False)
 
 
 def test_the_environment_picks_the_backend(monkeypatch):
@@ -144,15 +145,20 @@ def test_ground_contacts_follow_odes_plane_colliders():
     assert len(bodies) == 2 and np.allclose(depths, 0.001)
 
 
-@pytest.fixture(scope="module")
-def standing():
-    world = World(ODE)
+def _standing(config: PhysicsConfig):
+    """A robot beamed and left to settle for 3 s on ``config``'s physics."""
+    world = World(config)
     robot = world.add_robot()
     robot.beam(-3.0, 2.0, 0.0)
     for _ in range(150):
         world.step()
     yield world, robot
     world.close()
+
+
+@pytest.fixture(scope="module")
+def standing():
+    yield from _standing(ODE)
 
 
 def test_standing_numbers_match_the_real_server(standing):
@@ -179,7 +185,7 @@ def test_standing_numbers_match_the_real_server(standing):
     strict=True,
 )
 def test_calibration_walk_on_the_reduced_step():
-    with World(dataclasses.replace(ODE, ode_maximal=False)) as world:
+    with World(ODE) as world:
         result = calibration_walk.run(world)
     assert not result.fell
     assert result.dx == pytest.approx(3.0, rel=0.15)
@@ -234,13 +240,7 @@ def _gaps(robot):
 
 @pytest.fixture(scope="module")
 def standing_max():
-    world = World(MAX)
-    robot = world.add_robot()
-    robot.beam(-3.0, 2.0, 0.0)
-    for _ in range(150):
-        world.step()
-    yield world, robot
-    world.close()
+    yield from _standing(MAX)
 
 
 def test_maximal_standing_numbers_match_the_real_server(standing_max):
