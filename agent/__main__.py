@@ -11,7 +11,7 @@ from agent.config import AgentConfig
 from agent.errors import AgentError
 from agent.nao_agent import NaoAgent
 from gait import GaitFileError, load_gait
-from protocol.cli_values import checked, number, port, positive_float, whole
+from protocol.cli_values import checked, non_negative, number, port, positive_float, whole
 from protocol.nao import ROBOT_TYPES
 
 
@@ -60,6 +60,14 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"settle cycle at which the beam is repeated, or none (default {AgentConfig.rebeam_cycle})",
     )
     p.add_argument("--timeout", type=positive_float, default=10.0, help="seconds to wait for the server (default 10)")
+    p.add_argument(
+        "--command-noise",
+        type=non_negative,
+        default=0.0,
+        metavar="RAD_S",
+        help="dither every joint velocity command while walking by a uniform draw in +-RAD_S (default 0: none)",
+    )
+    p.add_argument("--noise-seed", type=whole, default=0, help="seed of the command dither (default 0)")
     p.add_argument("-v", "--verbose", action="store_true", help="log the handshake and gait start")
     return p
 
@@ -90,6 +98,8 @@ def main(argv: list[str] | None = None) -> int:
         start_now=args.start_now,
         rebeam_cycle=args.rebeam_cycle,
         timeout=args.timeout,
+        command_noise=args.command_noise,
+        noise_seed=args.noise_seed,
     )
     try:
         report = NaoAgent(config).run()

@@ -19,6 +19,8 @@ import enum
 import logging
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from agent.config import AgentConfig
 from agent.controller import joint_velocities
 from agent.fall import FallDetector
@@ -64,6 +66,7 @@ class WalkBehaviour:
         base = {j.effector: 0.0 for j in JOINTS}
         base.update(config.posture)
         self._posture = base
+        self._dither = np.random.default_rng(config.noise_seed) if config.command_noise > 0 else None
 
     @property
     def walk_time(self) -> float:
@@ -79,6 +82,13 @@ class WalkBehaviour:
     def _velocities(self, perception: Perception, gait_time: float) -> dict[str, float]:
         lookahead = gait_time + self.config.lookahead_cycles * CYCLE
         return joint_velocities(self.targets(lookahead), perception.joints, self.config.gain)
+
+    def _dithered(self, velocities: dict[str, float]) -> dict[str, float]:
+        """``velocities``, each moved by its own draw of the walk's dither (``AgentConfig.command_noise``)."""
+        if self._dither is None:
+            return velocities
+        draws = self._dither.uniform(-self.config.command_noise, self.config.command_noise, len(velocities))
+        return {name: v + d for (name, v), d in zip(velocities.items(), draws.tolist())}
 
     def _beam(self) -> str:
         if self.play_mode in BEAM_PLAY_MODES:
@@ -114,7 +124,7 @@ class WalkBehaviour:
                 return Action(velocities, beam)
         if self.phase is Phase.WALKING:
             # the first walking reply is gait time 0; after it, one cycle has been walked
-            velocities = self._velocities(perception, self.walk_time)
+            velocities = self._dithered(self._velocities(perception, self.walk_time))
             self.walk_cycles += 1
             if self.fall.update(perception.acc):
                 self.fell_at = self.walk_time

@@ -45,3 +45,16 @@ class AgentConfig:
     #: server otherwise answers a silent new agent only after about 2 s). None: never, for a server
     #: known to answer at once (the stub), where a nudge arriving late could make it step early.
     syn_nudge_interval: float | None = 0.01
+    #: Dither (rad/s) on every joint velocity command while walking: each command gets its own
+    #: uniform draw in +-``command_noise``, from a generator seeded with ``noise_seed``. 0: the gait
+    #: exactly. A 15-s walk is a chaotic process; a dither far below anything physical (0.001 rad/s
+    #: moves a joint 2e-5 rad a cycle) moves where a walk ends and how far it turns as much as the
+    #: real server's own run-to-run spread does. So the same dither and seeds on two servers draw
+    #: from each one's spread alike, which is how the fidelity benchmark compares them
+    #: (``optimizer.episode.fidelity``).
+    command_noise: float = 0.0
+    noise_seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not self.command_noise >= 0.0:
+            raise ValueError(f"command_noise must be >= 0 rad/s, got {self.command_noise}")

@@ -11,6 +11,8 @@ import math
 import re
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from agent.behaviour import Phase, WalkBehaviour
 from agent.config import AgentConfig
@@ -98,3 +100,38 @@ def test_walking_waits_for_play_on_unless_told() -> None:
     for _ in range(10):
         behaviour.reply(parse_perception(playon))
     assert behaviour.phase is Phase.DONE and behaviour.walk_time == pytest.approx(0.1)
+
+
+def _walking_actions(config: AgentConfig, cycles: int) -> list:
+    """The actions of a behaviour taken straight into walking, ``cycles`` walking cycles long."""
+    behaviour = WalkBehaviour(config, TFSGait(load_gait()))
+    playon = parse_perception("(time (now 1.00))(GS (sl 0) (sr 0) (t 0.02) (pm PlayOn))(HJ (n hj1) (ax 0.00))")
+    actions = [behaviour.action(playon) for _ in range(config.settle_cycles + 2 + cycles)]
+    assert behaviour.phase is Phase.WALKING
+    return actions
+
+
+@given(noise=st.floats(1e-4, 0.5), seed=st.integers(0, 2**31))
+@settings(max_examples=25, deadline=None)
+def test_the_command_dither_stays_within_its_bound_and_only_while_walking(noise: float, seed: int) -> None:
+    plain = _walking_actions(AgentConfig(start_now=True), 20)
+    dithered = _walking_actions(AgentConfig(start_now=True, command_noise=noise, noise_seed=seed), 20)
+    walking_from = AgentConfig.settle_cycles + 2
+    assert dithered[:walking_from] == plain[:walking_from]  # handshake, beam and settling untouched
+    moved = []
+    for a, b in zip(plain[walking_from:], dithered[walking_from:]):
+        assert a.velocities.keys() == b.velocities.keys()
+        moved += [b.velocities[k] - a.velocities[k] for k in a.velocities]
+    assert max(abs(m) for m in moved) <= noise * (1 + 1e-12)
+    assert any(m != 0 for m in moved)
+
+
+def test_the_command_dither_is_fixed_by_its_seed() -> None:
+    def velocities(seed: int) -> list[dict[str, float]]:
+        config = AgentConfig(start_now=True, command_noise=0.001, noise_seed=seed)
+        return [a.velocities for a in _walking_actions(config, 10)]
+
+    assert velocities(3) == velocities(3)
+    assert velocities(3) != velocities(4)
+    with pytest.raises(ValueError, match="command_noise"):
+        AgentConfig(command_noise=-0.1)

@@ -86,6 +86,37 @@ def test_direct_episodes_walk_as_the_socket_path_does_on_the_ode_backend(monkeyp
         assert walks["direct", name] == walks["socket", name], name
 
 
+def test_a_dithered_walk_is_the_same_on_both_paths_and_its_seed_decides_it() -> None:
+    """The agent's command dither (``EpisodeConfig.command_noise``, seeded per episode) reaches the
+    agent alike on the direct path and over sockets: the same seed walks the same to the last bit,
+    another seed, or none, walks elsewhere. A ``python -m agent`` process gets it through its
+    command line (its walks are scored a cycle apart from in-process ones, so it is compared
+    with itself)."""
+    params = _gaits()["line-05"]
+    walks = {}
+    for mode, agent_mode, noise in (
+        ("direct", "inprocess", 0.001),
+        ("socket", "inprocess", 0.001),
+        ("direct", "inprocess", 0.0),
+        ("socket", "process", 0.001),
+        ("socket", "process", 0.0),
+    ):
+        config = EpisodeConfig(walk_time=4.0, embedded_stub=mode, agent_mode=agent_mode, command_noise=noise)
+        with EpisodeRunner(config) as runner:
+            for seed in (1, 2):
+                result = runner.evaluate(params, seed=seed)
+                assert result.status == "ok", result.reason
+                walks[mode, agent_mode, noise, seed] = (result.distance, result.fell, result.time)
+    for seed in (1, 2):
+        assert walks["direct", "inprocess", 0.001, seed] == walks["socket", "inprocess", 0.001, seed]
+    for mode, agent_mode in (("direct", "inprocess"), ("socket", "process")):
+        assert walks[mode, agent_mode, 0.001, 1] != walks[mode, agent_mode, 0.001, 2]
+        assert walks[mode, agent_mode, 0.0, 1] == walks[mode, agent_mode, 0.0, 2]  # no dither: the seed is bookkeeping
+        assert walks[mode, agent_mode, 0.001, 1] != walks[mode, agent_mode, 0.0, 1]
+    with pytest.raises(ValueError, match="command_noise"):
+        EpisodeConfig(command_noise=-1.0)
+
+
 def test_direct_is_the_embedded_stubs_default_and_can_be_refused() -> None:
     assert EpisodeConfig().embedded_stub == "direct"
     with pytest.raises(ValueError, match="embedded_stub must be 'direct' or 'socket'"):

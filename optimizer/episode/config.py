@@ -62,6 +62,11 @@ class EpisodeConfig:
     #: Fall rule (community run benchmark): torso up-vector z below / torso height below.
     fall_up_z: float = 0.6
     fall_height: float = 0.25
+    #: The agent's dither of its velocity commands while walking (rad/s; 0: none) and its seed,
+    #: ``agent.AgentConfig.command_noise``: the fidelity benchmark draws from a walk's chaotic
+    #: spread with it. ``EpisodeRunner.evaluate(seed=...)`` sets the seed per episode.
+    command_noise: float = 0.0
+    noise_seed: int = 0
 
     def starting_at(self, start: Start) -> EpisodeConfig:
         """This config with another start point and heading."""
@@ -80,6 +85,8 @@ class EpisodeConfig:
         last = AgentConfig.settle_cycles - 1
         if self.rebeam_cycle is not None and not 0 <= self.rebeam_cycle <= last:
             raise ValueError(f"rebeam_cycle must be a settle cycle 0-{last} or None, got {self.rebeam_cycle}")
+        if not self.command_noise >= 0:
+            raise ValueError(f"command_noise must be >= 0 rad/s, got {self.command_noise}")
 
 
 @dataclass(frozen=True)

@@ -176,6 +176,8 @@ class DirectStub:
             sync=True,
             start_now=True,
             rebeam_cycle=config.rebeam_cycle,
+            command_noise=config.command_noise,
+            noise_seed=config.noise_seed,
         )
         behaviour = WalkBehaviour(agent_config, TFSGait(params))
         state = sim.join()

@@ -24,6 +24,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 from agent import AgentConfig, AgentError, NaoAgent
@@ -104,10 +105,13 @@ class EpisodeRunner:
         self, genes: Sequence[float] | TFSParams, seed: int | None = None, start: Start | None = None
     ) -> EpisodeResult:
         """Walk ``genes`` once, from ``start`` (x, y, heading) if given, else from the config's.
-        ``seed`` is accepted for the evaluator's bookkeeping; no outcome depends on it: the
-        physics is deterministic and the walking agent uses no vision, the only noisy sensor."""
+        ``seed`` seeds the agent's command dither where the config asks for one
+        (``EpisodeConfig.command_noise``); otherwise no outcome depends on it: the physics is
+        deterministic and the walking agent uses no vision, the only noisy sensor."""
         params = genes if isinstance(genes, TFSParams) else TFSParams.from_array(list(genes))
         config = self.config if start is None else self.config.starting_at(start)
+        if seed is not None and config.command_noise > 0:
+            config = replace(config, noise_seed=seed)
         started = time.monotonic()
         self.last_trace = [] if self.trace else None
         reason = ""
@@ -189,6 +193,8 @@ class EpisodeRunner:
             rebeam_cycle=config.rebeam_cycle,
             timeout=config.episode_timeout,
             syn_nudge_interval=nudge,
+            command_noise=config.command_noise,
+            noise_seed=config.noise_seed,
         )
 
     def _episode(self, params: TFSParams, config: EpisodeConfig) -> EpisodeResult:
@@ -267,6 +273,10 @@ class EpisodeRunner:
             "none" if config.rebeam_cycle is None else str(config.rebeam_cycle),
             "--timeout",
             str(config.episode_timeout),
+            "--command-noise",
+            repr(config.command_noise),
+            "--noise-seed",
+            str(config.noise_seed),
         ]
         process = subprocess.Popen(
             command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=dict(os.environ)
