@@ -1,15 +1,20 @@
 """How faithfully the stand-in walks, against a real rcssserver3d (issue 15).
 
-Walks a stored gait set (``bench/fidelity_gaits/``) once each on the embedded stand-in and
-``--real-repeats`` times each on a real server started here (found through ``RCSSSERVER3D``, then
-``rcssserver3d`` on PATH; sync profile; stopped with ``(killsim)``, then SIGKILL), with the same
-agent and episode code from the same start, and prints per gait and over the set: Spearman rank
-correlation of the distances, fall agreement, median and worst |1 - stand-in/real distance| over
-the gaits walking >= 3 m on the real server without a fall, and how far the heading changes are
-apart. Writes ``fidelity.csv``, ``fidelity.png`` (stand-in against real, the real spread as bars)
-and ``fidelity.json`` (every walk with its torso track) into ``--out``.
+Walks a stored gait set (``bench/fidelity_gaits/``) ``--stand-in-repeats`` times each on the
+embedded stand-in and ``--real-repeats`` times each on a real server started here (found through
+``RCSSSERVER3D``, then ``rcssserver3d`` on PATH; sync profile; stopped with ``(killsim)``, then
+SIGKILL), with the same agent and episode code from the same start, and prints per gait and over
+the set: Spearman rank correlation of the distances, fall agreement, median and worst
+|1 - stand-in/real distance| over the gaits walking >= 3 m on the real server without a fall, and
+how far the turns are apart. Writes ``fidelity.csv``, ``fidelity.png`` (stand-in against real,
+each server's spread as bars) and ``fidelity.json`` (every walk with its torso track) into ``--out``.
 
-    python bench/bench_fidelity.py --set all --real-repeats 3 --out /tmp/fidelity
+A walk is one draw of a chaotic process: ``--command-noise`` dithers the agent's velocity commands
+(walk k of a gait gets seed k on both servers), so each server's figures are over draws from its
+own spread, compared pair by pair of seeds:
+
+    python bench/bench_fidelity.py --set all --real-repeats 5 --stand-in-repeats 5 --command-noise 0.001 --out /tmp/f
+    python bench/bench_fidelity.py --set all --real-repeats 3 --out /tmp/fidelity   # one undithered stand-in walk
     python bench/bench_fidelity.py --set held_aside --gaits line-01,line-10 --real-repeats 1 --out /tmp/f
     python bench/bench_fidelity.py --from-json /tmp/fidelity/fidelity.json --out /tmp/again   # no walking
 
@@ -43,7 +48,7 @@ from optimizer.episode.fidelity import (  # noqa: E402
     write_tracks,
 )
 from optimizer.episode.runner import quiet_agent_logs  # noqa: E402
-from protocol.cli_values import positive_float, positive_int  # noqa: E402
+from protocol.cli_values import non_negative, positive_float, positive_int  # noqa: E402
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -65,6 +70,20 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="R",
         help=f"walks per gait on the real server (default {FidelityConfig.real_repeats})",
     )
+    p.add_argument(
+        "--stand-in-repeats",
+        type=positive_int,
+        default=FidelityConfig.stand_in_repeats,
+        metavar="R",
+        help="walks per gait on the stand-in (default 1; more need --command-noise)",
+    )
+    p.add_argument(
+        "--command-noise",
+        type=non_negative,
+        default=FidelityConfig.command_noise,
+        metavar="RAD_S",
+        help="dither the agent's velocity commands by up to this much on both servers, walk k with seed k (default 0)",
+    )
     p.add_argument("--walk-time", type=positive_float, default=FidelityConfig.walk_time, metavar="S")
     p.add_argument("--gait-dir", type=Path, default=GAIT_SET_DIR, help=argparse.SUPPRESS)
     p.add_argument("--out", type=Path, required=True, metavar="DIR")
@@ -85,7 +104,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.from_json is not None:
         comparisons, stored = read_run(args.from_json)
         config = FidelityConfig(
-            real_repeats=stored["real_repeats"], walk_time=stored["walk_time"], start=tuple(stored["start"])
+            real_repeats=stored["real_repeats"],
+            stand_in_repeats=stored.get("stand_in_repeats", 1),
+            command_noise=stored.get("command_noise", 0.0),
+            walk_time=stored["walk_time"],
+            start=tuple(stored["start"]),
         )
         about = {k: stored[k] for k in ("set", "real_command", "command_line") if k in stored}
     else:
@@ -100,10 +123,19 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(f"error: not in the {args.gait_set} set: {', '.join(unknown)}", file=sys.stderr)
                 return 1
             gaits = [g for g in gaits if g.name in wanted]
-        config = FidelityConfig(real_repeats=args.real_repeats, walk_time=args.walk_time)
+        try:
+            config = FidelityConfig(
+                real_repeats=args.real_repeats,
+                stand_in_repeats=args.stand_in_repeats,
+                command_noise=args.command_noise,
+                walk_time=args.walk_time,
+            )
+        except ValueError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 1
         print(
-            f"fidelity: {len(gaits)} gaits of set {args.gait_set}: 1 walk each on the stand-in, "
-            f"{config.real_repeats} on the real server ({command})",
+            f"fidelity: {len(gaits)} gaits of set {args.gait_set}: {config.stand_in_repeats} walk(s) each on the "
+            f"stand-in, {config.real_repeats} on the real server ({command}); dither {config.command_noise:g} rad/s",
             file=sys.stderr,
         )
         comparisons = compare(gaits, command, config, print_progress)

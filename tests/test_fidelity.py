@@ -24,6 +24,7 @@ from optimizer.episode.fidelity import (
     FidelityConfig,
     FidelityGait,
     FidelityTargets,
+    Draws,
     GaitComparison,
     Walk,
     agreement,
@@ -144,14 +145,16 @@ def _comparisons() -> list[GaitComparison]:
     20 deg where real turns 4), c (real falls in 2 of 3, the stand-in stands), d (both fall),
     e (the stand-in's walk could not be run: left out)."""
     return [
-        GaitComparison(_gait("a"), _walk(9.0), (_walk(9.5), _walk(10.0), _walk(10.5))),
-        GaitComparison(
-            _gait("b"), _walk(5.2, turn=20.0), (_walk(4.0, turn=4.0), _walk(4.0, turn=4.0), _walk(4.0, turn=4.0))
-        ),
-        GaitComparison(_gait("c"), _walk(2.0), (_walk(1.0, True), _walk(1.0, True), _walk(4.0))),
-        GaitComparison(_gait("d"), _walk(0.1, True), (_walk(0.2, True), _walk(0.3, True), _walk(0.1, True))),
-        GaitComparison(_gait("e"), _walk(0.0, status="failed"), (_walk(8.0),)),
+        _pair("a", (_walk(9.0),), (_walk(9.5), _walk(10.0), _walk(10.5))),
+        _pair("b", (_walk(5.2, turn=20.0),), (_walk(4.0, turn=4.0), _walk(4.0, turn=-4.0), _walk(4.0, turn=4.0))),
+        _pair("c", (_walk(2.0),), (_walk(1.0, True), _walk(1.0, True), _walk(4.0))),
+        _pair("d", (_walk(0.1, True),), (_walk(0.2, True), _walk(0.3, True), _walk(0.1, True))),
+        _pair("e", (_walk(0.0, status="failed"),), (_walk(8.0),)),
     ]
+
+
+def _pair(name: str, stand_in: tuple[Walk, ...], real: tuple[Walk, ...]) -> GaitComparison:
+    return GaitComparison(_gait(name), Draws(stand_in), Draws(real))
 
 
 def test_summary_of_known_comparisons() -> None:
@@ -180,16 +183,37 @@ def test_summary_of_known_comparisons() -> None:
 
 
 def test_a_real_walk_that_could_not_be_run_is_left_out() -> None:
-    c = GaitComparison(_gait("x"), _walk(3.0), (_walk(3.0), _walk(0.0, status="failed"), _walk(3.3)))
-    assert (
-        len(c.real_ran) == 2 and c.real_mean("distance") == pytest.approx(3.15) and c.walks_on_real(FidelityTargets())
-    )
+    c = _pair("x", (_walk(3.0),), (_walk(3.0), _walk(0.0, status="failed"), _walk(3.3)))
+    assert len(c.real.ran) == 2 and c.real.mean("distance") == pytest.approx(3.15)
+    assert c.walks_on_real(FidelityTargets())
+
+
+def test_several_stand_in_walks_are_judged_as_the_real_ones_are() -> None:
+    """Both servers by their walks: mean distance, fall by majority, turn as the median |heading
+    change| (walks turning +21, -20 and -10 deg turn 20 deg typically, not -3 deg on average)."""
+    stand_in = (_walk(6.0, turn=21.0), _walk(2.0, True, turn=-20.0), _walk(7.0, turn=-10.0))
+    real = (_walk(6.5, turn=15.0), _walk(6.5, turn=25.0))
+    c = _pair("x", stand_in, real)
+    assert c.stand_in.mean("distance") == pytest.approx(5.0) and not c.stand_in.fell and c.stand_in.falls == 1
+    assert c.stand_in.turn == pytest.approx(20.0) and c.real.turn == pytest.approx(20.0)
+    assert c.ratio() == pytest.approx(5.0 / 6.5) and c.turn_factor(FidelityTargets()) == pytest.approx(1.0)
+    assert Draws(stand_in[1:2]).fell
+    row = c.row(FidelityTargets())
+    assert (row["stand_walks"], row["stand_falls"], row["stand_min_m"], row["stand_max_m"]) == (3, 1, 2.0, 7.0)
+    assert row["stand_fall_time_s"] == pytest.approx(1.0) and row["real_fall_time_s"] is None
+
+
+def test_more_stand_in_walks_need_a_dither() -> None:
+    with pytest.raises(ValueError, match="command_noise"):
+        FidelityConfig(stand_in_repeats=3)
+    config = FidelityConfig(stand_in_repeats=3, command_noise=0.001)
+    assert config.episode_config().command_noise == 0.001
 
 
 def test_output_files(tmp_path: Path) -> None:
     comparisons = _comparisons()
     for c in comparisons:  # give walks a track to write
-        object.__setattr__(c.stand_in, "track", tuple(_track([(-5.0, 0.0, 0.0), (-4.0, 0.1, 2.0)])))
+        object.__setattr__(c.stand_in.walks[0], "track", tuple(_track([(-5.0, 0.0, 0.0), (-4.0, 0.1, 2.0)])))
     summary = summarize(comparisons)
     config = FidelityConfig(real_repeats=3)
     fidelity.write_csv(comparisons, tmp_path / "f.csv")
@@ -201,14 +225,23 @@ def test_output_files(tmp_path: Path) -> None:
     assert (tmp_path / "f.png").read_bytes()[:4] == b"\x89PNG"
     document = json.loads((tmp_path / "f.json").read_text())
     assert document["summary"]["gaits"] == 4 and document["set"] == "test"
-    assert document["gaits"][0]["stand_in"]["track"][1] == [0.08, -4.0, 0.1, 0.37, 0.99, 2.0]
+    assert document["gaits"][0]["stand_in"][0]["track"][1] == [0.08, -4.0, 0.1, 0.37, 0.99, 2.0]
     again, stored = fidelity.read_run(tmp_path / "f.json")
     assert stored["real_repeats"] == 3 and [c.gait for c in again] == [c.gait for c in comparisons]
-    assert [(c.stand_in.distance, c.stand_in.fell, c.real) for c in again] == [
-        (c.stand_in.distance, c.stand_in.fell, c.real) for c in comparisons
-    ]  # real walks: no track, as stored
+
+    def firsts(cs: list[GaitComparison]) -> list[tuple]:
+        return [(c.stand_in.walks[0].distance, c.stand_in.walks[0].fell, c.real) for c in cs]
+
+    assert firsts(again) == firsts(comparisons)  # real walks: no track, as stored
     # the stand-in's turn and drift are taken again from its track: 0 -> 2 deg, 0.1 m to the left
-    assert again[1].stand_in.heading_change == pytest.approx(2.0) and again[1].stand_in.drift == pytest.approx(0.1)
+    walk = again[1].stand_in.walks[0]
+    assert walk.heading_change == pytest.approx(2.0) and walk.drift == pytest.approx(0.1)
+    # a run stored before several stand-in walks (format 1: the one walk on its own) reads as one walk
+    for item in document["gaits"]:
+        item["stand_in"] = item["stand_in"][0]
+    (tmp_path / "old.json").write_text(json.dumps(document))
+    old, _ = fidelity.read_run(tmp_path / "old.json")
+    assert firsts(old) == firsts(again) and all(len(c.stand_in.walks) == 1 for c in old)
     report = fidelity.report(comparisons, summary)
     assert "Spearman rank correlation of the distances: 1.000" in report and "targets missed" in report
 
@@ -319,7 +352,7 @@ def test_the_gate_runs_end_to_end_and_writes_its_files(gate: Path) -> None:
     assert (gate / "fidelity.png").stat().st_size > 10_000
     document = json.loads((gate / "fidelity.json").read_text())
     for item in document["gaits"]:
-        assert item["stand_in"]["track"] and len(item["real"]) == 1 and item["real"][0]["track"]
+        assert item["stand_in"][0]["track"] and len(item["real"]) == 1 and item["real"][0]["track"]
         assert item["real"][0]["track"][-1][0] == pytest.approx(item["real"][0]["time"], abs=0.05)
 
 

@@ -5,16 +5,21 @@ walking speed, so this module walks a named set of gaits on both with the *same*
 code (``optimizer.episode.EpisodeRunner``, from the same start) and compares what the judge saw:
 distance, fall, the time of the fall, sideways drift, heading change and the torso track.
 
-The real server is not deterministic (a few per cent run to run; some gaits fall sometimes), so
-each gait is walked ``real_repeats`` times there and the stand-in's one walk (it has no noise of its
-own) is compared with the real walks' mean and fall fraction, never with a single real walk.
+A 15-s walk is a chaotic process. The real server is not deterministic (a few per cent run to
+run; some gaits fall sometimes, and one gait's walks may turn +21, -20 and -10 deg), and a dither of
+its velocity commands far below anything physical (``EpisodeConfig.command_noise``, 0.001 rad/s)
+moves where a walk ends and how far it turns as much on either server (bench/RESULTS.md). So each
+server's figures for a gait are over its walks (``Draws``), never one walk: ``real_repeats`` walks
+on the real server, ``stand_in_repeats`` on the stand-in (deterministic without a dither, so one
+walk then). Walk k gets seed k of the dither on both servers: paired draws from each one's spread.
 
-Over a set it reports (``summarize``): the Spearman rank correlation of the distances, how often
-fall or no fall agrees (the real server's verdict is the majority of its walks), the median and
-worst |1 - stand-in/real distance| over the gaits that walk >= 3 m on the real server without a
-fall, and how far the heading changes are apart (a factor, with a few degrees of slack so that two
-straight walks compare as equal). ``bench/bench_fidelity.py`` is the command; the gait sets live in
-``bench/fidelity_gaits/`` (made by ``bench/make_fidelity_gaits.py``).
+Over a set it reports (``summarize``): the Spearman rank correlation of the mean distances, how
+often fall or no fall agrees (a server's verdict is the majority of its walks), the median and
+worst |1 - stand-in/real mean distance| over the gaits that walk >= 3 m on the real server without
+a fall, and how far the turns are apart (each server's median |heading change|, as a factor, with
+a few degrees of slack so that two straight walks compare as equal). ``bench/bench_fidelity.py``
+is the command; the gait sets live in ``bench/fidelity_gaits/`` (made by
+``bench/make_fidelity_gaits.py``).
 """
 
 from __future__ import annotations
@@ -241,99 +246,100 @@ class FidelityTargets:
 
 
 @dataclass(frozen=True)
-class GaitComparison:
-    """One gait's stand-in walk beside its real walks (walks that could not be run left out)."""
+class Draws:
+    """One gait's walks on one server (walks that could not be run are kept, and left out of every
+    figure): a server is judged by these, never by one walk."""
 
-    gait: FidelityGait
-    stand_in: Walk
-    real: tuple[Walk, ...]
+    walks: tuple[Walk, ...]
 
     @property
-    def real_ran(self) -> tuple[Walk, ...]:
-        return tuple(w for w in self.real if w.status == "ok")
+    def ran(self) -> tuple[Walk, ...]:
+        return tuple(w for w in self.walks if w.status == "ok")
+
+    @property
+    def falls(self) -> int:
+        return sum(w.fell for w in self.ran)
+
+    @property
+    def fell(self) -> bool:
+        """The verdict: it fell in the majority of its walks."""
+        return fell_in_majority(self.falls, len(self.ran))
+
+    def mean(self, attribute: str) -> float:
+        return statistics.fmean(getattr(w, attribute) for w in self.ran)
+
+    @property
+    def turn(self) -> float:
+        """How far it typically turns: the median |heading change| (deg). Not the mean of the signed
+        changes, which calls walks turning +21, -20 and -10 deg straight."""
+        return statistics.median(abs(w.heading_change) for w in self.ran)
+
+    def fields(self, prefix: str) -> dict[str, Any]:
+        """This side's CSV fields (``prefix`` "stand" or "real"), None where no walk ran."""
+        ran = self.ran
+        fall_times = [w.time for w in ran if w.fell]
+        return {
+            f"{prefix}_walks": len(ran),
+            f"{prefix}_falls": self.falls,
+            f"{prefix}_fell": self.fell if ran else None,
+            f"{prefix}_min_m": min((w.distance for w in ran), default=None),
+            f"{prefix}_mean_m": self.mean("distance") if ran else None,
+            f"{prefix}_max_m": max((w.distance for w in ran), default=None),
+            f"{prefix}_fall_time_s": statistics.fmean(fall_times) if fall_times else None,
+            f"{prefix}_drift_m": self.mean("drift") if ran else None,
+            f"{prefix}_turn_deg": self.turn if ran else None,
+        }
+
+
+@dataclass(frozen=True)
+class GaitComparison:
+    """One gait's walks on the stand-in beside its walks on the real server."""
+
+    gait: FidelityGait
+    stand_in: Draws
+    real: Draws
 
     @property
     def comparable(self) -> bool:
-        return self.stand_in.status == "ok" and bool(self.real_ran)
-
-    @property
-    def real_falls(self) -> int:
-        return sum(w.fell for w in self.real_ran)
-
-    @property
-    def real_fell(self) -> bool:
-        return fell_in_majority(self.real_falls, len(self.real_ran))
-
-    def real_mean(self, attribute: str) -> float:
-        return statistics.fmean(getattr(w, attribute) for w in self.real_ran)
+        return bool(self.stand_in.ran) and bool(self.real.ran)
 
     def walks_on_real(self, targets: FidelityTargets) -> bool:
         """It walks >= ``walking_distance`` on the real server (mean) and never fell there."""
-        return self.comparable and self.real_falls == 0 and self.real_mean("distance") >= targets.walking_distance
+        return self.comparable and self.real.falls == 0 and self.real.mean("distance") >= targets.walking_distance
 
     def ratio(self) -> float | None:
-        mean = self.real_mean("distance") if self.comparable else 0.0
-        return self.stand_in.distance / mean if mean else None
+        if not self.comparable:
+            return None
+        real = self.real.mean("distance")
+        return self.stand_in.mean("distance") / real if real else None
+
+    def turn_factor(self, targets: FidelityTargets) -> float | None:
+        return turn_factor(self.stand_in.turn, self.real.turn, targets.turn_slack) if self.comparable else None
 
     def row(self, targets: FidelityTargets) -> dict[str, Any]:
-        """The CSV row: the stand-in's walk, the real walks' spread, the ratios, the genes."""
-        ran = self.real_ran
-        real_fall_times = [w.time for w in ran if w.fell]
+        """The CSV row: each server's walks (count, falls, spread, turn), the ratios, the genes."""
         ratio = self.ratio()
         out: dict[str, Any] = {
             "gait": self.gait.name,
             "family": self.gait.family,
-            "stand_distance_m": self.stand_in.distance,
-            "stand_fell": self.stand_in.fell,
-            "stand_fall_time_s": self.stand_in.fall_time,
-            "stand_drift_m": self.stand_in.drift,
-            "stand_heading_change_deg": self.stand_in.heading_change,
-            "real_walks": len(ran),
-            "real_falls": self.real_falls,
-            "real_fell": self.real_fell if ran else None,
-            "real_min_m": min((w.distance for w in ran), default=None),
-            "real_mean_m": self.real_mean("distance") if ran else None,
-            "real_max_m": max((w.distance for w in ran), default=None),
-            "real_fall_time_s": statistics.fmean(real_fall_times) if real_fall_times else None,
-            "real_drift_m": self.real_mean("drift") if ran else None,
-            "real_heading_change_deg": self.real_mean("heading_change") if ran else None,
+            **self.stand_in.fields("stand"),
+            **self.real.fields("real"),
             "ratio": ratio,
             "ratio_error": None if ratio is None else abs(1.0 - ratio),
             "walks_on_real": self.walks_on_real(targets),
-            "turn_factor": (
-                turn_factor(self.stand_in.heading_change, self.real_mean("heading_change"), targets.turn_slack)
-                if self.comparable
-                else None
-            ),
+            "turn_factor": self.turn_factor(targets),
         }
         out.update({f"gene_{n}": g for n, g in zip(GENE_NAMES, self.gait.genes)})
         return out
 
 
+_SIDE_FIELDS = ("walks", "falls", "fell", "min_m", "mean_m", "max_m", "fall_time_s", "drift_m", "turn_deg")
 CSV_COLUMNS: tuple[str, ...] = (
-    "gait",
-    "family",
-    "stand_distance_m",
-    "stand_fell",
-    "stand_fall_time_s",
-    "stand_drift_m",
-    "stand_heading_change_deg",
-    "real_walks",
-    "real_falls",
-    "real_fell",
-    "real_min_m",
-    "real_mean_m",
-    "real_max_m",
-    "real_fall_time_s",
-    "real_drift_m",
-    "real_heading_change_deg",
-    "ratio",
-    "ratio_error",
-    "walks_on_real",
-    "turn_factor",
-) + tuple(f"gene_{n}" for n in GENE_NAMES)
-
-
+    ("gait", "family")
+    + tuple(f"{side}_{name}" for side in ("stand", "real") for name in _SIDE_FIELDS)
+    + ("ratio", "ratio_error", "walks_on_real", "turn_factor")
+    + tuple(f"gene_{n}" for n in GENE_NAMES)
+)
 # ----- over a set -----
 
 
@@ -348,7 +354,7 @@ class FidelitySummary:
     walking_gaits: int
     median_ratio_error: float | None
     worst_ratio_error: float | None
-    #: heading changes over the walking gaits (those whose real heading means a walk, not a fall)
+    #: turns (median |heading change|) over the walking gaits (whose real heading means a walk, not a fall)
     median_turn_factor: float | None
     worst_turn_factor: float | None
     #: fraction of the real walks that fell, over all gaits (how noisy the verdicts are)
@@ -378,19 +384,19 @@ def summarize(comparisons: Sequence[GaitComparison], targets: FidelityTargets = 
     """The set's figures over the gaits that could be compared (see the module docstring)."""
     rows = [c for c in comparisons if c.comparable]
     walking = [c for c in rows if c.walks_on_real(targets)]
-    errors = [ratio_error(c.stand_in.distance, c.real_mean("distance")) for c in walking]
-    turns = [turn_factor(c.stand_in.heading_change, c.real_mean("heading_change"), targets.turn_slack) for c in walking]
-    real_walks = sum(len(c.real_ran) for c in rows)
+    errors = [ratio_error(c.stand_in.mean("distance"), c.real.mean("distance")) for c in walking]
+    turns = [turn_factor(c.stand_in.turn, c.real.turn, targets.turn_slack) for c in walking]
+    real_walks = sum(len(c.real.ran) for c in rows)
     return FidelitySummary(
         gaits=len(rows),
-        spearman=spearman([c.stand_in.distance for c in rows], [c.real_mean("distance") for c in rows]),
-        fall_agreement=agreement([c.stand_in.fell for c in rows], [c.real_fell for c in rows]),
+        spearman=spearman([c.stand_in.mean("distance") for c in rows], [c.real.mean("distance") for c in rows]),
+        fall_agreement=agreement([c.stand_in.fell for c in rows], [c.real.fell for c in rows]),
         walking_gaits=len(walking),
         median_ratio_error=statistics.median(errors) if errors else None,
         worst_ratio_error=max(errors, default=None),
         median_turn_factor=statistics.median(turns) if turns else None,
         worst_turn_factor=max(turns, default=None),
-        real_fall_fraction=sum(c.real_falls for c in rows) / real_walks if real_walks else math.nan,
+        real_fall_fraction=sum(c.real.falls for c in rows) / real_walks if real_walks else math.nan,
     )
 
 
@@ -411,19 +417,31 @@ def real_server_or_none() -> str | None:
 
 @dataclass(frozen=True)
 class FidelityConfig:
-    """How the benchmark walks: repeats on the real server, the walk's length and start."""
+    """How the benchmark walks: walks per gait on each server, the agent's dither, the walk's
+    length and start."""
 
     real_repeats: int = 3
+    #: The stand-in is deterministic: more than one walk of a gait needs a dither to differ.
+    stand_in_repeats: int = 1
+    #: ``EpisodeConfig.command_noise`` (rad/s) on both servers; walk k of a gait gets seed k.
+    command_noise: float = 0.0
     walk_time: float = 15.0
     start: Start = DEFAULT_START
     targets: FidelityTargets = FidelityTargets()
 
     def __post_init__(self) -> None:
-        if self.real_repeats < 1:
-            raise ValueError(f"real_repeats must be >= 1, got {self.real_repeats}")
+        if self.real_repeats < 1 or self.stand_in_repeats < 1:
+            raise ValueError(
+                f"real_repeats and stand_in_repeats must be >= 1, got {self.real_repeats}, {self.stand_in_repeats}"
+            )
+        if self.stand_in_repeats > 1 and not self.command_noise > 0:
+            raise ValueError(
+                f"stand_in_repeats {self.stand_in_repeats} needs a command_noise > 0: without a dither the "
+                "stand-in walks a gait the same way every time"
+            )
 
     def episode_config(self) -> EpisodeConfig:
-        return EpisodeConfig(walk_time=self.walk_time).starting_at(self.start)
+        return EpisodeConfig(walk_time=self.walk_time, command_noise=self.command_noise).starting_at(self.start)
 
 
 #: Called after each walk: (server label, gait, repeat number, the walk).
@@ -437,14 +455,15 @@ def walk_gaits(
     progress: Progress | None = None,
     label: str = "",
 ) -> list[list[Walk]]:
-    """Walk each gait ``repeats`` times on one runner (made with ``trace=True``), from its config's start."""
+    """Walk each gait ``repeats`` times on one runner (made with ``trace=True``), from its config's
+    start; walk k with seed k (of the dither, where the config has one), so two servers draw alike."""
     if not runner.trace:
         raise ValueError("walk_gaits needs an EpisodeRunner made with trace=True")
     out: list[list[Walk]] = []
     for gait in gaits:
         walks = []
         for repeat in range(repeats):
-            result = runner.evaluate(gait.params)
+            result = runner.evaluate(gait.params, seed=repeat)
             walk = Walk.from_episode(
                 result.distance, result.fell, result.time, result.status, runner.last_trace or (), runner.config.heading
             )
@@ -461,17 +480,18 @@ def compare(
     config: FidelityConfig = FidelityConfig(),
     progress: Progress | None = None,
 ) -> list[GaitComparison]:
-    """Walk ``gaits`` once each on the embedded stand-in, then ``config.real_repeats`` times each on
-    a real server started here from ``real_command`` (stopped with ``(killsim)``, then SIGKILL).
-    One server is alive at a time, so neither slows the other's walks."""
+    """Walk ``gaits`` ``config.stand_in_repeats`` times each on the embedded stand-in, then
+    ``config.real_repeats`` times each on a real server started here from ``real_command``
+    (stopped with ``(killsim)``, then SIGKILL). One server is alive at a time, so neither slows the
+    other's walks."""
     from optimizer.episode.real_server import RealServerProcess
 
     episode = config.episode_config()
     with EpisodeRunner(episode, trace=True) as runner:
-        stand_in = walk_gaits(runner, gaits, 1, progress, "stand-in")
+        stand_in = walk_gaits(runner, gaits, config.stand_in_repeats, progress, "stand-in")
     with EpisodeRunner(episode, RealServerProcess(real_command), trace=True) as runner:
         real = walk_gaits(runner, gaits, config.real_repeats, progress, "real")
-    return [GaitComparison(g, s[0], tuple(r)) for g, s, r in zip(gaits, stand_in, real)]
+    return [GaitComparison(g, Draws(tuple(s)), Draws(tuple(r))) for g, s, r in zip(gaits, stand_in, real)]
 
 
 # ----- output -----
@@ -502,9 +522,11 @@ def write_tracks(
     write_json(
         Path(path),
         {
-            "format": "fidelity-run/1",
+            "format": "fidelity-run/2",
             **about,
             "real_repeats": config.real_repeats,
+            "stand_in_repeats": config.stand_in_repeats,
+            "command_noise": config.command_noise,
             "walk_time": config.walk_time,
             "start": list(config.start),
             "targets": config.targets.__dict__,
@@ -514,8 +536,8 @@ def write_tracks(
                 {
                     **c.gait.to_dict(),
                     "row": c.row(config.targets),
-                    "stand_in": c.stand_in.to_dict(),
-                    "real": [w.to_dict() for w in c.real],
+                    "stand_in": [w.to_dict() for w in c.stand_in.walks],
+                    "real": [w.to_dict() for w in c.real.walks],
                 }
                 for c in comparisons
             ],
@@ -526,7 +548,8 @@ def write_tracks(
 def read_run(path: Path) -> tuple[list[GaitComparison], dict[str, Any]]:
     """A stored run (``write_tracks``) back as comparisons, with its document: the figures can be
     taken again (other thresholds, a corrected statistic) without walking again. Drift and heading
-    change are taken again from the tracks where a walk has one."""
+    change are taken again from the tracks where a walk has one. A run of format 1 (one stand-in
+    walk, stored on its own) reads as a run of one stand-in walk."""
     document = json.loads(Path(path).read_text())
 
     def walk(item: Mapping[str, Any]) -> Walk:
@@ -539,15 +562,17 @@ def read_run(path: Path) -> tuple[list[GaitComparison], dict[str, Any]]:
             item["distance"], item["fell"], item["time"], item["status"], track, float(document["start"][2])
         )
 
+    def draws(items: Mapping[str, Any] | Sequence[Mapping[str, Any]]) -> Draws:
+        return Draws(tuple(walk(w) for w in ([items] if isinstance(items, Mapping) else items)))
+
     return [
-        GaitComparison(FidelityGait.from_dict(g), walk(g["stand_in"]), tuple(walk(w) for w in g["real"]))
-        for g in document["gaits"]
+        GaitComparison(FidelityGait.from_dict(g), draws(g["stand_in"]), draws(g["real"])) for g in document["gaits"]
     ], document
 
 
 def plot(comparisons: Sequence[GaitComparison], path: Path, summary: FidelitySummary) -> None:
-    """Stand-in distance (x) against the real server's (y: mean, bar = shortest to longest walk);
-    colour by who fell, so a fall disagreement shows at a glance."""
+    """Stand-in distance (x) against the real server's (y), each the mean of its walks with a bar
+    from the shortest to the longest; colour by who fell, so a fall disagreement shows at a glance."""
     fig = Figure(figsize=(7.0, 6.0), layout="constrained")
     ax = fig.add_subplot()
     styles = {
@@ -559,23 +584,24 @@ def plot(comparisons: Sequence[GaitComparison], path: Path, summary: FidelitySum
     labelled: set[tuple[bool, bool]] = set()
     top = 1.0
     for c in (c for c in comparisons if c.comparable):
-        distances = [w.distance for w in c.real_ran]
-        x, y = c.stand_in.distance, c.real_mean("distance")
-        key = (c.stand_in.fell, c.real_fell)
+        xs, ys = [w.distance for w in c.stand_in.ran], [w.distance for w in c.real.ran]
+        x, y = c.stand_in.mean("distance"), c.real.mean("distance")
+        key = (c.stand_in.fell, c.real.fell)
         colour, label = styles[key]
         ax.errorbar(
             [x],
             [y],
-            yerr=[[max(0.0, y - min(distances))], [max(0.0, max(distances) - y)]],
+            xerr=[[max(0.0, x - min(xs))], [max(0.0, max(xs) - x)]],
+            yerr=[[max(0.0, y - min(ys))], [max(0.0, max(ys) - y)]],
             fmt="o",
             capsize=3,
             color=colour,
             label=None if key in labelled else label,
         )
         labelled.add(key)
-        top = max(top, x, max(distances))
+        top = max(top, max(xs), max(ys))
     ax.plot([0, top * 1.05], [0, top * 1.05], linestyle="--", color="grey", label="same distance")
-    ax.set_xlabel("stand-in: distance in 15 s (m)")
+    ax.set_xlabel("stand-in: distance in 15 s (m), mean and range of its walks")
     ax.set_ylabel("real rcssserver3d: distance (m), mean and range of its walks")
     ax.set_title(
         f"Fidelity: Spearman {_fmt(summary.spearman, 2)}, fall agreement "
@@ -591,34 +617,38 @@ def report(
 ) -> str:
     """The per-gait table and the figures, as printed by the benchmark."""
     lines = [
-        f"{'gait':<22} {'stand-in m':>10} {'fell@s':>7} {'real mean m':>11} {'range':>13} {'falls':>6} "
-        f"{'ratio':>6} {'turn s/r deg':>14} {'drift s/r m':>13}"
+        f"{'gait':<22} {'stand-in m':>10} {'range':>11} {'falls':>5} {'real m':>6} {'range':>11} {'falls':>5} "
+        f"{'ratio':>6} {'turn s/r deg':>12} {'drift s/r m':>12}"
     ]
     for c in comparisons:
         r = c.row(targets)
-        rng = f"{_fmt(r['real_min_m'], 2)}-{_fmt(r['real_max_m'], 2)}"
         lines.append(
-            f"{c.gait.name:<22} {_fmt(r['stand_distance_m'], 2):>10} {_fmt(r['stand_fall_time_s'], 2):>7} "
-            f"{_fmt(r['real_mean_m'], 2):>11} {rng:>13} {r['real_falls']}/{r['real_walks']:<4} "
-            f"{_fmt(r['ratio'], 2):>6} "
-            f"{_fmt(r['stand_heading_change_deg'], 0):>6}/{_fmt(r['real_heading_change_deg'], 0):<7} "
-            f"{_fmt(r['stand_drift_m'], 2):>6}/{_fmt(r['real_drift_m'], 2):<6}"
+            f"{c.gait.name:<22} {_fmt(r['stand_mean_m'], 2):>10} {_spread(r, 'stand'):>11} "
+            f"{r['stand_falls']}/{r['stand_walks']:<3} {_fmt(r['real_mean_m'], 2):>6} {_spread(r, 'real'):>11} "
+            f"{r['real_falls']}/{r['real_walks']:<3} {_fmt(r['ratio'], 2):>6} "
+            f"{_fmt(r['stand_turn_deg'], 0):>5}/{_fmt(r['real_turn_deg'], 0):<6} "
+            f"{_fmt(r['stand_drift_m'], 2):>5}/{_fmt(r['real_drift_m'], 2):<6}"
         )
     s = summary
     lines += [
         "",
         f"gaits compared: {s.gaits}; real walks that fell: {_fmt(s.real_fall_fraction * 100, 0)}%",
         f"Spearman rank correlation of the distances: {_fmt(s.spearman)}",
-        f"fall agreement (real: fell in the majority of its walks): {_fmt(s.fall_agreement)}",
+        f"fall agreement (each server: fell in the majority of its walks): {_fmt(s.fall_agreement)}",
         f"over the {s.walking_gaits} gaits walking >= {targets.walking_distance:g} m on the real server "
         "without a fall:",
         f"  |1 - stand-in/real distance|: median {_fmt(s.median_ratio_error)}, worst {_fmt(s.worst_ratio_error)}",
-        f"  heading change, times apart (slack {targets.turn_slack:g} deg): median {_fmt(s.median_turn_factor, 2)}, "
+        f"  turn (median |heading change|), times apart (slack {targets.turn_slack:g} deg): "
+        f"median {_fmt(s.median_turn_factor, 2)}, "
         f"worst {_fmt(s.worst_turn_factor, 2)}",
     ]
     misses = s.misses(targets)
     lines.append("targets: all met" if not misses else "targets missed: " + "; ".join(misses))
     return "\n".join(lines)
+
+
+def _spread(row: Mapping[str, Any], side: str) -> str:
+    return f"{_fmt(row[side + '_min_m'], 2)}-{_fmt(row[side + '_max_m'], 2)}"
 
 
 def print_progress(label: str, gait: FidelityGait, repeat: int, walk: Walk) -> None:
