@@ -21,10 +21,10 @@ from optimizer.episode import EpisodeConfig, EpisodeRunner, TracePoint, fidelity
 from optimizer.episode.fidelity import (
     CSV_COLUMNS,
     FAST_REAL,
+    Draws,
     FidelityConfig,
     FidelityGait,
     FidelityTargets,
-    Draws,
     GaitComparison,
     Walk,
     agreement,
@@ -203,6 +203,28 @@ def test_several_stand_in_walks_are_judged_as_the_real_ones_are() -> None:
     assert row["stand_fall_time_s"] == pytest.approx(1.0) and row["real_fall_time_s"] is None
 
 
+def test_turns_tested_as_spreads_and_the_real_servers_own_disagreement() -> None:
+    apart = _pair(
+        "apart",
+        tuple(_walk(5.0, turn=t) for t in (30, -31, 32, 33, -34)),
+        tuple(_walk(5.0, turn=t) for t in (1, 2, 3, 4, 5)),
+    )
+    alike = _pair(
+        "alike",
+        tuple(_walk(5.0, turn=t) for t in (10, -40, 12, 35)),
+        tuple(_walk(5.0, turn=t) for t in (-11, 38, 9, 41)),
+    )
+    assert fidelity.turn_test(apart.stand_in, apart.real) == pytest.approx(2 / 252)  # complete separation, 5 v 5
+    assert fidelity.turn_test(alike.stand_in, alike.real) > 0.5
+    assert fidelity.turn_test(Draws(apart.stand_in.walks[:2]), apart.real) is None  # too few walks to test
+    # even-numbered real walks turn 11 and 9 deg (median 10), odd ones 38 and 41 (39.5): 3.95x apart
+    assert fidelity.self_turn_factor(alike.real, slack=5.0) == pytest.approx(3.95)
+    assert fidelity.self_turn_factor(Draws(alike.real.walks[:1]), slack=5.0) is None
+    s = summarize([apart, alike])
+    assert (s.turn_gaits_tested, s.turn_gaits_differing) == (2, 1)  # apart: p 2/252, 0.016 after Holm over 2
+    assert s.real_self_worst_turn_factor == pytest.approx(3.95)
+
+
 def test_more_stand_in_walks_need_a_dither() -> None:
     with pytest.raises(ValueError, match="command_noise"):
         FidelityConfig(stand_in_repeats=3)
@@ -311,6 +333,9 @@ def test_no_trace_unless_asked() -> None:
 #: A fixed subset spanning the families: the shipped gait, the line's middle, the fast real walk,
 #: a stand-in find that falls on the real server, a fast walk of the GALA row on real servers.
 GATE_GAITS = ("line-00", "line-05", "line-10", "found-stub0", "centre-realrun0")
+#: Walks per gait on each server, walk k with seed k of a 0.001 rad/s command dither: a walk is one
+#: draw of a chaotic process, so each server is judged by its draws (``optimizer.episode.fidelity``).
+GATE_WALKS = 5
 
 
 @pytest.fixture(scope="module")
@@ -325,7 +350,11 @@ def gate(rcssserver3d: str, tmp_path_factory: pytest.TempPathFactory) -> Path:
             "--gaits",
             ",".join(GATE_GAITS),
             "--real-repeats",
-            "1",
+            str(GATE_WALKS),
+            "--stand-in-repeats",
+            str(GATE_WALKS),
+            "--command-noise",
+            "0.001",
             "--out",
             str(out),
         ],
@@ -352,15 +381,18 @@ def test_the_gate_runs_end_to_end_and_writes_its_files(gate: Path) -> None:
     assert (gate / "fidelity.png").stat().st_size > 10_000
     document = json.loads((gate / "fidelity.json").read_text())
     for item in document["gaits"]:
-        assert item["stand_in"][0]["track"] and len(item["real"]) == 1 and item["real"][0]["track"]
+        assert len(item["stand_in"]) == len(item["real"]) == GATE_WALKS
+        assert all(walk["track"] for walk in item["stand_in"] + item["real"])
         assert item["real"][0]["track"][-1][0] == pytest.approx(item["real"][0]["time"], abs=0.05)
+    assert document["command_noise"] == 0.001 and document["stand_in_repeats"] == GATE_WALKS
 
 
 @pytest.mark.real_server
 @pytest.mark.slow
 def test_the_gate_meets_the_issue_targets_for_distance_and_falls(gate: Path) -> None:
-    """Issue 15's targets on the gate's gaits. Measured (default physics, one real walk each):
-    Spearman 1.00, fall agreement 1.00, |1-ratio| median 0.06, worst 0.12."""
+    """Issue 15's targets on the gate's gaits, each server by its 5 dithered walks. Measured on all 50
+    gaits, 7 walks each (default physics): Spearman 0.994, fall agreement 0.98, |1-ratio| median
+    0.026, worst 0.198; the fast gait 11.1-13.3 m on the stand-in, 11.2-13.2 m on the real server."""
     summary = json.loads((gate / "fidelity.json").read_text())["summary"]
     targets = FidelityTargets()
     assert summary["spearman"] is not None and summary["spearman"] >= targets.spearman
@@ -368,17 +400,30 @@ def test_the_gate_meets_the_issue_targets_for_distance_and_falls(gate: Path) -> 
     assert summary["median_ratio_error"] is not None and summary["median_ratio_error"] <= targets.median_ratio_error
     assert summary["worst_ratio_error"] <= targets.worst_ratio_error
     by_name = {item["name"]: item for item in json.loads((gate / "fidelity.json").read_text())["gaits"]}
-    fast = by_name["line-10"]["stand_in"]
-    assert not fast["fell"] and fast["distance"] >= 11.0  # the 13.4 m real walk (issue 15)
+    for walk in by_name["line-10"]["stand_in"]:  # the 13.4 m real walk (issue 15)
+        assert not walk["fell"] and walk["distance"] >= 11.0
+
+
+@pytest.mark.real_server
+@pytest.mark.slow
+def test_the_gate_finds_no_gait_turning_differently_on_the_stand_in(gate: Path) -> None:
+    """Turning, as the two servers' spreads: no walking gait's |heading change| over its 5 walks
+    differs from the real server's (Mann-Whitney, Holm-corrected, 5%). A stand-in whose feet
+    twist on the ground (every walk turning tens of degrees where the real ones keep straight)
+    fails this; a walk's own chaos does not."""
+    summary = json.loads((gate / "fidelity.json").read_text())["summary"]
+    assert summary["turn_gaits_tested"] >= 2
+    assert summary["turn_gaits_differing"] == 0
 
 
 @pytest.mark.real_server
 @pytest.mark.slow
 @pytest.mark.xfail(
     strict=False,
-    reason="turning is the stand-in's weakest figure (issue 15): over all 50 gaits, 3 real walks each, "
-    "the heading change is a median 1.9x and at worst 11.5x apart (target 2x); the real server's own "
-    "walks of one gait turn up to 40 deg apart",
+    reason="per gait, turning is too noisy a figure for 'within 2x': over all 50 gaits, 7 dithered walks "
+    "each, the stand-in's median |heading change| is a median 1.59x and at worst 5.05x the real "
+    "server's, while the real server's even-numbered walks against its odd-numbered ones are 1.69x "
+    "and 6.13x apart (bench/RESULTS.md)",
 )
 def test_the_gate_meets_the_issue_target_for_turning(gate: Path) -> None:
     summary = json.loads((gate / "fidelity.json").read_text())["summary"]

@@ -39,6 +39,7 @@ from matplotlib.figure import Figure
 from scipy import stats  # type: ignore[import-untyped]
 
 from gait import GENE_NAMES, TFSParams
+from optimizer.compare.statistics import holm
 from optimizer.episode import (
     DEFAULT_START,
     EpisodeConfig,
@@ -340,6 +341,28 @@ CSV_COLUMNS: tuple[str, ...] = (
     + ("ratio", "ratio_error", "walks_on_real", "turn_factor")
     + tuple(f"gene_{n}" for n in GENE_NAMES)
 )
+
+
+def turn_test(stand_in: Draws, real: Draws) -> float | None:
+    """Two-sided Mann-Whitney p value of the two servers' |heading change| over their walks: could
+    the turns be draws of one spread? None with fewer than 3 walks on a side."""
+    a, b = [abs(w.heading_change) for w in stand_in.ran], [abs(w.heading_change) for w in real.ran]
+    if len(a) < 3 or len(b) < 3:
+        return None
+    return float(stats.mannwhitneyu(a, b, alternative="two-sided").pvalue)
+
+
+def self_turn_factor(real: Draws, slack: float) -> float | None:
+    """The real server against itself: the turn of its even-numbered walks against that of its
+    odd-numbered ones, as a ``turn_factor``; how far apart two samples of one spread come out, a
+    floor for the stand-in's factor (halves are smaller samples, so it is a generous floor).
+    None with fewer than 2 walks."""
+    ran = real.ran
+    if len(ran) < 2:
+        return None
+    return turn_factor(Draws(ran[0::2]).turn, Draws(ran[1::2]).turn, slack)
+
+
 # ----- over a set -----
 
 
@@ -359,6 +382,13 @@ class FidelitySummary:
     worst_turn_factor: float | None
     #: fraction of the real walks that fell, over all gaits (how noisy the verdicts are)
     real_fall_fraction: float
+    #: the walking gaits' turns tested stand-in against real (``turn_test``, >= 3 walks a side), and
+    #: how many of them differ at 5% after Holm's correction for testing them all
+    turn_gaits_tested: int = 0
+    turn_gaits_differing: int | None = None
+    #: ``self_turn_factor`` over the walking gaits: the real server's own disagreement
+    real_self_median_turn_factor: float | None = None
+    real_self_worst_turn_factor: float | None = None
 
     def misses(self, targets: FidelityTargets) -> list[str]:
         """Each target the figures do not meet, said with its figure (empty when all are met)."""
@@ -387,6 +417,8 @@ def summarize(comparisons: Sequence[GaitComparison], targets: FidelityTargets = 
     errors = [ratio_error(c.stand_in.mean("distance"), c.real.mean("distance")) for c in walking]
     turns = [turn_factor(c.stand_in.turn, c.real.turn, targets.turn_slack) for c in walking]
     real_walks = sum(len(c.real.ran) for c in rows)
+    tests = [p for p in (turn_test(c.stand_in, c.real) for c in walking) if p is not None]
+    floors = [f for f in (self_turn_factor(c.real, targets.turn_slack) for c in walking) if f is not None]
     return FidelitySummary(
         gaits=len(rows),
         spearman=spearman([c.stand_in.mean("distance") for c in rows], [c.real.mean("distance") for c in rows]),
@@ -397,6 +429,10 @@ def summarize(comparisons: Sequence[GaitComparison], targets: FidelityTargets = 
         median_turn_factor=statistics.median(turns) if turns else None,
         worst_turn_factor=max(turns, default=None),
         real_fall_fraction=sum(c.real.falls for c in rows) / real_walks if real_walks else math.nan,
+        turn_gaits_tested=len(tests),
+        turn_gaits_differing=sum(p < 0.05 for p in holm(tests)) if tests else None,
+        real_self_median_turn_factor=statistics.median(floors) if floors else None,
+        real_self_worst_turn_factor=max(floors, default=None),
     )
 
 
@@ -642,6 +678,16 @@ def report(
         f"median {_fmt(s.median_turn_factor, 2)}, "
         f"worst {_fmt(s.worst_turn_factor, 2)}",
     ]
+    if s.real_self_worst_turn_factor is not None:
+        lines.append(
+            f"  the real server against itself (its even- against its odd-numbered walks): median "
+            f"{_fmt(s.real_self_median_turn_factor, 2)}, worst {_fmt(s.real_self_worst_turn_factor, 2)}"
+        )
+    if s.turn_gaits_differing is not None:
+        lines.append(
+            f"  gaits whose turns differ between the servers (Mann-Whitney on |heading change|, Holm, 5%): "
+            f"{s.turn_gaits_differing} of {s.turn_gaits_tested}"
+        )
     misses = s.misses(targets)
     lines.append("targets: all met" if not misses else "targets missed: " + "; ".join(misses))
     return "\n".join(lines)
