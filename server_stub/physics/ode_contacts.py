@@ -29,6 +29,9 @@ ground contact is ODE's sphere-plane one (the lowest point, depth radius - heigh
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
+
 import numpy as np
 import pybullet as pb
 
@@ -128,6 +131,11 @@ class _Surfaces:
         self.robot_ground = np.array([config.contact_erp, config.contact_cfm, config.slip, 0.0, _NO_BOUNCE])
 
 
+def _joined(ground_contacts: Callable[[], tuple], others: tuple) -> tuple:
+    """A robot's ground contacts (made now) and its other ones, as ``Robot.contact_points`` has them."""
+    return ground_contacts() + others
+
+
 def _rotation(q) -> np.ndarray:
     return np.array(pb.getMatrixFromQuaternion(q)).reshape(3, 3)
 
@@ -187,6 +195,7 @@ class Stepper:
         pb.setCollisionFilterPair(ground, ball, -1, -1, 0, physicsClientId=client)
         ode_island.warm_up()
         self._ball_written: tuple | None = None
+        self._ball_moved = False
         self._ball_asleep = False
         self._ball_steps_left = BALL_IDLE_STEPS
 
@@ -232,10 +241,8 @@ class Stepper:
                 points = sorted(points, key=lambda pt: pt[8])[:MAX_PAIR_POINTS]
             pairs.extend(points)
         # the ball's state and its ground contact (ODE's sphere-plane)
-        bpos, bquat = pb.getBasePositionAndOrientation(self.ball, physicsClientId=c)
-        bvel, bspin = pb.getBaseVelocity(self.ball, physicsClientId=c)
-        ball_state = (np.array([bpos]), np.array([bquat]), np.array([bvel]), np.array([bspin]))
-        if (bpos, bquat, bvel, bspin) != self._ball_written:
+        ball_now = self._ball_now()
+        if ball_now != self._ball_written:
             self._wake_ball()  # the trainer or the referee moved it: SimSpark enables its body
         # islands
         members: dict[int, list[int]] = {}
@@ -253,11 +260,27 @@ class Stepper:
                 solved = ode_step.solve_prepared(robot, statics[i], preps[i], ground, cfg)
                 ode_step.apply(robot, solved)
                 continue
-            self._solve_island(group, robots, statics, preps, entities, pairs, ball_state, by_body)
+            self._solve_island(group, robots, statics, preps, entities, pairs, ball_now, by_body)
 
-    def _solve_island(self, group, robots, statics, preps, entities, pairs, ball_state, by_body) -> None:
+    def ball_moved(self) -> None:
+        """Someone besides this stepper wrote the ball into pybullet (``World.set_ball``)."""
+        self._ball_moved = True
+
+    def _ball_now(self) -> tuple:
+        """The ball's (position, orientation, velocity, spin) as pybullet gives them: what this
+        stepper last wrote and read back (nothing else changes it), unless ``ball_moved``."""
+        if self._ball_written is not None and not self._ball_moved:
+            return self._ball_written
+        self._ball_moved = False
+        c = self.client
+        position, orientation = pb.getBasePositionAndOrientation(self.ball, physicsClientId=c)
+        velocity, spin = pb.getBaseVelocity(self.ball, physicsClientId=c)
+        return (position, orientation, velocity, spin)
+
+    def _solve_island(self, group, robots, statics, preps, entities, pairs, ball_now, by_body) -> None:
         cfg = self.config
         nrob = len(robots)
+        ball_state = tuple(np.array([x]) for x in ball_now)
         offsets: dict[int, int] = {}
         parts = []  # per entity: its bodies, hinges, state, drag
         n = 0
@@ -485,9 +508,17 @@ class Stepper:
                 nb = st.masses.shape[0]
                 first, gp, gpt, gd = ground_ranges[i]
                 ng = gp.shape[0]
-                contacts = ode_step.ground_tuples(
-                    robot._body, self.ground, gp, gpt, gd, forces[first : first + ng], tangents[first : first + ng]
-                ) + tuple(extra[i])
+                ground_contacts = partial(
+                    ode_step.ground_tuples,
+                    robot._body,
+                    self.ground,
+                    gp,
+                    gpt,
+                    gd,
+                    forces[first : first + ng],
+                    tangents[first : first + ng],
+                )
+                contacts = partial(_joined, ground_contacts, tuple(extra[i]))
                 solved = ode_step.finish_maximal(
                     robot,
                     st,

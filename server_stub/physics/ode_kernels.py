@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from server_stub.physics.rotations import rotation_matrix
+from server_stub.physics.rotations import rotation_into, rotation_matrix
 
 #: row kinds
 NORMAL = 0
@@ -20,8 +20,15 @@ MOTOR = 2
 
 
 @njit(cache=True)
+def _cross3(a, b):
+    """a x b as a tuple: no array is made (the step's per-body loops would make thousands)."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@njit(cache=True)
 def _cross(a, b):
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+    x, y, z = _cross3(a, b)
+    return np.array([x, y, z])
 
 
 @njit(cache=True)
@@ -296,15 +303,22 @@ def box_qp(a, b, lo, hi, state):
 
 
 @njit(cache=True)
-def _plane_space(n):
-    """Two unit tangents completing the unit normal n to a right-handed basis."""
+def _plane_space3(n):
+    """Two unit tangents completing the unit normal n to a right-handed basis, as tuples."""
     if abs(n[2]) > 0.7071:
-        t1 = np.array([0.0, -n[2], n[1]])
+        x, y, z = 0.0, -n[2], n[1]
     else:
-        t1 = np.array([-n[1], n[0], 0.0])
-    t1 /= np.sqrt(t1[0] ** 2 + t1[1] ** 2 + t1[2] ** 2)
-    t2 = _cross(n, t1)
-    return t1, t2
+        x, y, z = -n[1], n[0], 0.0
+    norm = np.sqrt(x**2 + y**2 + z**2)
+    t1 = (x / norm, y / norm, z / norm)
+    return t1, _cross3(n, t1)
+
+
+@njit(cache=True)
+def _plane_space(n):
+    """``_plane_space3`` as arrays."""
+    (x1, y1, z1), (x2, y2, z2) = _plane_space3(n)
+    return np.array([x1, y1, z1]), np.array([x2, y2, z2])
 
 
 @njit(cache=True)
@@ -534,9 +548,12 @@ def ground_contacts(shape_body, shape_kind, shape_size, coms, quats, max_points)
     points = np.empty((cap, 3))
     depths = np.empty(cap)
     count = 0
+    r = np.empty((3, 3))
+    cz = np.empty(8)
+    corners = np.empty((8, 3))
     for s in range(n):
         k = shape_body[s]
-        r = rotation_matrix(quats[k])
+        rotation_into(quats[k], r)
         c = coms[k]
         kind = shape_kind[s]
         if kind == BOX and max_points == 3:
@@ -548,8 +565,6 @@ def ground_contacts(shape_body, shape_kind, shape_size, coms, quats, max_points)
                 count += 1
         elif kind == BOX:
             hx, hy, hz = shape_size[s, 0] / 2, shape_size[s, 1] / 2, shape_size[s, 2] / 2
-            cz = np.empty(8)
-            corners = np.empty((8, 3))
             m = 0
             for sx in (-1.0, 1.0):
                 for sy in (-1.0, 1.0):

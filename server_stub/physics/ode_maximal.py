@@ -37,21 +37,38 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from server_stub.physics.ode_kernels import _cho_solve, _cholesky, _cross, _plane_space, box_qp
-from server_stub.physics.rotations import rotation_matrix
+from server_stub.physics.ode_kernels import (
+    _cho_solve,
+    _cholesky,
+    _cross,
+    _cross3,
+    _plane_space,
+    _plane_space3,
+    box_qp,
+)
+from server_stub.physics.rotations import rotation_into, rotation_matrix
+
+# The per-body and per-hinge loops below work on tuples (``_qmul4``, ``_mv3``, ``_cross3``) and
+# scratch arrays made once per call: a small array made in such a loop costs more than its
+# arithmetic. Every sum is taken in the same order either way.
+
+
+@njit(cache=True)
+def _qmul4(a, b):
+    """Hamilton product of (x, y, z, w) quaternions, as a tuple."""
+    return (
+        a[3] * b[0] + b[3] * a[0] + a[1] * b[2] - a[2] * b[1],
+        a[3] * b[1] + b[3] * a[1] + a[2] * b[0] - a[0] * b[2],
+        a[3] * b[2] + b[3] * a[2] + a[0] * b[1] - a[1] * b[0],
+        a[3] * b[3] - a[0] * b[0] - a[1] * b[1] - a[2] * b[2],
+    )
 
 
 @njit(cache=True)
 def _qmul(a, b):
     """Hamilton product of (x, y, z, w) quaternions."""
-    return np.array(
-        [
-            a[3] * b[0] + b[3] * a[0] + a[1] * b[2] - a[2] * b[1],
-            a[3] * b[1] + b[3] * a[1] + a[2] * b[0] - a[0] * b[2],
-            a[3] * b[2] + b[3] * a[2] + a[0] * b[1] - a[1] * b[0],
-            a[3] * b[3] - a[0] * b[0] - a[1] * b[1] - a[2] * b[2],
-        ]
-    )
+    x, y, z, w = _qmul4(a, b)
+    return np.array([x, y, z, w])
 
 
 @njit(cache=True)
@@ -60,14 +77,19 @@ def _conj(a):
 
 
 @njit(cache=True)
-def _mat_vec(m, v):
-    return np.array(
-        [
-            m[0, 0] * v[0] + m[0, 1] * v[1] + m[0, 2] * v[2],
-            m[1, 0] * v[0] + m[1, 1] * v[1] + m[1, 2] * v[2],
-            m[2, 0] * v[0] + m[2, 1] * v[1] + m[2, 2] * v[2],
-        ]
+def _mv3(m, v):
+    """m v for a 3x3 m, as a tuple."""
+    return (
+        m[0, 0] * v[0] + m[0, 1] * v[1] + m[0, 2] * v[2],
+        m[1, 0] * v[0] + m[1, 1] * v[1] + m[1, 2] * v[2],
+        m[2, 0] * v[0] + m[2, 1] * v[1] + m[2, 2] * v[2],
     )
+
+
+@njit(cache=True)
+def _mat_vec(m, v):
+    x, y, z = _mv3(m, v)
+    return np.array([x, y, z])
 
 
 @njit(cache=True)
@@ -75,7 +97,7 @@ def hinge_angle(q_child, q_parent, local_axis):
     """dJointGetHingeAngle for bodies whose frames agree at angle 0: from the child's orientation
     relative to the parent's, the rotation's size signed by its part along the axis (so a turn off
     the axis shows in the angle, as on the real server)."""
-    rel = _qmul(_conj(q_child), q_parent)  # the parent seen from the child
+    rel = _qmul4((-q_child[0], -q_child[1], -q_child[2], q_child[3]), q_parent)  # the parent seen from the child
     s = np.sqrt(rel[0] ** 2 + rel[1] ** 2 + rel[2] ** 2)
     along = rel[0] * local_axis[0] + rel[1] * local_axis[1] + rel[2] * local_axis[2]
     if along >= 0.0:
@@ -93,12 +115,14 @@ def measure(quats, spins, parents, joint_of, local_axes):
     nj = local_axes.shape[0]
     angles = np.empty(nj)
     rates = np.empty(nj)
+    rot = np.empty((3, 3))
     for k in range(1, quats.shape[0]):
         j = joint_of[k]
         p = parents[k]
         angles[j] = hinge_angle(quats[k], quats[p], local_axes[j])
-        axis = _mat_vec(rotation_matrix(quats[k]), local_axes[j])
-        rel = spins[k] - spins[p]
+        rotation_into(quats[k], rot)
+        axis = _mv3(rot, local_axes[j])
+        rel = (spins[k, 0] - spins[p, 0], spins[k, 1] - spins[p, 1], spins[k, 2] - spins[p, 2])
         rates[j] = axis[0] * rel[0] + axis[1] * rel[1] + axis[2] * rel[2]
     return angles, rates
 
@@ -195,10 +219,11 @@ def _invert3(m):
 @njit(cache=True)
 def gyroscopic_torque(inertia, w, h, implicit):
     """ODE 0.16's gyroscopic torque of one body: implicit (its default), (I I~^-1 - 1) L / h with
-    L = I w and I~ = I - h [L]x; explicit, -w x I w."""
-    big_l = _mat_vec(inertia, w)
+    L = I w and I~ = I - h [L]x; explicit, -w x I w. A tuple."""
+    big_l = _mv3(inertia, w)
     if not implicit:
-        return -_cross(w, big_l)
+        x, y, z = _cross3(w, big_l)
+        return (-x, -y, -z)
     tilde = inertia.copy()
     # -[L]x scaled by h: row-major cross matrix of -L
     tilde[0, 1] += h * big_l[2]
@@ -209,11 +234,11 @@ def gyroscopic_torque(inertia, w, h, implicit):
     tilde[2, 1] -= h * big_l[0]
     inv, ok = _invert3(tilde)
     if not ok:
-        return np.zeros(3)
+        return (0.0, 0.0, 0.0)
     prod = inertia @ inv
     for a in range(3):
         prod[a, a] -= 1.0
-    return _mat_vec(prod, big_l / h)
+    return _mv3(prod, (big_l[0] / h, big_l[1] / h, big_l[2] / h))
 
 
 @njit(cache=True)
@@ -450,11 +475,11 @@ def step(
 
 
 @njit(cache=True)
-def _inverse_definite(a, sign, out):
+def _inverse_definite(a, sign, out, low):
     """``out`` = the inverse of a small symmetric matrix that is positive (sign 1) or negative
-    (sign -1) definite: Cholesky factor of sign * a, inverted."""
+    (sign -1) definite: Cholesky factor of sign * a, inverted (``low``: scratch, n x n or more;
+    only its lower triangle is used, each entry written before it is read)."""
     n = a.shape[0]
-    low = np.zeros((n, n))
     for j in range(n):
         d = sign * a[j, j]
         for k in range(j):
@@ -514,10 +539,9 @@ def _mv(m, v, out):
 
 
 @njit(cache=True)
-def _mtdm_sub(m, dinv, out):
-    """out -= m' dinv m (m: rows x 6, dinv: rows x rows, out 6 x 6)."""
+def _mtdm_sub(m, dinv, out, tmp):
+    """out -= m' dinv m (m: rows x 6, dinv: rows x rows, out 6 x 6; ``tmp``: scratch, rows x 6 or more)."""
     r = m.shape[0]
-    tmp = np.empty((r, 6))
     for i in range(r):
         for b in range(6):
             t = 0.0
@@ -535,10 +559,9 @@ def _mtdm_sub(m, dinv, out):
 
 
 @njit(cache=True)
-def _mdmt(m, dinv, out):
-    """out -= m dinv m' (m: rows x 6, dinv 6 x 6, out rows x rows)."""
+def _mdmt(m, dinv, out, tmp):
+    """out -= m dinv m' (m: rows x 6, dinv 6 x 6, out rows x rows; ``tmp``: scratch, rows x 6 or more)."""
     r = m.shape[0]
-    tmp = np.empty((r, 6))
     for i in range(r):
         for b in range(6):
             t = 0.0
@@ -611,10 +634,10 @@ def _body_terms(
     inv_inertia = np.empty((nb, 3, 3))
     force = np.empty((nb, 6))
     dbody = np.zeros((nb, 6, 6))
+    inertia = np.empty((3, 3))
     for k in range(nb):
-        r = rotation_matrix(quat[k])
-        rot[k] = r
-        inertia = np.empty((3, 3))
+        r = rot[k]
+        rotation_into(quat[k], r)
         for a in range(3):
             for b in range(3):
                 s = 0.0
@@ -679,8 +702,8 @@ def _hinge_nodes(parents, joint_of, nj, rot, pos, anchor_child, anchor_parent, l
             continue
         j = joint_of[k]
         child_of[j] = k
-        a1 = _mat_vec(rot[k], anchor_child[j])
-        a2 = _mat_vec(rot[p], anchor_parent[j])
+        a1 = _mv3(rot[k], anchor_child[j])
+        a2 = _mv3(rot[p], anchor_parent[j])
         for i in range(3):
             jc[j, i, i] = 1.0
             jp[j, i, i] = -1.0
@@ -698,18 +721,18 @@ def _hinge_nodes(parents, joint_of, nj, rot, pos, anchor_child, anchor_parent, l
         jp[j, 1, 5] = -a2[0]
         jp[j, 2, 3] = -a2[1]
         jp[j, 2, 4] = a2[0]
-        ax1 = _mat_vec(rot[k], local_axes[j])
-        ax2 = _mat_vec(rot[p], local_axes[j])
-        t1, t2 = _plane_space(ax1)
-        err = _cross(ax1, ax2)
+        ax1 = _mv3(rot[k], local_axes[j])
+        ax2 = _mv3(rot[p], local_axes[j])
+        t1, t2 = _plane_space3(ax1)
+        err = _cross3(ax1, ax2)
         for i in range(2):
             d = t1 if i == 0 else t2
             for a in range(3):
                 jc[j, 3 + i, 3 + a] = d[a]
                 jp[j, 3 + i, 3 + a] = -d[a]
             cj[j, 3 + i] = k_joint * (err[0] * d[0] + err[1] * d[1] + err[2] * d[2])
-        motor_dir[j] = ax1
         for a in range(3):
+            motor_dir[j, a] = ax1[a]
             force[k, 3 + a] += push[j] * ax1[a]
             force[p, 3 + a] -= push[j] * ax1[a]
     return jc, jp, cj, motor_dir, child_of
@@ -727,8 +750,7 @@ def _contact_nodes(nb, c_body, c_point, c_normal, pos):
     tangents = np.empty((nc, 2, 3))
     contact_first = np.full(nb, -1, dtype=np.int64)
     contact_next = np.full(nc, -1, dtype=np.int64)
-    t1 = np.empty(3)
-    t2 = np.empty(3)
+    t1 = t2 = (0.0, 0.0, 0.0)
     for i in range(nc - 1, -1, -1):
         k = c_body[i]
         contact_next[i] = contact_first[k]
@@ -737,14 +759,14 @@ def _contact_nodes(nb, c_body, c_point, c_normal, pos):
         if i == nc - 1 or not (
             normal[0] == c_normal[i + 1, 0] and normal[1] == c_normal[i + 1, 1] and normal[2] == c_normal[i + 1, 2]
         ):  # else the last contact's tangents
-            t1, t2 = _plane_space(normal)
-        tangents[i, 0] = t1
-        tangents[i, 1] = t2
-        arm = c_point[i] - pos[k]
-        an = _cross(arm, normal)
-        a1 = _cross(arm, t1)
-        a2 = _cross(arm, t2)
+            t1, t2 = _plane_space3(normal)
+        arm = (c_point[i, 0] - pos[k, 0], c_point[i, 1] - pos[k, 1], c_point[i, 2] - pos[k, 2])
+        an = _cross3(arm, normal)
+        a1 = _cross3(arm, t1)
+        a2 = _cross3(arm, t2)
         for a in range(3):
+            tangents[i, 0, a] = t1[a]
+            tangents[i, 1, a] = t2[a]
             jn[i, a] = normal[a]
             jn[i, 3 + a] = an[a]
             jf[i, 0, a] = t1[a]
@@ -791,14 +813,15 @@ def _factor(parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, s
     dinv_joint = np.empty((nj, 5, 5))
     dinv_contact = np.zeros((jf.shape[0], 2, 2))
     dj = np.empty((5, 5))
+    tmp = np.empty((6, 6))
     for k in range(nb - 1, -1, -1):
         c = contact_first[k]
         while c >= 0:
             dinv_contact[c, 0, 0] = -1.0 / slip[c]
             dinv_contact[c, 1, 1] = -1.0 / slip[c]
-            _mtdm_sub(jf[c], dinv_contact[c], dbody[k])
+            _mtdm_sub(jf[c], dinv_contact[c], dbody[k], tmp)
             c = contact_next[c]
-        _inverse_definite(dbody[k], 1.0, dinv_body[k])
+        _inverse_definite(dbody[k], 1.0, dinv_body[k], tmp)
         p = parents[k]
         if p < 0:
             continue
@@ -806,9 +829,9 @@ def _factor(parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, s
         dj[:, :] = 0.0
         for a in range(5):
             dj[a, a] = -joint_cfm
-        _mdmt(jc[j], dinv_body[k], dj)
-        _inverse_definite(dj, -1.0, dinv_joint[j])
-        _mtdm_sub(jp[j], dinv_joint[j], dbody[p])
+        _mdmt(jc[j], dinv_body[k], dj, tmp)
+        _inverse_definite(dj, -1.0, dinv_joint[j], tmp)
+        _mtdm_sub(jp[j], dinv_joint[j], dbody[p], tmp)
     return dinv_body, dinv_joint, dinv_contact
 
 
@@ -841,8 +864,9 @@ def _schur(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, 
     path_j = np.empty((nbd, nb), dtype=np.int64)
     len_j = np.zeros(nbd, dtype=np.int64)
     zj = np.zeros((nbd, nj, 5))
-    wb = np.zeros((nbd, nb, 6))
-    wj = np.zeros((nbd, nj, 5))
+    # w is read only where the pass has written it: on each row's path
+    wb = np.empty((nbd, nb, 6))
+    wj = np.empty((nbd, nj, 5))
     for r in range(nbd):
         for m in range(len_b[r]):
             k = path_b[r, m]
@@ -884,15 +908,19 @@ def _advance(pos, quat, new_vel, h):
     out_quat = quat.copy()
     out_vel = np.empty((nb, 3))
     out_spin = np.empty((nb, 3))
+    half_h = 0.5 * h
+    qn = np.empty(4)
     for k in range(nb):
         for a in range(3):
             out_vel[k, a] = new_vel[k, a]
             out_spin[k, a] = new_vel[k, 3 + a]
             out_pos[k, a] = pos[k, a] + h * new_vel[k, a]
-        w = np.array([out_spin[k, 0], out_spin[k, 1], out_spin[k, 2], 0.0])
-        dq = _qmul(w, quat[k])
-        qn = quat[k] + 0.5 * h * dq
-        out_quat[k] = qn / np.sqrt(qn[0] ** 2 + qn[1] ** 2 + qn[2] ** 2 + qn[3] ** 2)
+        dq = _qmul4((out_spin[k, 0], out_spin[k, 1], out_spin[k, 2], 0.0), quat[k])
+        for a in range(4):
+            qn[a] = quat[k, a] + half_h * dq[a]
+        norm = np.sqrt(qn[0] ** 2 + qn[1] ** 2 + qn[2] ** 2 + qn[3] ** 2)
+        for a in range(4):
+            out_quat[k, a] = qn[a] / norm
     return out_pos, out_quat, out_vel, out_spin
 
 

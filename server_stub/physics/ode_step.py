@@ -52,6 +52,8 @@ robots are not pushed back by it; nor has it ODE's joint-row softness and maxima
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
 from typing import NamedTuple
 
 import numpy as np
@@ -122,15 +124,16 @@ class _Static:
 
 class Solved(NamedTuple):
     """A robot's state after its step, and the step's contacts (pybullet's tuple layout, with the
-    solved forces) and motor torques."""
+    solved forces; made when a sensor first asks, as most steps' are never read) and motor
+    torques."""
 
     position: list
     orientation: list
     velocity: list
     spin: list
-    angles: list
-    rates: list
-    contacts: tuple
+    angles: np.ndarray
+    rates: np.ndarray
+    contacts: Callable[[], tuple]
     torques: np.ndarray
     iterations: int
 
@@ -215,14 +218,14 @@ def solve(robot, ground: int, config) -> Solved:
     new_position = np.array(position) + h * v
     new_orientation = ode_kernels.integrate_orientation(np.array(orientation, dtype=float), w, h)
     new_angles = angles + h * qd
-    contacts = ground_tuples(body, ground, parts, points, depths, forces, tangents)
+    contacts = partial(ground_tuples, body, ground, parts, points, depths, forces, tangents)
     return Solved(
         new_position.tolist(),
         new_orientation.tolist(),
         v.tolist(),
         w.tolist(),
-        [[a] for a in new_angles.tolist()],
-        [[r] for r in qd.tolist()],
+        new_angles,
+        qd,
         contacts,
         torques,
         iterations,
@@ -330,7 +333,7 @@ def solve_prepared(robot, static: _Static, prep: Prepared, ground: int, config) 
         config.slip,
         config.contact_slop,
     )
-    contacts = ground_tuples(robot._body, ground, parts, points, depths, forces, tangents)
+    contacts = partial(ground_tuples, robot._body, ground, parts, points, depths, forces, tangents)
     return finish_maximal(robot, static, bodies, pos, quat, vel, spin, contacts, torques, iterations)
 
 
@@ -360,6 +363,11 @@ def ground_tuples(body: int, ground: int, parts, points, depths, forces, tangent
 def prepare_maximal(robot, static: _Static, config) -> Prepared:
     """Bring ``robot``'s bodies in line with pybullet (a beam or a trainer's move shifts them
     rigidly, anything else re-places them) and make its motor rows."""
+    bodies: _Bodies | None = getattr(robot, "_ode_bodies", None)
+    written = None if bodies is None else bodies.written
+    if bodies is not None and written is not None and _holds_written(robot, written):
+        # pybullet holds what the last step wrote: the bodies go on from their own state
+        return _prepared(robot, bodies, bodies.vel, bodies.spin, robot._joint_state()[0], config)
     client, body = robot._client, robot._body
     position, orientation = pb.getBasePositionAndOrientation(body, physicsClientId=client)
     v0, w0 = pb.getBaseVelocity(body, physicsClientId=client)
@@ -367,8 +375,6 @@ def prepare_maximal(robot, static: _Static, config) -> Prepared:
     angles = np.array([s[0] for s in states])
     rates = np.array([s[1] for s in states])
     now = _reduced(position, orientation, v0, w0, angles, rates)
-    bodies: _Bodies | None = getattr(robot, "_ode_bodies", None)
-    written = None if bodies is None else bodies.written
     drag_vel = drag_spin = None
     if bodies is not None and written is not None and np.max(np.abs(written - now)) <= _RESYNC_TOLERANCE:
         pass  # pybullet holds what the last step wrote: the bodies go on from their own state
@@ -409,8 +415,24 @@ def prepare_maximal(robot, static: _Static, config) -> Prepared:
         robot._ode_bodies = bodies
     if drag_vel is None or drag_spin is None:
         drag_vel, drag_spin = bodies.vel, bodies.spin
+    return _prepared(robot, bodies, drag_vel, drag_spin, angles, config)
+
+
+def _holds_written(robot, written: np.ndarray) -> bool:
+    """Whether pybullet holds the state the last maximal step wrote, within ``_RESYNC_TOLERANCE``,
+    without reading it all: a robot that ``held`` it gets its centre, velocities, angles and rates
+    back exactly, and its orientation rebuilt from a matrix (compared here; the sensors read that
+    one too)."""
+    if not robot.held or not np.isfinite(written).all():
+        return False
+    orientation = robot._base_pose()[2]
+    return max(abs(a - b) for a, b in zip(orientation, written[3:7].tolist())) <= _RESYNC_TOLERANCE
+
+
+def _prepared(robot, bodies: _Bodies, drag_vel, drag_spin, angles: np.ndarray, config) -> Prepared:
+    """A robot's prepared step: its bodies, the velocities the drag acts on, its motor rows."""
     target, force = robot._sent
-    nj = len(static.indices)
+    nj = angles.shape[0]
     if target.shape[0] != nj:
         target = np.zeros(nj)
         force = np.full(nj, config.motor_torque)
@@ -433,8 +455,8 @@ def finish_maximal(
         quat[0].tolist(),
         vel[0].tolist(),
         spin[0].tolist(),
-        [[a] for a in new_angles.tolist()],
-        [[r] for r in new_rates.tolist()],
+        new_angles,
+        new_rates,
         contacts,
         torques,
         iterations,
@@ -466,16 +488,19 @@ def _motor_rows(angles, force, sticky, torque_limit, ode_limits, fudge=0.0):
 
 
 def apply(robot, solved: Solved) -> None:
-    """Write a solved step into pybullet (after Bullet's own step of the rest of the world)."""
+    """Write a solved step into pybullet (after Bullet's own step of the rest of the world, if
+    any), and hand the robot what it wrote (``Robot.hold``)."""
     client, body = robot._client, robot._body
     pb.resetBasePositionAndOrientation(body, solved.position, solved.orientation, physicsClientId=client)
     pb.resetBaseVelocity(body, solved.velocity, solved.spin, physicsClientId=client)
     pb.resetJointStatesMultiDof(
-        body, robot._ode_static.indices, solved.angles, targetVelocities=solved.rates, physicsClientId=client
+        body,
+        robot._ode_static.indices,
+        [[a] for a in solved.angles.tolist()],
+        targetVelocities=[[r] for r in solved.rates.tolist()],
+        physicsClientId=client,
     )
-    robot.after_substep()
-    robot._contact_points = solved.contacts
-    robot._ode_torques = solved.torques
+    robot.hold(solved.angles, solved.rates, tuple(solved.velocity), tuple(solved.spin), solved.contacts)
 
 
 def warm_up() -> None:

@@ -11,7 +11,7 @@ cached until the next step, so a caller pays only for what it asks.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pybullet as pb
@@ -45,9 +45,18 @@ class Robot:
     """A NAO body in a pybullet world. Created by ``World.add_robot``; ``World.step`` drives it."""
 
     def __init__(
-        self, client: int, body: int, robot_type: int, config: PhysicsConfig, command_delay_steps: int = 1
+        self,
+        client: int,
+        body: int,
+        robot_type: int,
+        config: PhysicsConfig,
+        command_delay_steps: int = 1,
+        bullet_steps: bool = True,
     ) -> None:
+        """``bullet_steps`` False: the stub's own ODE step moves this robot and pybullet only finds
+        its contacts (``ode_contacts.Stepper``), so Bullet's motors need not be set."""
         self.robot_type = robot_type
+        self._bullet_steps = bullet_steps
         #: 1: a command acts in the step after the next (the real server's latency, for callers
         #: that step right after commanding); 0: in the next step, for a server that produces the
         #: latency itself by sending each perception one step late (``server_stub.net.server``).
@@ -58,6 +67,7 @@ class Robot:
         self._indices = list(range(_N))
         self._caps = [float(c) for c in nao_model.speed_caps(robot_type)]
         self._caps_array = np.array(self._caps)
+        self._no_torque = np.zeros(_N)
         names = [pb.getJointInfo(body, i, physicsClientId=client)[12].decode() for i in self._indices]
         self._part_names = ("torso", *names)
         self._link_index = {name: i for i, name in enumerate(names)}
@@ -136,14 +146,15 @@ class Robot:
             _STOP_FORCE,
         )
         if changed:
-            pb.setJointMotorControlArray(
-                self._body,
-                self._indices,
-                pb.VELOCITY_CONTROL,
-                targetVelocities=target.tolist(),
-                forces=force.tolist(),
-                physicsClientId=self._client,
-            )
+            if self._bullet_steps:
+                pb.setJointMotorControlArray(
+                    self._body,
+                    self._indices,
+                    pb.VELOCITY_CONTROL,
+                    targetVelocities=target.tolist(),
+                    forces=force.tolist(),
+                    physicsClientId=self._client,
+                )
             self._sent = (target, force)
 
     def before_substep(self) -> None:
@@ -217,9 +228,26 @@ class Robot:
         self._pose: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]] | None = None
         self._motion: tuple[tuple[float, ...], tuple[float, ...]] | None = None
         self._contact_points: tuple | None = None
+        self._contact_maker: Callable[[], tuple] | None = None
+        self.held = False
         self._parts: np.ndarray | None = None
         self._links: list[tuple] | None = None
         self._table: np.ndarray | None = None
+
+    def hold(
+        self, angles: np.ndarray, rates: np.ndarray, velocity: tuple, spin: tuple, contacts: Callable[[], tuple]
+    ) -> None:
+        """The state an ODE step has just written into pybullet, kept as pybullet would give it back
+        (it stores these numbers as they are; its motors, never stepped, applied no torque), so
+        that the sensors and the next step need not ask it; and the step's contacts, made when
+        first asked for. Until the next step or a re-pose, ``held`` says pybullet holds this. A
+        robot Bullet steps as well keeps only the contacts: its motors' torques are Bullet's."""
+        self.after_substep()
+        self._contact_maker = contacts
+        if not self._bullet_steps:
+            self._joints = (angles, rates, self._no_torque)
+            self._motion = (velocity, spin)
+            self.held = True
 
     # ----- placing -----
     def beam(self, x: float, y: float, heading_deg: float) -> None:
@@ -284,9 +312,12 @@ class Robot:
     def _contacts(self) -> tuple:
         """Every contact point of this robot after the last sub-step (pybullet's tuples)."""
         if self._contact_points is None:
-            self._contact_points = (
-                () if self._new else pb.getContactPoints(bodyA=self._body, physicsClientId=self._client)
-            )
+            if self._contact_maker is not None:
+                self._contact_points = self._contact_maker()
+            elif self._new:
+                self._contact_points = ()
+            else:
+                self._contact_points = pb.getContactPoints(bodyA=self._body, physicsClientId=self._client)
         return self._contact_points
 
     def contact_points(self) -> tuple:

@@ -8,17 +8,27 @@ from numba import njit
 
 
 @njit(cache=True)
-def rotation_matrix(q: np.ndarray) -> np.ndarray:
-    """The 3x3 rotation of a unit quaternion (x, y, z, w), pybullet's order: columns are the
-    turned x, y and z axes."""
+def rotation_into(q: np.ndarray, out: np.ndarray) -> None:
+    """``out`` (3x3) = the rotation of a unit quaternion (x, y, z, w), pybullet's order: columns
+    are the turned x, y and z axes. Into a given array: the step's per-body loops need no new one."""
     x, y, z, w = q[0], q[1], q[2], q[3]
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
+    out[0, 0] = 1 - 2 * (y * y + z * z)
+    out[0, 1] = 2 * (x * y - z * w)
+    out[0, 2] = 2 * (x * z + y * w)
+    out[1, 0] = 2 * (x * y + z * w)
+    out[1, 1] = 1 - 2 * (x * x + z * z)
+    out[1, 2] = 2 * (y * z - x * w)
+    out[2, 0] = 2 * (x * z - y * w)
+    out[2, 1] = 2 * (y * z + x * w)
+    out[2, 2] = 1 - 2 * (x * x + y * y)
+
+
+@njit(cache=True)
+def rotation_matrix(q: np.ndarray) -> np.ndarray:
+    """The 3x3 rotation of a unit quaternion (x, y, z, w) (``rotation_into``), as a new array."""
+    out = np.empty((3, 3))
+    rotation_into(q, out)
+    return out
 
 
 @njit(cache=True)

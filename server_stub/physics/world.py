@@ -151,7 +151,8 @@ class World:
             self._revive(body)
         else:
             body = self._load(robot_type)
-        robot = Robot(self._client, body, robot_type, self.config, self.command_delay_steps)
+        bullet_steps = self._ode_stepper is None
+        robot = Robot(self._client, body, robot_type, self.config, self.command_delay_steps, bullet_steps)
         self._robots.append(robot)
         return robot
 
@@ -260,6 +261,8 @@ class World:
         c = self._client
         pb.resetBasePositionAndOrientation(self._ball, pos, (0.0, 0.0, 0.0, 1.0), physicsClientId=c)
         pb.resetBaseVelocity(self._ball, vel, (0.0, 0.0, 0.0), physicsClientId=c)
+        if self._ode_stepper is not None:
+            self._ode_stepper.ball_moved()
 
     def ball_position(self) -> tuple[float, float, float]:
         return tuple(pb.getBasePositionAndOrientation(self._ball, physicsClientId=self._client)[0])
