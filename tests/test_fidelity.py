@@ -223,6 +223,8 @@ def test_turns_tested_as_spreads_and_the_real_servers_own_disagreement() -> None
     s = summarize([apart, alike])
     assert (s.turn_gaits_tested, s.turn_gaits_differing) == (2, 1)  # apart: p 2/252, 0.016 after Holm over 2
     assert s.real_self_worst_turn_factor == pytest.approx(3.95)
+    # every walk of both gaits: stand-in 10, 12, 30-35, 40 -> median 32; real 1-5, 9, 11, 38, 41 -> 5
+    assert s.stand_pooled_turn == pytest.approx(32.0) and s.real_pooled_turn == pytest.approx(5.0)
 
 
 def test_more_stand_in_walks_need_a_dither() -> None:

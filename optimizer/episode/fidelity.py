@@ -389,6 +389,10 @@ class FidelitySummary:
     #: ``self_turn_factor`` over the walking gaits: the real server's own disagreement
     real_self_median_turn_factor: float | None = None
     real_self_worst_turn_factor: float | None = None
+    #: median |heading change| over every walk of the walking gaits, on each server: a bias in
+    #: turning (feet twisting too easily) shows here, where one gait's chaos averages out
+    stand_pooled_turn: float | None = None
+    real_pooled_turn: float | None = None
 
     def misses(self, targets: FidelityTargets) -> list[str]:
         """Each target the figures do not meet, said with its figure (empty when all are met)."""
@@ -433,7 +437,14 @@ def summarize(comparisons: Sequence[GaitComparison], targets: FidelityTargets = 
         turn_gaits_differing=sum(p < 0.05 for p in holm(tests)) if tests else None,
         real_self_median_turn_factor=statistics.median(floors) if floors else None,
         real_self_worst_turn_factor=max(floors, default=None),
+        stand_pooled_turn=_pooled_turn([c.stand_in for c in walking]),
+        real_pooled_turn=_pooled_turn([c.real for c in walking]),
     )
+
+
+def _pooled_turn(sides: Sequence[Draws]) -> float | None:
+    turns = [abs(w.heading_change) for side in sides for w in side.ran]
+    return statistics.median(turns) if turns else None
 
 
 # ----- running -----
@@ -682,6 +693,11 @@ def report(
         lines.append(
             f"  the real server against itself (its even- against its odd-numbered walks): median "
             f"{_fmt(s.real_self_median_turn_factor, 2)}, worst {_fmt(s.real_self_worst_turn_factor, 2)}"
+        )
+    if s.stand_pooled_turn is not None:
+        lines.append(
+            f"  median |heading change| over all their walks: stand-in {_fmt(s.stand_pooled_turn, 1)} deg, "
+            f"real {_fmt(s.real_pooled_turn, 1)} deg"
         )
     if s.turn_gaits_differing is not None:
         lines.append(
