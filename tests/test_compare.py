@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -14,11 +15,13 @@ from hypothesis import strategies as st
 from test_driver import FakeEvaluator, Killed, synthetic_fitness
 
 from gait import GENE_BOUNDS, repair_genes
+from optimizer.cli.transfer import reported_gaits
 from optimizer.compare import methods as methods_package
 from optimizer.compare.__main__ import main
 from optimizer.compare.budget import budgeted
 from optimizer.compare.methods import Problem, discover
 from optimizer.compare.statistics import holm, pairwise, summarise
+from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask
 from optimizer.search.ga import Batch
 
 TINY = [
@@ -110,6 +113,36 @@ def test_robust_scoring_walks_each_gait_from_moved_starts_within_the_budget(tmp_
     assert len(logged) == 12 and all(r["key"].endswith(("/k0", "/k1", "/k2")) for r in logged)
     assert all(abs(r["start"][0] + 5.0) <= 0.05 and abs(r["start"][2]) <= 10.0 for r in logged)
     assert len({tuple(r["start"]) for r in logged}) == 12
+
+
+class FallingEvaluator(FakeEvaluator):
+    """Every walk falls, after a distance that depends on its start (so K walks differ)."""
+
+    def evaluate(self, tasks: Sequence[EpisodeTask]) -> Iterator[EpisodeOutcome]:
+        for outcome in super().evaluate(tasks):
+            start = outcome.task.start or (-5.0, 0.0, 0.0)
+            distance = 1.0 + 10.0 * abs(start[0] + 5.0)
+            yield EpisodeOutcome(
+                outcome.task, 0, {**outcome.result, "distance": distance, "fell": True, "fitness": 10.0 * distance}
+            )
+
+
+@pytest.mark.parametrize("robust", [[], ["--robust", "2"]])
+def test_a_reported_best_says_what_its_own_walks_did(tmp_path: Path, robust: list[str]) -> None:
+    """Without a check, optimizer.transfer sets the reported walk beside the new ones: it must be
+    the walks that scored the best (their falls, their mean distance), not the score with no fall."""
+    out = tmp_path / "f"
+    argv = ["--methods", "random", "--seeds", "1", "--budget", "4", "--population", "4", "--check-repeats", "0"]
+    assert main([*argv, *robust, "--quiet", "--out", str(out)], make_evaluator=lambda s: FallingEvaluator()) == 0
+    results = json.loads((out / "results.json").read_text())
+    [reported] = results["reported"]
+    [run] = results["runs"]
+    own = [r for r in _log(out) if r["key"] == run["best_key"] or r["key"].startswith(run["best_key"] + "/k")]
+    assert len(own) == (2 if robust else 1)
+    assert reported["walk"]["fell"] is True
+    assert reported["walk"]["distance"] == pytest.approx(sum(r["distance"] for r in own) / len(own))
+    [gait] = reported_gaits(results)
+    assert gait.run_falls == 1 and gait.run_distances == [pytest.approx(reported["walk"]["distance"])]
 
 
 def test_refusals_name_the_flag(tmp_path: Path, capsys) -> None:

@@ -155,6 +155,7 @@ def _outcome(
         stable and best.fitness / 10.0 >= success_distance,
         tuple(curve),
         None if check_report is None else check_report.to_dict(),
+        tuple((w.distance, w.fell) for w in best.records if w.ran),
     )
 
 
@@ -222,7 +223,7 @@ def _write(folder: Any, runs: Sequence[RunOutcome], settings: dict[str, Any], ep
                     "name": f"{r.method} s{r.seed_index:02d}",
                     "genes": list(r.best_genes),
                     "check": r.check,
-                    "walk": {"distance": r.best_distance, "fell": False},
+                    "walk": r.scoring_walk(),
                 }
                 for r in runs
             ],

@@ -34,9 +34,29 @@ class RunOutcome:
     curve: tuple[float, ...]
     #: the check as ``StabilityReport.to_dict()`` gives it (None: checks off)
     check: Mapping[str, Any] | None = None
+    #: the walks that scored the best (distance m, fell): one, or ``--robust``'s K
+    best_walks: tuple[tuple[float, bool], ...] = ()
 
     def row(self) -> dict[str, Any]:
-        return {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("curve", "best_genes", "check")}
+        return {
+            f.name: getattr(self, f.name)
+            for f in fields(self)
+            if f.name not in ("curve", "best_genes", "check", "best_walks")
+        }
+
+    def scoring_walk(self) -> dict[str, Any]:
+        """What the best's search walks measured, as ``optimizer.transfer`` reads a reported walk
+        when there is no check: their mean distance, and a fall when any of them fell. Not the
+        score: a robust quantile is no distance walked, and a best whose one walk fell must not be
+        reported as standing."""
+        if not self.best_walks:  # an outcome without its walks: the score is all there is
+            return {"distance": self.best_distance, "fell": False}
+        distances = [d for d, _ in self.best_walks]
+        return {
+            "distance": sum(distances) / len(distances),
+            "fell": any(fell for _, fell in self.best_walks),
+            "walks": [{"distance": d, "fell": fell} for d, fell in self.best_walks],
+        }
 
 
 def _write_csv(rows: Sequence[Mapping[str, Any]], path: Path) -> None:
