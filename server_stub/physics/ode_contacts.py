@@ -207,49 +207,21 @@ class Stepper:
         statics = [ode_step.static_of(robot, ground, cfg) for robot in robots]
         preps = [ode_step.prepare_maximal(robot, st, cfg) for robot, st in zip(robots, statics)]
         entities = [_Entity(i, robot) for i, robot in enumerate(robots)]
-        ball = _Entity(len(robots))
-        entities.append(ball)
+        entities.append(_Entity(len(robots)))  # the ball
         by_body = {robot._body: i for i, robot in enumerate(robots)}
         by_body[self.ball] = len(robots)
-        parent = list(range(len(entities)))
-
-        def find(i: int) -> int:
-            while parent[i] != i:
-                parent[i] = parent[parent[i]]
-                i = parent[i]
-            return i
-
         pb.performCollisionDetection(physicsClientId=c)
-        pairs: list = []
-        per_pair: dict[tuple[int, int], list] = {}
-        for pt in pb.getContactPoints(physicsClientId=c):
-            if pt[8] > 0.0:
-                continue
-            a = by_body.get(pt[1], -1)
-            b = by_body.get(pt[2], -1)
-            if a < 0 and b < 0:
-                continue
-            if a >= 0 and b >= 0:
-                per_pair.setdefault((a, b), []).append(pt)
-                ra, rb = find(a), find(b)
-                if ra != rb:
-                    parent[ra] = rb
-            elif pt[1] == self.static or pt[2] == self.static:
-                entities[max(a, b)].static.append(pt)
-        for points in per_pair.values():
-            if len(points) > MAX_PAIR_POINTS:
-                points = sorted(points, key=lambda pt: pt[8])[:MAX_PAIR_POINTS]
-            pairs.extend(points)
+        touching = [pt for pt in pb.getContactPoints(physicsClientId=c) if pt[8] <= 0.0]
+        if touching:
+            groups, pairs = self._islands(touching, entities, by_body)
+        else:  # every robot and the ball on its own (the usual cycle of a lone walker)
+            groups, pairs = [[i] for i in range(len(entities))], []
         # the ball's state and its ground contact (ODE's sphere-plane)
         ball_now = self._ball_now()
         if ball_now != self._ball_written:
             self._wake_ball()  # the trainer or the referee moved it: SimSpark enables its body
-        # islands
-        members: dict[int, list[int]] = {}
-        for i in range(len(entities)):
-            members.setdefault(find(i), []).append(i)
         ball_index = len(robots)
-        for group in members.values():
+        for group in groups:
             if group == [ball_index] and self._ball_asleep:
                 continue  # ODE's auto-disable: a resting ball is not stepped until touched or moved
             if ball_index in group and self._ball_asleep:
@@ -261,6 +233,41 @@ class Stepper:
                 ode_step.apply(robot, solved)
                 continue
             self._solve_island(group, robots, statics, preps, entities, pairs, ball_now, by_body)
+
+    def _islands(self, touching: list, entities: list, by_body: dict) -> tuple[list[list[int]], list]:
+        """The touching points sorted out: each one-body contact (a goal, a wall) to its entity,
+        the two-body ones (at most ``MAX_PAIR_POINTS`` a pair, the deepest) returned, and the
+        entities joined by them grouped into islands (in order of their first member)."""
+        parent = list(range(len(entities)))
+
+        def find(i: int) -> int:
+            while parent[i] != i:
+                parent[i] = parent[parent[i]]
+                i = parent[i]
+            return i
+
+        per_pair: dict[tuple[int, int], list] = {}
+        for pt in touching:
+            a = by_body.get(pt[1], -1)
+            b = by_body.get(pt[2], -1)
+            if a < 0 and b < 0:
+                continue
+            if a >= 0 and b >= 0:
+                per_pair.setdefault((a, b), []).append(pt)
+                ra, rb = find(a), find(b)
+                if ra != rb:
+                    parent[ra] = rb
+            elif pt[1] == self.static or pt[2] == self.static:
+                entities[max(a, b)].static.append(pt)
+        pairs: list = []
+        for points in per_pair.values():
+            if len(points) > MAX_PAIR_POINTS:
+                points = sorted(points, key=lambda pt: pt[8])[:MAX_PAIR_POINTS]
+            pairs.extend(points)
+        members: dict[int, list[int]] = {}
+        for i in range(len(entities)):
+            members.setdefault(find(i), []).append(i)
+        return list(members.values()), pairs
 
     def ball_moved(self) -> None:
         """Someone besides this stepper wrote the ball into pybullet (``World.set_ball``)."""

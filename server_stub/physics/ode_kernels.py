@@ -19,7 +19,7 @@ FRICTION = 1
 MOTOR = 2
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _cross3(a, b):
     """a x b as a tuple: no array is made (the step's per-body loops would make thousands)."""
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
@@ -302,7 +302,7 @@ def box_qp(a, b, lo, hi, state):
     return x, it
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _plane_space3(n):
     """Two unit tangents completing the unit normal n to a right-handed basis, as tuples."""
     if abs(n[2]) > 0.7071:

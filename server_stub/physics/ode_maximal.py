@@ -49,11 +49,12 @@ from server_stub.physics.ode_kernels import (
 from server_stub.physics.rotations import rotation_into, rotation_matrix
 
 # The per-body and per-hinge loops below work on tuples (``_qmul4``, ``_mv3``, ``_cross3``) and
-# scratch arrays made once per call: a small array made in such a loop costs more than its
-# arithmetic. Every sum is taken in the same order either way.
+# scratch arrays made once per call, and their small helpers are inlined (``inline="always"``):
+# a small array made, or a helper called with array views, in such a loop costs more than its
+# arithmetic. Every sum is taken in the same order either way, so the results are the same bits.
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _qmul4(a, b):
     """Hamilton product of (x, y, z, w) quaternions, as a tuple."""
     return (
@@ -76,7 +77,7 @@ def _conj(a):
     return np.array([-a[0], -a[1], -a[2], a[3]])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _mv3(m, v):
     """m v for a 3x3 m, as a tuple."""
     return (
@@ -92,7 +93,7 @@ def _mat_vec(m, v):
     return np.array([x, y, z])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def hinge_angle(q_child, q_parent, local_axis):
     """dJointGetHingeAngle for bodies whose frames agree at angle 0: from the child's orientation
     relative to the parent's, the rotation's size signed by its part along the axis (so a turn off
@@ -193,7 +194,7 @@ def move_rigidly(pos, quat, old_position, old_orientation, new_position, new_ori
         quat[k] = q / np.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _invert3(m):
     """Inverse of a 3x3 matrix (ok False when singular)."""
     c00 = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
@@ -216,7 +217,7 @@ def _invert3(m):
     return out, True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def gyroscopic_torque(inertia, w, h, implicit):
     """ODE 0.16's gyroscopic torque of one body: implicit (its default), (I I~^-1 - 1) L / h with
     L = I w and I~ = I - h [L]x; explicit, -w x I w. A tuple."""
@@ -474,7 +475,7 @@ def step(
     return out_pos, out_quat, out_vel, out_spin, forces, tangents, torques, iterations
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _inverse_definite(a, sign, out, low):
     """``out`` = the inverse of a small symmetric matrix that is positive (sign 1) or negative
     (sign -1) definite: Cholesky factor of sign * a, inverted (``low``: scratch, n x n or more;
@@ -508,7 +509,7 @@ def _inverse_definite(a, sign, out, low):
             out[j, i] = sign * t
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _mv_sub(m, v, out):
     """out -= m v."""
     for i in range(m.shape[0]):
@@ -518,7 +519,7 @@ def _mv_sub(m, v, out):
         out[i] -= t
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _mtv_sub(m, v, out):
     """out -= m' v."""
     for j in range(m.shape[1]):
@@ -528,7 +529,7 @@ def _mtv_sub(m, v, out):
         out[j] -= t
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _mv(m, v, out):
     """out = m v."""
     for i in range(m.shape[0]):
@@ -538,7 +539,7 @@ def _mv(m, v, out):
         out[i] = t
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _mtdm_sub(m, dinv, out, tmp):
     """out -= m' dinv m (m: rows x 6, dinv: rows x rows, out 6 x 6; ``tmp``: scratch, rows x 6 or more)."""
     r = m.shape[0]
@@ -558,7 +559,7 @@ def _mtdm_sub(m, dinv, out, tmp):
                 out[b, a] -= t
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _mdmt(m, dinv, out, tmp):
     """out -= m dinv m' (m: rows x 6, dinv 6 x 6, out rows x rows; ``tmp``: scratch, rows x 6 or more)."""
     r = m.shape[0]
@@ -776,7 +777,7 @@ def _contact_nodes(nb, c_body, c_point, c_normal, pos):
     return jn, jf, tangents, contact_first, contact_next
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _contact_c(erp, depth, surface_layer, h, bounce, bounce_vel, outgoing):
     """ODE 0.16's right-hand side of a contact's normal row (``bounce_vel`` inf: no bounce)."""
     d = depth - surface_layer

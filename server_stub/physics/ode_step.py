@@ -58,6 +58,7 @@ from typing import NamedTuple
 
 import numpy as np
 import pybullet as pb
+from numba import njit
 
 from server_stub.physics import nao_model, ode_kernels, ode_maximal
 from server_stub.physics.ode_kernels import BOX, CAPSULE, SPHERE
@@ -250,9 +251,7 @@ _RESYNC_TOLERANCE = 1e-7
 
 
 def _reduced(position, orientation, velocity, spin, angles, rates) -> np.ndarray:
-    return np.concatenate(
-        [np.asarray(position), np.asarray(orientation), np.asarray(velocity), np.asarray(spin), angles, rates]
-    )
+    return np.concatenate((position, orientation, velocity, spin, angles, rates))
 
 
 def _is_rigid_move(written: np.ndarray, now: np.ndarray) -> bool:
@@ -463,6 +462,7 @@ def finish_maximal(
     )
 
 
+@njit(cache=True)
 def _motor_rows(angles, force, sticky, torque_limit, ode_limits, fudge=0.0):
     """Bounds of each hinge's row and the torque pushing hinges besides it. Inside its range a
     hinge's row is its motor's, |torque| <= 10 N m. Outside, ``server_stub.physics.motors`` has made the
@@ -472,18 +472,21 @@ def _motor_rows(angles, force, sticky, torque_limit, ode_limits, fudge=0.0):
     when its (sticky) target speed points into the stop or is 0, and not at all when it points
     out (SimSpark's fudge factor 1e-5; docs/robot_and_server.md section 3). Without, a two-sided row with the stop's
     force, as the "bullet" backend's stop is."""
-    lo = -force.copy()
-    hi = force.copy()
-    push = np.zeros(force.shape[0])
-    if ode_limits:
-        for j in np.nonzero(force > torque_limit)[0]:
-            high = angles[j] >= _MAX[j]
-            if high:
-                lo[j], hi[j] = -np.inf, 0.0
-                push[j] = torque_limit if sticky[j] >= 0.0 else -fudge * torque_limit
-            else:
-                lo[j], hi[j] = 0.0, np.inf
-                push[j] = -torque_limit if sticky[j] <= 0.0 else fudge * torque_limit
+    n = force.shape[0]
+    lo = np.empty(n)
+    hi = np.empty(n)
+    push = np.zeros(n)
+    for j in range(n):
+        lo[j] = -force[j]
+        hi[j] = force[j]
+        if not ode_limits or not force[j] > torque_limit:
+            continue
+        if angles[j] >= _MAX[j]:
+            lo[j], hi[j] = -np.inf, 0.0
+            push[j] = torque_limit if sticky[j] >= 0.0 else -fudge * torque_limit
+        else:
+            lo[j], hi[j] = 0.0, np.inf
+            push[j] = -torque_limit if sticky[j] <= 0.0 else fudge * torque_limit
     return lo, hi, push
 
 
@@ -496,8 +499,8 @@ def apply(robot, solved: Solved) -> None:
     pb.resetJointStatesMultiDof(
         body,
         robot._ode_static.indices,
-        [[a] for a in solved.angles.tolist()],
-        targetVelocities=[[r] for r in solved.rates.tolist()],
+        list(zip(solved.angles.tolist())),
+        targetVelocities=list(zip(solved.rates.tolist())),
         physicsClientId=client,
     )
     robot.hold(solved.angles, solved.rates, tuple(solved.velocity), tuple(solved.spin), solved.contacts)
@@ -541,6 +544,9 @@ def warm_up() -> None:
         MOTOR_CFM,
     )
     ode_kernels.integrate_orientation(np.array([0.0, 0.0, 0.0, 1.0]), np.array([0.0, 0.0, 1.0]), 0.02)
+    for limits in (True, False):  # as the maximal step and the reduced one call it
+        _motor_rows(np.zeros(22), np.full(22, 10.0), np.zeros(22), 10.0, limits, FUDGE_FACTOR)
+        _motor_rows(np.zeros(22), np.full(22, 10.0), np.zeros(22), 10.0, limits)
     _warm_up_maximal()
     two = (np.array([0, 0], dtype=np.int64), np.array([0, 0], dtype=np.int64))
     centres, quats = np.array([[0.0, 0.0, 0.3], [0.0, 0.0, 0.05]]), np.tile([0.0, 0.0, 0.0, 1.0], (2, 1))
