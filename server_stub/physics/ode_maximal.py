@@ -35,7 +35,9 @@ ode.cpp, and SimSpark's rsg/agent/nao/hingejoint.rsg, spark.rb, dragcontroller.c
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
 
 from server_stub.physics.ode_kernels import (
     _cho_solve,
@@ -75,6 +77,31 @@ def _qmul(a, b):
 @njit(cache=True)
 def _conj(a):
     return np.array([-a[0], -a[1], -a[2], a[3]])
+
+
+@intrinsic
+def _fma(typingctx, a, b, c):
+    """a b + c rounded once (LLVM's fma: the CPU's fused multiply-add, or libm's where it has none)."""
+
+    def codegen(context, builder, signature, args):
+        double = ir.DoubleType()
+        fma = builder.module.declare_intrinsic("llvm.fma", [double], ir.FunctionType(double, [double] * 3))
+        return builder.call(fma, args)
+
+    return types.float64(types.float64, types.float64, types.float64), codegen
+
+
+@njit(cache=True, inline="always")
+def _mat_mul3(a, b):
+    """a b for 3x3 matrices as numba's ``@`` computes it, without the library call (which costs
+    more than the product): ``@`` calls OpenBLAS's dgemm, whose x86-64 kernels accumulate each
+    entry as a chain of fused multiply-adds in k order; so does this (bit for bit the same on
+    200 000 random products and every step of the test gaits)."""
+    out = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = _fma(a[i, 2], b[2, j], _fma(a[i, 1], b[1, j], a[i, 0] * b[0, j]))
+    return out
 
 
 @njit(cache=True, inline="always")
@@ -236,7 +263,7 @@ def gyroscopic_torque(inertia, w, h, implicit):
     inv, ok = _invert3(tilde)
     if not ok:
         return (0.0, 0.0, 0.0)
-    prod = inertia @ inv
+    prod = _mat_mul3(inertia, inv)
     for a in range(3):
         prod[a, a] -= 1.0
     return _mv3(prod, (big_l[0] / h, big_l[1] / h, big_l[2] / h))
