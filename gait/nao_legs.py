@@ -15,6 +15,8 @@ from gait.tfs import LegAngles
 
 #: The six joints the gait drives, in command order.
 LEG_EFFECTORS: tuple[str, ...] = ("lle3", "lle4", "lle5", "rle3", "rle4", "rle5")
+#: Each leg's (pitch, knee, ankle) effectors, left then right (a loop over them makes no names).
+_LEGS = (LEG_EFFECTORS[0:3], LEG_EFFECTORS[3:6])
 
 #: Targets stay this far inside each limit: the real server drops a command for a joint that is not
 #: strictly inside (min, max), so a target sitting on a limit could leave the motor stuck.
@@ -26,22 +28,24 @@ def leg_joint_targets(
     limits: Mapping[str, tuple[float, float]],
     margin: float = LIMIT_MARGIN_DEG,
 ) -> dict[str, float]:
-    """NAO joint targets in degrees for ``LEG_EFFECTORS``, clamped ``margin`` inside ``limits``.
+    """NAO joint targets in degrees for ``LEG_EFFECTORS`` (in that order), clamped ``margin``
+    inside ``limits``.
 
     ``limits`` maps effector name -> (min_deg, max_deg); the agent passes the robot's real limits
     (``protocol.nao``), which this package does not import so it stays free of wire concerns.
     """
-
-    def clamp(name: str, value: float) -> float:
-        low, high = limits[name]
-        return min(max(value, low + margin), high - margin)
-
     targets: dict[str, float] = {}
-    for side, hip, knee in (("l", angles.left_hip, angles.left_knee), ("r", angles.right_hip, angles.right_knee)):
-        pitch = clamp(f"{side}le3", hip)
-        knee_angle = clamp(f"{side}le4", -knee)
+    hips, knees = (angles.left_hip, angles.right_hip), (angles.left_knee, angles.right_knee)
+    for (pitch_name, knee_name, ankle_name), hip, knee in zip(_LEGS, hips, knees):
+        pitch = _clamp(limits[pitch_name], hip, margin)
+        knee_angle = _clamp(limits[knee_name], -knee, margin)
         # flatten the foot against the joints as they will really be, i.e. after clamping
-        targets[f"{side}le3"] = pitch
-        targets[f"{side}le4"] = knee_angle
-        targets[f"{side}le5"] = clamp(f"{side}le5", -(pitch + knee_angle))
-    return {name: targets[name] for name in LEG_EFFECTORS}
+        targets[pitch_name] = pitch
+        targets[knee_name] = knee_angle
+        targets[ankle_name] = _clamp(limits[ankle_name], -(pitch + knee_angle), margin)
+    return targets
+
+
+def _clamp(limit: tuple[float, float], value: float, margin: float) -> float:
+    low, high = limit
+    return min(max(value, low + margin), high - margin)

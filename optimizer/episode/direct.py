@@ -47,6 +47,7 @@ _stub_log = logging.getLogger("server_stub")
 #: Hinge effector name -> its index in ``JOINTS`` (``Robot.command_joint``).
 _HINGE_INDEX = {joint.effector: index for index, joint in enumerate(JOINTS)}
 _EFFECTORS = tuple(_HINGE_INDEX)
+_PERCEPTORS = tuple(joint.perceptor for joint in JOINTS)
 #: ``round``'s second argument for every joint: perceptions print 2 decimals, commands 4
 _TWO_DECIMALS = (2,) * len(JOINTS)
 _FOUR_DECIMALS = (4,) * len(JOINTS)
@@ -126,8 +127,7 @@ def _perception(sim: Simulation, state: AgentState) -> Perception:
         game.play_mode,
     )
     ax, ay, az = robot.accelerometer()
-    angles = robot.joint_angles()
-    joints = dict(zip(angles, map(round, angles.values(), _TWO_DECIMALS)))
+    joints = dict(zip(_PERCEPTORS, map(round, robot.joint_degrees(), _TWO_DECIMALS)))
     return Perception(
         round(sim.world.time, 2),
         gs,

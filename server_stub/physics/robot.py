@@ -32,6 +32,8 @@ _MAX = np.radians([j.max_deg for j in JOINTS])
 BEAM_HEIGHT = 0.4
 #: Force large enough to make the stop's velocity win against anything in one step.
 _STOP_FORCE = 1e4
+#: No command for any joint (``Robot._requested``).
+_NO_COMMANDS = np.full(_N, np.nan)
 
 
 def _yaw_quaternion(heading_deg: float) -> tuple[float, float, float, float]:
@@ -67,6 +69,7 @@ class Robot:
         self._indices = list(range(_N))
         self._caps = [float(c) for c in nao_model.speed_caps(robot_type)]
         self._caps_array = np.array(self._caps)
+        self._neg_caps = -self._caps_array
         self._no_torque = np.zeros(_N)
         names = [pb.getJointInfo(body, i, physicsClientId=client)[12].decode() for i in self._indices]
         self._part_names = ("torso", *names)
@@ -114,7 +117,8 @@ class Robot:
         optimizer's direct episodes, which hand over an agent's 22 commands without text)."""
         if velocities.shape != (_N,) or not np.isfinite(velocities).all():
             raise ValueError(f"velocities must be {_N} finite numbers, got {velocities!r}")
-        np.clip(velocities, -self._caps_array, self._caps_array, out=self._requested)
+        # np.clip for finite numbers, without its checks
+        np.minimum(np.maximum(velocities, self._neg_caps, out=self._requested), self._caps_array, out=self._requested)
 
     # ----- the step, as ``World.step`` drives it: begin_step, then per physics sub-step
     # before_substep / (the solve) / after_substep, then end_step -----
@@ -126,7 +130,7 @@ class Robot:
             due, self._pending = self._pending, self._requested
         else:
             due = self._requested
-        self._requested = np.full(_N, np.nan)
+        self._requested = _NO_COMMANDS.copy()
         cfg = self._config
         last_target, last_force = self._sent
         target, force, self._yielding, self._motor_load, changed = motors.motor_step(
@@ -341,7 +345,11 @@ class Robot:
 
     def joint_angles(self) -> dict[str, float]:
         """Hinge angles in degrees by perceptor name (hj1 ... llj6), in JOINTS order."""
-        return dict(zip(_PERCEPTORS, np.degrees(self._joint_state()[0]).tolist()))
+        return dict(zip(_PERCEPTORS, self.joint_degrees()))
+
+    def joint_degrees(self) -> list[float]:
+        """``joint_angles``' values alone: what a reader that knows the order needs."""
+        return np.degrees(self._joint_state()[0]).tolist()
 
     def x_extent(self) -> tuple[float, float]:
         """The lowest and highest field x the referee counts the robot as reaching: its torso box
