@@ -156,6 +156,23 @@ def measure(quats, spins, parents, joint_of, local_axes):
 
 
 @njit(cache=True)
+def measured_state(pos, quat, vel, spin, parents, joint_of, local_axes):
+    """What the torso and the hinges show after a step, in one array (what is written into
+    pybullet and kept to compare with it): torso centre (3), quaternion (4), velocity (3), spin
+    (3), then the hinge angles and rates (``measure``)."""
+    angles, rates = measure(quat, spin, parents, joint_of, local_axes)
+    nj = angles.shape[0]
+    out = np.empty(13 + 2 * nj)
+    out[0:3] = pos[0]
+    out[3:7] = quat[0]
+    out[7:10] = vel[0]
+    out[10:13] = spin[0]
+    out[13 : 13 + nj] = angles
+    out[13 + nj :] = rates
+    return out
+
+
+@njit(cache=True)
 def body_velocities(parents, joint_of, local_axes, coms, quats, anchors, v0, w0, qd):
     """Each body's centre velocity and spin from the torso's and the hinge rates (exact joints)."""
     nb = coms.shape[0]

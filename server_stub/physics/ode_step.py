@@ -52,6 +52,7 @@ robots are not pushed back by it; nor has it ODE's joint-row softness and maxima
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from functools import partial
 from typing import NamedTuple
@@ -422,10 +423,10 @@ def _holds_written(robot, written: np.ndarray) -> bool:
     without reading it all: a robot that ``held`` it gets its centre, velocities, angles and rates
     back exactly, and its orientation rebuilt from a matrix (compared here; the sensors read that
     one too)."""
-    if not robot.held or not np.isfinite(written).all():
+    if not robot.held or not math.isfinite(written.sum()):
         return False
-    orientation = robot._base_pose()[2]
-    return max(abs(a - b) for a, b in zip(orientation, written[3:7].tolist())) <= _RESYNC_TOLERANCE
+    (x, y, z, w), (wx, wy, wz, ww) = robot._base_pose()[2], written[3:7].tolist()
+    return max(abs(x - wx), abs(y - wy), abs(z - wz), abs(w - ww)) <= _RESYNC_TOLERANCE
 
 
 def _prepared(robot, bodies: _Bodies, drag_vel, drag_spin, angles: np.ndarray, config) -> Prepared:
@@ -447,15 +448,16 @@ def finish_maximal(
     """Keep a robot's solved bodies and measure what pybullet gets: torso state, hinge angles and
     rates as the real server reads them."""
     bodies.pos, bodies.quat, bodies.vel, bodies.spin = pos, quat, vel, spin
-    new_angles, new_rates = ode_maximal.measure(quat, spin, static.parents, static.joint_of, static.local_axes)
-    bodies.written = _reduced(pos[0], quat[0], vel[0], spin[0], new_angles, new_rates)
+    written = ode_maximal.measured_state(pos, quat, vel, spin, static.parents, static.joint_of, static.local_axes)
+    bodies.written = written
+    nj = static.local_axes.shape[0]
     return Solved(
-        pos[0].tolist(),
-        quat[0].tolist(),
-        vel[0].tolist(),
-        spin[0].tolist(),
-        new_angles,
-        new_rates,
+        written[0:3].tolist(),
+        written[3:7].tolist(),
+        written[7:10].tolist(),
+        written[10:13].tolist(),
+        written[13 : 13 + nj],
+        written[13 + nj :],
         contacts,
         torques,
         iterations,
@@ -585,6 +587,7 @@ def _warm_up_maximal() -> None:
     child, parent = ode_maximal.local_anchors(*two, centres, quats, anchors)
     ode_maximal.anchor_gaps(*two, centres, quats, child, parent)
     ode_maximal.measure(quats, spin, *two, axes)
+    ode_maximal.measured_state(centres, quats, vel, spin, *two, axes)
     for kernel in (ode_maximal.step, ode_maximal.step_tree):
         kernel(
             np.ones(2),
