@@ -181,7 +181,7 @@ class DirectStub:
         )
         behaviour = WalkBehaviour(agent_config, TFSGait(params))
         state = sim.join()
-        inbox: list[bytes | dict[str, float]] = [commands.scene().encode()]
+        inbox: list[bytes | np.ndarray | dict[str, float]] = [commands.scene().encode()]
         to_agent: Perception | None = None
         play_on_sent = False
         cycles = 0
@@ -193,14 +193,14 @@ class DirectStub:
                 for message in inbox:
                     if isinstance(message, bytes):
                         sim.apply_frame(state, message, _warn)
+                        continue
+                    robot = state.robot
+                    assert robot is not None
+                    if isinstance(message, np.ndarray):
+                        robot.command_joints(message)
                     else:
-                        robot = state.robot
-                        assert robot is not None
-                        if tuple(message) == _EFFECTORS:  # every cycle: all 22, in JOINTS order
-                            robot.command_joints(np.array(list(message.values())))
-                        else:
-                            for name, velocity in message.items():
-                                robot.command_joint(_HINGE_INDEX[name], velocity)
+                        for name, velocity in message.items():
+                            robot.command_joint(_HINGE_INDEX[name], velocity)
                 inbox = []
                 sim.step()
                 cycles += 1
@@ -220,14 +220,17 @@ class DirectStub:
             sim.leave(state)
 
     @staticmethod
-    def _reply(behaviour: WalkBehaviour, perception: Perception) -> list[bytes | dict[str, float]]:
-        """The agent's reply as the stand-in would read it: velocities at 4 decimals; the
-        handshake and beams (a few per episode) as their text."""
+    def _reply(behaviour: WalkBehaviour, perception: Perception) -> list[bytes | np.ndarray | dict[str, float]]:
+        """The agent's reply as the stand-in would read it: velocities at 4 decimals (all 22 in
+        ``JOINTS`` order, as every cycle sends them, as one array); the handshake and beams (a few
+        per episode) as their text."""
         action = behaviour.action(perception)
-        out: list[bytes | dict[str, float]] = []
+        out: list[bytes | np.ndarray | dict[str, float]] = []
         velocities = action.velocities
-        if velocities:
-            # a non-finite one raises ValueError when applied, as printing it does on the socket path
+        # a non-finite one raises ValueError when applied, as printing it does on the socket path
+        if tuple(velocities) == _EFFECTORS:
+            out.append(np.array(list(map(round, velocities.values(), _FOUR_DECIMALS))))
+        elif velocities:
             out.append(dict(zip(velocities, map(round, velocities.values(), _FOUR_DECIMALS))))
         if action.text:
             out.append(action.text.encode())
