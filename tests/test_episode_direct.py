@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -89,32 +90,46 @@ def test_direct_episodes_walk_as_the_socket_path_does_on_the_ode_backend(monkeyp
 def test_a_dithered_walk_is_the_same_on_both_paths_and_its_seed_decides_it() -> None:
     """The agent's command dither (``EpisodeConfig.command_noise``, seeded per episode) reaches the
     agent alike on the direct path and over sockets: the same seed walks the same to the last bit,
-    another seed, or none, walks elsewhere. A ``python -m agent`` process gets it through its
-    command line (its walks are scored a cycle apart from in-process ones, so it is compared
-    with itself)."""
+    another seed, or none, walks elsewhere."""
     params = _gaits()["line-05"]
     walks = {}
-    for mode, agent_mode, noise in (
-        ("direct", "inprocess", 0.001),
-        ("socket", "inprocess", 0.001),
-        ("direct", "inprocess", 0.0),
-        ("socket", "process", 0.001),
-        ("socket", "process", 0.0),
-    ):
-        config = EpisodeConfig(walk_time=4.0, embedded_stub=mode, agent_mode=agent_mode, command_noise=noise)
-        with EpisodeRunner(config) as runner:
+    for mode, noise in (("direct", 0.001), ("socket", 0.001), ("direct", 0.0)):
+        with EpisodeRunner(EpisodeConfig(walk_time=4.0, embedded_stub=mode, command_noise=noise)) as runner:
             for seed in (1, 2):
                 result = runner.evaluate(params, seed=seed)
                 assert result.status == "ok", result.reason
-                walks[mode, agent_mode, noise, seed] = (result.distance, result.fell, result.time)
+                walks[mode, noise, seed] = (result.distance, result.fell, result.time)
     for seed in (1, 2):
-        assert walks["direct", "inprocess", 0.001, seed] == walks["socket", "inprocess", 0.001, seed]
-    for mode, agent_mode in (("direct", "inprocess"), ("socket", "process")):
-        assert walks[mode, agent_mode, 0.001, 1] != walks[mode, agent_mode, 0.001, 2]
-        assert walks[mode, agent_mode, 0.0, 1] == walks[mode, agent_mode, 0.0, 2]  # no dither: the seed is bookkeeping
-        assert walks[mode, agent_mode, 0.001, 1] != walks[mode, agent_mode, 0.0, 1]
+        assert walks["direct", 0.001, seed] == walks["socket", 0.001, seed]
+    assert walks["direct", 0.001, 1] != walks["direct", 0.001, 2]
+    assert walks["direct", 0.0, 1] == walks["direct", 0.0, 2]  # no dither: the seed is bookkeeping
+    assert walks["direct", 0.001, 1] != walks["direct", 0.0, 1]
     with pytest.raises(ValueError, match="command_noise"):
         EpisodeConfig(command_noise=-1.0)
+
+
+def test_an_agent_process_is_told_the_dither_and_the_episodes_seed(monkeypatch) -> None:
+    """``--agent-mode process`` hands the dither to ``python -m agent`` on its command line (a
+    process's walk starts by the wall clock, so its distance is no proof: its command line is)."""
+    from agent.__main__ import build_parser
+    from optimizer.episode import runner as runner_module
+
+    seen: list[list[str]] = []
+    popen = runner_module.subprocess.Popen
+
+    def refuse_agents(command: list[str], **kwargs: Any) -> Any:
+        if command[1:3] != ["-m", "agent"]:
+            return popen(command, **kwargs)  # the stub server itself
+        seen.append(command)
+        raise OSError("no agent process in this test")
+
+    monkeypatch.setattr(runner_module.subprocess, "Popen", refuse_agents)
+    config = EpisodeConfig(walk_time=1.0, embedded_stub="socket", agent_mode="process", command_noise=0.001)
+    with EpisodeRunner(config) as runner:
+        assert runner.evaluate(load_gait(), seed=7).status == "failed"
+    assert seen
+    args = build_parser().parse_args(seen[0][3:])
+    assert (args.command_noise, args.noise_seed) == (0.001, 7)
 
 
 def test_direct_is_the_embedded_stubs_default_and_can_be_refused() -> None:
