@@ -927,18 +927,30 @@ def _schur(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, 
             len_j[r] += 1
     schur = np.zeros((nbd, nbd))
     for r in range(nbd):
-        for s in range(r, nbd):
-            v = 0.0
+        # four entries S[r, s..s+3] at a time: four independent sums, each in the order of one
+        # at a time (row r's path bodies, then its hinges), which the CPU overlaps
+        for s in range(r, nbd, 4):
+            s1, s2, s3 = min(s + 1, nbd - 1), min(s + 2, nbd - 1), min(s + 3, nbd - 1)
+            v0 = v1 = v2 = v3 = 0.0
             for m in range(len_b[r]):
                 k = path_b[r, m]
                 for a in range(6):
-                    v += zb[s, k, a] * wb[r, k, a]
+                    w = wb[r, k, a]
+                    v0 += zb[s, k, a] * w
+                    v1 += zb[s1, k, a] * w
+                    v2 += zb[s2, k, a] * w
+                    v3 += zb[s3, k, a] * w
             for m in range(len_j[r]):
                 j = path_j[r, m]
                 for a in range(5):
-                    v += zj[s, j, a] * wj[r, j, a]
-            schur[r, s] = v
-            schur[s, r] = v
+                    w = wj[r, j, a]
+                    v0 += zj[s, j, a] * w
+                    v1 += zj[s1, j, a] * w
+                    v2 += zj[s2, j, a] * w
+                    v3 += zj[s3, j, a] * w
+            for x, v in ((s3, v3), (s2, v2), (s1, v1), (s, v0)):  # past the end: the last entry again, same value
+                schur[r, x] = v
+                schur[x, r] = v
         schur[r, r] += cfm_b[r]
     return schur
 
