@@ -134,10 +134,10 @@ def stability_config(settings: Mapping[str, Any]) -> StabilityConfig:
     )
 
 
-def add_run_arguments(parser: argparse.ArgumentParser) -> None:
+def add_run_arguments(parser: argparse.ArgumentParser, population: int = 100) -> None:
     """Flags of every search command: GA numbers shared by GA and GALA, the seed, the run folder
-    and the workers."""
-    parser.add_argument("--population", type=positive_int, default=None, help="population size (default 100)")
+    and the workers; ``population`` is the command's own default, for its help."""
+    parser.add_argument("--population", type=positive_int, default=None, help=f"population size (default {population})")
     parser.add_argument(
         "--elitism",
         action=argparse.BooleanOptionalAction,

@@ -129,7 +129,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="a run succeeds when its best walks at least M metres without a fall in its check "
         "(default 4.95, the paper's)",
     )
-    add_run_arguments(p)
+    add_run_arguments(p, population=DEFAULTS["population"])
     return p
 
 
