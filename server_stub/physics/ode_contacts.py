@@ -49,6 +49,10 @@ MAX_PAIR_POINTS = 32
 #: solve) until a robot touches it (ODE enables a disabled body joined to an enabled one) or the
 #: trainer or the referee moves it (trainercommandparser.cpp, soccerruleaspect.cpp: Enable()).
 BALL_IDLE_STEPS = 10
+#: How far any point of a robot's shapes lies from the centre of its body (m), at most, and then
+#: some: a NAO part's shape reaches 0.12 m from its centre at most (the torso box's corners), and
+#: Bullet's collision margins add a few centimetres. Things farther apart cannot touch.
+_REACH = 0.25
 BALL_IDLE_SPEED = 0.01
 #: No bounce: a minimum bounce velocity no contact reaches.
 _NO_BOUNCE = np.inf
@@ -169,6 +173,7 @@ class _Entity:
             self.frames = {}
         if link not in self.frames:
             robot = self.robot
+            robot.sync()
             if link < 0:
                 c, q = pb.getBasePositionAndOrientation(robot._body, physicsClientId=robot._client)
             else:
@@ -198,6 +203,10 @@ class Stepper:
         self._ball_moved = False
         self._ball_asleep = False
         self._ball_steps_left = BALL_IDLE_STEPS
+        boxes = static_boxes()
+        self._static_lo = np.array([np.subtract(centre, half) for half, centre in boxes])
+        self._static_hi = np.array([np.add(centre, half) for half, centre in boxes])
+        self._far_apart([np.zeros((1, 3))], (0.0, 0.0, 5.0))  # compile (or load) the check now
 
     def step(self, robots) -> None:
         """One cycle of every robot and the ball; writes the new state into pybullet."""
@@ -210,14 +219,18 @@ class Stepper:
         entities.append(_Entity(len(robots)))  # the ball
         by_body = {robot._body: i for i, robot in enumerate(robots)}
         by_body[self.ball] = len(robots)
-        pb.performCollisionDetection(physicsClientId=c)
-        touching = [pt for pt in pb.getContactPoints(physicsClientId=c) if pt[8] <= 0.0]
+        # the ball's state and its ground contact (ODE's sphere-plane)
+        ball_now = self._ball_now()
+        touching = []
+        if not self._far_apart([prep.bodies.pos for prep in preps], ball_now[0]):
+            for robot in robots:
+                robot.sync()
+            pb.performCollisionDetection(physicsClientId=c)
+            touching = [pt for pt in pb.getContactPoints(physicsClientId=c) if pt[8] <= 0.0]
         if touching:
             groups, pairs = self._islands(touching, entities, by_body)
         else:  # every robot and the ball on its own (the usual cycle of a lone walker)
             groups, pairs = [[i] for i in range(len(entities))], []
-        # the ball's state and its ground contact (ODE's sphere-plane)
-        ball_now = self._ball_now()
         if ball_now != self._ball_written:
             self._wake_ball()  # the trainer or the referee moved it: SimSpark enables its body
         ball_index = len(robots)
@@ -233,6 +246,30 @@ class Stepper:
                 ode_step.apply(robot, solved)
                 continue
             self._solve_island(group, robots, statics, preps, entities, pairs, ball_now, by_body)
+
+    def _far_apart(self, robot_bodies: list[np.ndarray], ball: tuple) -> bool:
+        """Whether no two of the robots, the ball and the goals and walls can touch: their boxes
+        (every body's centre, grown by ``_REACH``; the ball's, by its radius and as much) do not
+        overlap (``ode_kernels.far_apart``). Then Bullet would find no touching point, so it is not
+        asked (nor told where the robots are): the usual cycle of a lone walker."""
+        if len(robot_bodies) == 1:
+            pos = robot_bodies[0]
+            owner = np.zeros(pos.shape[0], dtype=np.int64)
+        else:
+            pos = np.concatenate(robot_bodies)
+            owner = np.repeat(np.arange(len(robot_bodies)), [p.shape[0] for p in robot_bodies])
+        return bool(
+            ode_kernels.far_apart(
+                pos,
+                owner,
+                len(robot_bodies),
+                np.asarray(ball, dtype=float),
+                _REACH,
+                field.BALL_RADIUS + _REACH,
+                self._static_lo,
+                self._static_hi,
+            )
+        )
 
     def _islands(self, touching: list, entities: list, by_body: dict) -> tuple[list[list[int]], list]:
         """The touching points sorted out: each one-body contact (a goal, a wall) to its entity,

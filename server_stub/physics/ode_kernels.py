@@ -715,3 +715,40 @@ def drifted_poses(parents, joint_of, coms, quats, anchors, gap, turn):
         out_q[k, 2] = w * q0[2] + qx * q0[1] - qy * q0[0] + qz * q0[3]
         out_q[k, 3] = w * q0[3] - qx * q0[0] - qy * q0[1] - qz * q0[2]
     return out_c, out_q
+
+
+@njit(cache=True)
+def far_apart(pos, owner, count, ball, reach, ball_reach, static_lo, static_hi):
+    """Whether no two of ``count`` robots (their bodies' centres ``pos``, body b of robot
+    ``owner[b]``, each grown by ``reach``), the ball (grown by ``ball_reach``) and the static boxes
+    (``static_lo``/``static_hi`` corners) have overlapping boxes: then nothing can touch."""
+    lo = np.full((count + 1, 3), np.inf)
+    hi = np.full((count + 1, 3), -np.inf)
+    for b in range(pos.shape[0]):
+        o = owner[b]
+        for d in range(3):
+            lo[o, d] = min(lo[o, d], pos[b, d] - reach)
+            hi[o, d] = max(hi[o, d], pos[b, d] + reach)
+    for d in range(3):
+        lo[count, d] = ball[d] - ball_reach
+        hi[count, d] = ball[d] + ball_reach
+    for i in range(count + 1):
+        for j in range(i + 1, count + 1):
+            if _boxes_overlap(lo[i], hi[i], lo[j], hi[j]):
+                return False
+        for s in range(static_lo.shape[0]):
+            if _boxes_overlap(lo[i], hi[i], static_lo[s], static_hi[s]):
+                return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def _boxes_overlap(lo_a, hi_a, lo_b, hi_b):
+    return (
+        lo_a[0] <= hi_b[0]
+        and lo_b[0] <= hi_a[0]
+        and lo_a[1] <= hi_b[1]
+        and lo_b[1] <= hi_a[1]
+        and lo_a[2] <= hi_b[2]
+        and lo_b[2] <= hi_a[2]
+    )

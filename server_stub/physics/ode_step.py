@@ -143,6 +143,7 @@ class Solved(NamedTuple):
 def solve(robot, ground: int, config) -> Solved:
     """One ODE-like step of ``robot`` (its motors already set by ``Robot.begin_step``), from
     the state pybullet holds now; nothing is written."""
+    robot.sync()
     client, body = robot._client, robot._body
     static = static_of(robot, ground, config)
     if config.ode_maximal:
@@ -368,6 +369,7 @@ def prepare_maximal(robot, static: _Static, config) -> Prepared:
     if bodies is not None and written is not None and _holds_written(robot, written):
         # pybullet holds what the last step wrote: the bodies go on from their own state
         return _prepared(robot, bodies, bodies.vel, bodies.spin, robot._joint_state()[0], config)
+    robot.sync()
     client, body = robot._client, robot._body
     position, orientation = pb.getBasePositionAndOrientation(body, physicsClientId=client)
     v0, w0 = pb.getBaseVelocity(body, physicsClientId=client)
@@ -493,18 +495,14 @@ def _motor_rows(angles, force, sticky, torque_limit, ode_limits, fudge=0.0):
 
 
 def apply(robot, solved: Solved) -> None:
-    """Write a solved step into pybullet (after Bullet's own step of the rest of the world, if
-    any), and hand the robot what it wrote (``Robot.hold``)."""
-    client, body = robot._client, robot._body
-    pb.resetBasePositionAndOrientation(body, solved.position, solved.orientation, physicsClientId=client)
-    pb.resetBaseVelocity(body, solved.velocity, solved.spin, physicsClientId=client)
-    pb.resetJointStatesMultiDof(
-        body,
-        robot._ode_static.indices,
-        list(zip(solved.angles.tolist())),
-        targetVelocities=list(zip(solved.rates.tolist())),
-        physicsClientId=client,
+    """Hand a solved step to the robot (``Robot.hold``) and into pybullet: at once for a robot
+    Bullet steps too (after Bullet's own step of the rest of the world), else when pybullet is
+    next asked about it (``Robot.keep_unwritten``)."""
+    robot.keep_unwritten(
+        tuple(solved.position), tuple(solved.orientation), solved.velocity, solved.spin, solved.angles, solved.rates
     )
+    if robot._bullet_steps:
+        robot.sync()
     robot.hold(solved.angles, solved.rates, tuple(solved.velocity), tuple(solved.spin), solved.contacts)
 
 

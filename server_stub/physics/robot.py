@@ -19,7 +19,7 @@ import pybullet as pb
 from protocol.nao import JOINTS
 from server_stub.config import PhysicsConfig
 from server_stub.physics import contact, motors, nao_model, slip
-from server_stub.physics.rotations import body_poses
+from server_stub.physics.rotations import body_poses, read_back, stored_matrix
 
 _N = len(JOINTS)
 #: Half sizes of the torso box along its own axes (docs/robot_and_server.md section 2).
@@ -92,6 +92,8 @@ class Robot:
         #: no step has run since this robot was made: it has touched nothing yet (a reused body
         #: may still hold its last life's contacts until the next collision pass)
         self._new = True
+        #: a solved state not yet written into pybullet (``keep_unwritten``), or None
+        self._unwritten: tuple | None = None
         self._invalidate()
         self._skeleton = self._skeleton_of()
 
@@ -238,6 +240,32 @@ class Robot:
         self._links: list[tuple] | None = None
         self._table: np.ndarray | None = None
 
+    def keep_unwritten(
+        self, position: tuple, orientation: tuple, velocity: tuple, spin: tuple, angles: np.ndarray, rates: np.ndarray
+    ) -> None:
+        """A step's solved state, kept instead of written into pybullet: it is written (``sync``)
+        only before pybullet is asked about this robot (a link's pose, a collision pass, a beam), so
+        a walker far from everything costs no pybullet call a cycle. Only for a robot Bullet never
+        steps; ``hold`` follows, and the torso's orientation reads as pybullet would give it back."""
+        self._unwritten = (position, orientation, velocity, spin, angles, rates)
+
+    def sync(self) -> None:
+        """Write the kept state (``keep_unwritten``) into pybullet, as the step would have at once."""
+        if self._unwritten is None:
+            return
+        position, orientation, velocity, spin, angles, rates = self._unwritten
+        self._unwritten = None
+        client, body = self._client, self._body
+        pb.resetBasePositionAndOrientation(body, position, orientation, physicsClientId=client)
+        pb.resetBaseVelocity(body, velocity, spin, physicsClientId=client)
+        pb.resetJointStatesMultiDof(
+            body,
+            self._indices,
+            list(zip(angles.tolist())),
+            targetVelocities=list(zip(rates.tolist())),
+            physicsClientId=client,
+        )
+
     def hold(
         self, angles: np.ndarray, rates: np.ndarray, velocity: tuple, spin: tuple, contacts: Callable[[], tuple]
     ) -> None:
@@ -252,6 +280,10 @@ class Robot:
             self._joints = (angles, rates, self._no_torque)
             self._motion = (velocity, spin)
             self.held = True
+            if self._unwritten is not None:
+                position, orientation = self._unwritten[0], self._unwritten[1]
+                back = read_back(tuple(orientation))
+                self._pose = (tuple(position), stored_matrix(back), back)
 
     # ----- placing -----
     def beam(self, x: float, y: float, heading_deg: float) -> None:
@@ -263,7 +295,7 @@ class Robot:
         """The trainer's move: torso centre to (x, y, z), velocities zeroed, joints kept; the
         orientation is kept, or with ``yaw_deg`` set upright facing it (0 = world +x)."""
         if yaw_deg is None:
-            orientation = pb.getBasePositionAndOrientation(self._body, physicsClientId=self._client)[1]
+            orientation = self._base_pose()[2]
         else:
             orientation = _yaw_quaternion(yaw_deg)
         self._reset(x, y, z, orientation)
@@ -273,6 +305,7 @@ class Robot:
         the real server shows a one-cycle spike after a beam (docs/robot_and_server.md section 5)."""
         client = self._client
         angles = self._joint_state()[0]
+        self.sync()
         pb.resetBasePositionAndOrientation(self._body, (x, y, z), orientation, physicsClientId=client)
         pb.resetBaseVelocity(self._body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=client)
         pb.resetJointStatesMultiDof(
@@ -284,6 +317,7 @@ class Robot:
     def _joint_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(angles, rates, motor torques of the last step), cached until the next step."""
         if self._joints is None:
+            self.sync()
             states = pb.getJointStates(self._body, self._indices, physicsClientId=self._client)
             self._joints = (
                 np.array([s[0] for s in states]),
@@ -296,6 +330,7 @@ class Robot:
         """pybullet's state of every link (pose and velocity), cached until the next step: the
         cameras, the monitor and the next step's slip model all read the same state."""
         if self._links is None:
+            self.sync()
             self._links = pb.getLinkStates(
                 self._body,
                 self._indices,
@@ -321,6 +356,7 @@ class Robot:
             elif self._new:
                 self._contact_points = ()
             else:
+                self.sync()
                 self._contact_points = pb.getContactPoints(bodyA=self._body, physicsClientId=self._client)
         return self._contact_points
 
@@ -332,6 +368,7 @@ class Robot:
     def _base_pose(self) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
         """(position, rotation as 9 floats row-major, quaternion), cached until the next step."""
         if self._pose is None:
+            self.sync()
             position, orientation = pb.getBasePositionAndOrientation(self._body, physicsClientId=self._client)
             self._pose = (position, pb.getMatrixFromQuaternion(orientation), orientation)
         return self._pose
@@ -340,6 +377,7 @@ class Robot:
         """(velocity, angular velocity) of the torso in the world, cached until the next step:
         the accelerometer, the gyro and the next step's slip model read the same state."""
         if self._motion is None:
+            self.sync()
             self._motion = pb.getBaseVelocity(self._body, physicsClientId=self._client)
         return self._motion
 

@@ -3,6 +3,8 @@ matrix every cycle (the slip model) and every other cycle (the monitor's body-pa
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -45,6 +47,53 @@ def body_poses(base_position: np.ndarray, base_rotation: np.ndarray, links: np.n
     for i in range(out.shape[0]):
         out[i, 3, 3] = 1.0
     return out
+
+
+def stored_matrix(q: tuple[float, ...]) -> tuple[float, ...]:
+    """The rotation (9 floats, row-major) pybullet stores for a base orientation ``q`` (x, y, z, w)
+    and gives back from ``getMatrixFromQuaternion``: the same products in the same order, so the
+    same last bits (``tests/test_stub_speed.py`` checks this against pybullet)."""
+    x, y, z, w = q
+    s = 2.0 / (x * x + y * y + z * z + w * w)
+    xs, ys, zs = x * s, y * s, z * s
+    wx, wy, wz = w * xs, w * ys, w * zs
+    xx, xy, xz = x * xs, x * ys, x * zs
+    yy, yz, zz = y * ys, y * zs, z * zs
+    return (
+        1.0 - (yy + zz), xy - wz, xz + wy,
+        xy + wz, 1.0 - (xx + zz), yz - wx,
+        xz - wy, yz + wx, 1.0 - (xx + yy),
+    )  # fmt: skip
+
+
+def read_back(q: tuple[float, ...]) -> tuple[float, ...]:
+    """The orientation pybullet gives back after being handed ``q``: the quaternion it rebuilds
+    from its stored matrix (largest of trace and diagonal first), which may differ from ``q`` in
+    the last bits or in sign. A robot whose state is not written into pybullet every step
+    (``Robot.hold``) reads its orientation through this, so its sensors see what pybullet's would."""
+    m = stored_matrix(q)
+    trace = m[0] + m[4] + m[8]
+    out = [0.0, 0.0, 0.0, 0.0]
+    if trace > 0.0:
+        r = math.sqrt(trace + 1.0)
+        out[3] = r * 0.5
+        r = 0.5 / r
+        out[0] = (m[7] - m[5]) * r
+        out[1] = (m[2] - m[6]) * r
+        out[2] = (m[3] - m[1]) * r
+        return tuple(out)
+    if m[0] < m[4]:
+        i = 2 if m[4] < m[8] else 1
+    else:
+        i = 2 if m[0] < m[8] else 0
+    j, k = (i + 1) % 3, (i + 2) % 3
+    r = math.sqrt(m[4 * i] - m[4 * j] - m[4 * k] + 1.0)
+    out[i] = r * 0.5
+    r = 0.5 / r
+    out[3] = (m[3 * k + j] - m[3 * j + k]) * r
+    out[j] = (m[3 * j + i] + m[3 * i + j]) * r
+    out[k] = (m[3 * k + i] + m[3 * i + k]) * r
+    return tuple(out)
 
 
 def warm_up() -> None:

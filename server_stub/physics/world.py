@@ -206,6 +206,7 @@ class World:
         """Take ``robot`` off the field: its body is parked asleep far away, out of every step's
         work and every other body's reach, until ``add_robot`` reuses it."""
         self._robots.remove(robot)
+        robot.sync()  # a state kept from pybullet must not land on the parked body later
         c = self._client
         x, y, z = _PARKING
         spot = (x + _PARKING_GAP * robot.body_id, y, z)
