@@ -209,7 +209,8 @@ class Stepper:
         self._far_apart([np.zeros((1, 3))], (0.0, 0.0, 5.0))  # compile (or load) the check now
 
     def step(self, robots) -> None:
-        """One cycle of every robot and the ball; writes the new state into pybullet."""
+        """One cycle of every robot and the ball. The ball's new state goes into pybullet at once,
+        each robot's when pybullet is next asked about it (``Robot.keep_unwritten``)."""
         cfg = self.config
         c = self.client
         ground = self.ground
