@@ -34,5 +34,6 @@ def joint_velocities(
             continue
         angle = angle_of(perceptor)
         v = 0.0 if angle is None else gain * (target - angle) * _DEG
-        velocities[effector] = min(max(v, -SPEED_CAP), SPEED_CAP)
+        # min(max(v, -cap), cap) without the two calls: 22 joints every cycle
+        velocities[effector] = SPEED_CAP if v > SPEED_CAP else -SPEED_CAP if v < -SPEED_CAP else v
     return velocities
