@@ -245,8 +245,8 @@ class Robot:
     ) -> None:
         """A step's solved state, kept instead of written into pybullet: it is written (``sync``)
         only before pybullet is asked about this robot (a link's pose, a collision pass, a beam), so
-        a walker far from everything costs no pybullet call a cycle. Only for a robot Bullet never
-        steps; ``hold`` follows, and the torso's orientation reads as pybullet would give it back."""
+        a walker far from everything costs no pybullet call a cycle (a robot Bullet steps as well
+        is written at once, ``ode_step.apply``); ``hold`` follows."""
         self._unwritten = (position, orientation, velocity, spin, angles, rates)
 
     def sync(self) -> None:
@@ -269,11 +269,12 @@ class Robot:
     def hold(
         self, angles: np.ndarray, rates: np.ndarray, velocity: tuple, spin: tuple, contacts: Callable[[], tuple]
     ) -> None:
-        """The state an ODE step has just written into pybullet, kept as pybullet would give it back
-        (it stores these numbers as they are; its motors, never stepped, applied no torque), so
-        that the sensors and the next step need not ask it; and the step's contacts, made when
-        first asked for. Until the next step or a re-pose, ``held`` says pybullet holds this. A
-        robot Bullet steps as well keeps only the contacts: its motors' torques are Bullet's."""
+        """The state an ODE step has just solved, kept as pybullet gives it back once written
+        (it stores these numbers as they are, the orientation rebuilt from a matrix; its motors,
+        never stepped, applied no torque), so that the sensors and the next step need not ask it;
+        and the step's contacts, made when first asked for. Until the next step or a re-pose,
+        ``held`` says pybullet holds this, or will when written (``keep_unwritten``). A robot
+        Bullet steps as well keeps only the contacts: its motors' torques are Bullet's."""
         self.after_substep()
         self._contact_maker = contacts
         if not self._bullet_steps:
