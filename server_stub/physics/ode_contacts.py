@@ -256,9 +256,9 @@ class Stepper:
         if len(robot_bodies) == 1:
             pos = robot_bodies[0]
             owner = np.zeros(pos.shape[0], dtype=np.int64)
-        else:
-            pos = np.concatenate(robot_bodies)
-            owner = np.repeat(np.arange(len(robot_bodies)), [p.shape[0] for p in robot_bodies])
+        else:  # none (the ball alone) or several
+            pos = np.concatenate(robot_bodies) if robot_bodies else np.zeros((0, 3))
+            owner = np.repeat(np.arange(len(robot_bodies)), [p.shape[0] for p in robot_bodies]).astype(np.int64)
         return bool(
             ode_kernels.far_apart(
                 pos,
