@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from server_stub.physics.ode_kernels import _cross, _plane_space, box_qp
+from server_stub.physics.ode_kernels import _cross, _plane_space, box_qp, free_system
 from server_stub.physics.ode_maximal import (
     _advance,
     _body_terms,
@@ -74,19 +74,9 @@ def _block_pivot(a, b, lo, hi, state):
             else:
                 state[i] = 0
         free = np.nonzero(state == 0)[0]
-        bound = np.nonzero(state != 0)[0]
         nf = free.size
         if nf > 0:
-            sub = np.empty((nf, nf))
-            rhs = np.empty(nf)
-            for ii in range(nf):
-                i = free[ii]
-                t = b[i]
-                for k in bound:
-                    t -= a[i, k] * x[k]
-                rhs[ii] = t
-                for jj in range(nf):
-                    sub[ii, jj] = a[i, free[jj]]
+            sub, rhs = free_system(a, b, x, state, free)
             sol = np.linalg.solve(sub, rhs)
             for ii in range(nf):
                 x[free[ii]] = sol[ii]

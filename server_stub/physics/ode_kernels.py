@@ -214,6 +214,26 @@ def _cho_solve(lower, b):
 
 
 @njit(cache=True)
+def free_system(a, b, x, state, free):
+    """The boxed LCP's rows ``free`` (``state`` 0) with every other row held where ``x`` has it:
+    A_FF x_F = b_F - A_FB x_B, as (A_FF, right side); the inner system of ``box_qp`` and of the
+    island solve's block pivoting."""
+    nf = free.size
+    sub = np.empty((nf, nf))
+    rhs = np.empty(nf)
+    for ii in range(nf):
+        i = free[ii]
+        s = b[i]
+        for k in range(b.shape[0]):
+            if state[k] != 0:
+                s -= a[i, k] * x[k]
+        rhs[ii] = s
+        for jj in range(nf):
+            sub[ii, jj] = a[i, free[jj]]
+    return sub, rhs
+
+
+@njit(cache=True)
 def box_qp(a, b, lo, hi, state):
     """x minimising 1/2 x'Ax - b'x within lo <= x <= hi, A symmetric positive definite: the
     boxed LCP w = Ax - b, x at lo => w >= 0, x at hi => w <= 0, inside => w = 0, solved exactly
@@ -238,17 +258,7 @@ def box_qp(a, b, lo, hi, state):
         nf = free.size
         target = x.copy()
         if nf > 0:
-            sub = np.empty((nf, nf))
-            rhs = np.empty(nf)
-            for ii in range(nf):
-                i = free[ii]
-                s = b[i]
-                for k in range(n):
-                    if state[k] != 0:
-                        s -= a[i, k] * x[k]
-                rhs[ii] = s
-                for jj in range(nf):
-                    sub[ii, jj] = a[i, free[jj]]
+            sub, rhs = free_system(a, b, x, state, free)
             lower, ok = _cholesky(sub)
             if not ok:
                 break
