@@ -49,11 +49,11 @@ MAX_PAIR_POINTS = 32
 #: solve) until a robot touches it (ODE enables a disabled body joined to an enabled one) or the
 #: trainer or the referee moves it (trainercommandparser.cpp, soccerruleaspect.cpp: Enable()).
 BALL_IDLE_STEPS = 10
+BALL_IDLE_SPEED = 0.01
 #: How far any point of a robot's shapes lies from the centre of its body (m), at most, and then
 #: some: a NAO part's shape reaches 0.12 m from its centre at most (the torso box's corners), and
 #: Bullet's collision margins add a few centimetres. Things farther apart cannot touch.
 _REACH = 0.25
-BALL_IDLE_SPEED = 0.01
 #: No bounce: a minimum bounce velocity no contact reaches.
 _NO_BOUNCE = np.inf
 #: SimSpark's goal and field geometry (goal.rsg, soccer.rsg, naosoccersim.rb): the goals' bar
