@@ -192,38 +192,36 @@ def test_calibration_walk_on_the_reduced_step():
     assert abs(result.dy) <= 1.5 * 0.988
 
 
-def test_odes_box_plane_rule_gives_the_deepest_corner_and_at_most_two_neighbours():
-    """``ode_box_points`` 3: a flat foot 1 mm deep touches at 3 corners (the deepest and its two
-    neighbours along the sole's sides, never the diagonal one); the third is counted as deep as
-    the second less its own side's projection, as ODE counts it."""
-    tilt = pb.getQuaternionFromEuler((0.001, 0.002, 0.0))  # a hair off flat picks the deepest corner
-    bodies, points, depths = ode_kernels.ground_contacts(
-        np.array([0], dtype=np.int64),
-        np.array([ode_kernels.BOX], dtype=np.int64),
-        np.array([[0.08, 0.16, 0.02]]),
-        np.array([[0.0, 0.0, 0.009]]),
-        np.array([tilt]),
-        3,
-    )
-    assert len(bodies) == 3
+def test_odes_box_plane_rule_counts_each_neighbour_from_the_deepest_corner():
+    """A flat foot 1 mm deep, a hair off flat: 3 asked, the deepest corner and its two neighbours
+    along the sole's sides (never the diagonal one), each as deep as the first less its side's
+    projection on the normal (ODE's rule; ``tests/test_ode_colliders.py`` checks it against
+    libode itself); 4 asked, the diagonal corner as well, as deep as those two less the first."""
+    tilt = pb.getQuaternionFromEuler((0.001, 0.002, 0.0))
+
+    def contacts(asked):
+        return ode_kernels.ground_contacts(
+            np.array([0], dtype=np.int64),
+            np.array([ode_kernels.BOX], dtype=np.int64),
+            np.array([[0.08, 0.16, 0.02]]),
+            np.array([[0.0, 0.0, 0.009]]),
+            np.array([tilt]),
+            asked,
+        )
+
+    _, points, depths = contacts(3)
+    assert len(depths) == 3
     corners = {tuple(np.sign(p[:2]).astype(int)) for p in points}
     assert len(corners) == 3 and all(abs(x) == 1 for c in corners for x in c)
-    assert depths[0] == max(depths) and depths[2] <= depths[1] <= depths[0]
     r = np.array(pb.getMatrixFromQuaternion(tilt)).reshape(3, 3)
     projections = sorted(abs(np.array([0.08, 0.16, 0.02]) * r[2]))
     assert depths[1] == pytest.approx(depths[0] - projections[0], abs=1e-12)
-    assert depths[2] == pytest.approx(depths[0] - projections[0] - projections[1], abs=1e-12)
-    # standing on an edge (a heel strike): only the corners that reach the ground
-    heel = pb.getQuaternionFromEuler((0.2, 0.0, 0.0))
-    bodies, points, depths = ode_kernels.ground_contacts(
-        np.array([0], dtype=np.int64),
-        np.array([ode_kernels.BOX], dtype=np.int64),
-        np.array([[0.08, 0.16, 0.02]]),
-        np.array([[0.0, 0.0, 0.025]]),
-        np.array([heel]),
-        3,
+    assert depths[2] == pytest.approx(depths[0] - projections[1], abs=1e-12)
+    _, points4, depths4 = contacts(4)
+    assert np.array_equal(depths4[:3], depths) and depths4[3] == pytest.approx(
+        depths[1] + depths[2] - depths[0], abs=1e-12
     )
-    assert len(bodies) == 2 and np.all(points[:, 1] < 0.0) and np.all(depths >= 0.0)
+    assert {tuple(np.sign(p[:2]).astype(int)) for p in points4} == {(-1, -1), (-1, 1), (1, -1), (1, 1)}
 
 
 # ----- the maximal-coordinate step (``PhysicsConfig.ode_maximal``, ``server_stub.physics.ode_maximal``) -----

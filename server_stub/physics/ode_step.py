@@ -27,10 +27,9 @@ every vector in the world frame (``server_stub.physics.ode_kernels``):
 
 Contacts with the ground are found at the step's start (as SimSpark collides before it steps) by
 ``ode_kernels.ground_contacts``, which makes them as ODE's plane colliders do: only for touching
-or overlapping geometry; a box gets ODE's box-plane contacts (the deepest corner and at most two
-neighbours, ``ode_kernels.box_plane``; SimSpark asks for 4, ODE's box-plane collider gives at most
-3) or, with ``ode_box_points`` 4, its corners below the plane; a sphere its lowest point; a
-capsule its two ends. Bullet no longer collides the robots with the ground. The new state is
+or overlapping geometry; a box gets ODE's box-plane contacts (``ode_kernels.box_plane``: the
+deepest corner, at most two neighbours and, SimSpark asking for 4, the face's fourth corner); a
+sphere its lowest point; a capsule its two ends. Bullet no longer collides the robots with the ground. The new state is
 written back into pybullet, so sensors, the monitor and vision read it as before, and each robot's
 contact points carry the solved forces in pybullet's tuple layout for the FRP perceptor.
 
