@@ -126,7 +126,7 @@ class WalkBehaviour:
             # the first walking reply is gait time 0; after it, one cycle has been walked
             velocities = self._dithered(self._velocities(perception, self.walk_time))
             self.walk_cycles += 1
-            if self.fall.update(perception.acc):
+            if self.fall.update(perception.acc, perception.gyro):
                 self.fell_at = self.walk_time
                 log.warning(
                     "fall detected after %.2f s of walking (torso tilted past the 0.6 up-z limit)", self.walk_time

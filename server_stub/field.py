@@ -27,6 +27,9 @@ BALL_MASS = 0.026
 #: How far behind the centre line the referee puts a robot that stands in the other half before
 #: kick-off (naosoccersim.rb's FreeKickMoveDist).
 FREE_KICK_MOVE_DIST = 2.5
+#: naosoccersim.rb's AgentRadius: the torso height of a beam and of an ``init``, and the spacing of
+#: the places robots are put at their ``init`` (``game.Game.init_pose``).
+AGENT_RADIUS = 0.4
 
 HALF_LENGTH = LENGTH / 2
 HALF_WIDTH = WIDTH / 2

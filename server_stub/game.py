@@ -8,6 +8,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from protocol.nao import BEAM_PLAY_MODES, CYCLE, PLAY_MODES
 from server_stub import field as soccer_field
 
@@ -34,6 +36,10 @@ class Game:
     team_right: str | None = None
     #: unums taken per side ('left' / 'right').
     taken: dict[str, set[int]] = field(default_factory=lambda: {"left": set(), "right": set()})
+    #: where the next ``init`` of each side puts its robot, in float32 as the real server keeps it
+    _next_init: dict[str, np.ndarray] = field(
+        default_factory=lambda: {side: _first_init_place(side) for side in ("left", "right")}
+    )
 
     def advance(self) -> None:
         if self.play_mode not in _CLOCK_STOPPED:
@@ -72,6 +78,24 @@ class Game:
         taken.add(unum)
         return side, unum
 
+    def init_pose(self, side: str) -> tuple[float, float, float]:
+        """World (x, y, heading; 0 = +x) where the real server moves a robot when it sends
+        ``init``, before any beam (rcssserver3d's InitEffector: GameStateAspect's
+        RequestInitPosition and RequestInitOrientation): down the side line at y = +10 in a row
+        3 agent radii apart, starting 2 radii in from the corner of the own goal line; past the
+        other side line the next row starts 2 radii further along +x (for both sides, so the right
+        team's rows move out past its goal line). The rows run on for the server's whole life (never
+        reset), facing the opponent goal. So robots created together stand apart until they beam,
+        and none stands in the other half before kick-off."""
+        place = self._next_init[side]
+        x, y = float(place[0]), float(place[1])
+        radius = np.float32(soccer_field.AGENT_RADIUS)
+        place[1] -= radius * np.float32(3)
+        if place[1] < -np.float32(soccer_field.WIDTH) / np.float32(2):
+            place[1] = np.float32(soccer_field.WIDTH) / np.float32(2) - radius * np.float32(2)
+            place[0] += radius * np.float32(2)
+        return x, y, (0.0 if side == "left" else 180.0)
+
     def leave(self, side: str, unum: int) -> None:
         self.taken[side].discard(unum)
         if not self.taken[side]:
@@ -79,6 +103,15 @@ class Game:
                 self.team_left = None
             else:
                 self.team_right = None
+
+
+def _first_init_place(side: str) -> np.ndarray:
+    """GameStateAspect::OnLink's first init place of a side: 2 agent radii in from the corner at
+    y = +10 of its own goal line."""
+    radius = np.float32(soccer_field.AGENT_RADIUS)
+    x = np.float32(soccer_field.LENGTH) / np.float32(2) - radius * np.float32(2)
+    y = np.float32(soccer_field.WIDTH) / np.float32(2) - radius * np.float32(2)
+    return np.array([-x if side == "left" else x, y], dtype=np.float32)
 
 
 def beam_pose(side: str, x: float, y: float, rot: float) -> tuple[float, float, float]:

@@ -179,6 +179,9 @@ class Simulation:
             raise ValueError("(teamname NAME) missing")
         state.side, state.unum = self.game.join(team, unum)
         state.team = team
+        # SimSpark's InitEffector moves it as a beam does, but before the accelerometer reads
+        x, y, heading = self.game.init_pose(state.side)
+        state.robot.place(x, y, field.AGENT_RADIUS, yaw_deg=heading)
         state.announce_identity = True
         self.scene_changed = True
 

@@ -67,13 +67,59 @@ def test_controller_caps_velocity_and_holds_missing_joints() -> None:
     assert small == {"he2": pytest.approx(15.0 * math.radians(1.0))}
 
 
-def test_fall_detector_ignores_spikes_and_sees_a_lying_torso() -> None:
+def test_fall_detector_ignores_spikes_and_sees_a_torso_tipping_over() -> None:
     fd = FallDetector()
-    assert not any(fd.update((0.0, 0.0, 9.81)) for _ in range(20))
-    assert not fd.update((0.0, -29.4, 1.0))  # one-cycle spike
-    assert not any(fd.update((0.0, 0.0, 9.81)) for _ in range(5))
-    events = [fd.update((0.0, -9.8, 1.0)) for _ in range(10)]
+    assert not any(fd.update((0.0, 0.0, 9.81), (0.0, 0.0, 0.0)) for _ in range(20))
+    assert not fd.update((0.0, -29.4, 1.0), (0.0, 0.0, 0.0))  # one-cycle spike
+    assert fd.up_z > 0.99
+    # pitching forward at 200 deg/s while the accelerometer reads the fall's own accelerations
+    events = [fd.update((0.0, -20.0, 3.0), (-200.0, 0.0, 0.0)) for _ in range(20)]
     assert events.count(True) == 1 and fd.fallen
+    tipped = 200.0 * 0.02 * (events.index(True) + 1)  # degrees turned when it was noticed
+    assert math.degrees(math.acos(0.6)) <= tipped <= math.degrees(math.acos(0.6)) + 8.0
+
+
+def test_fall_detector_sees_a_lying_torso_from_the_accelerometer_alone() -> None:
+    """Without any gyro (a robot put down lying), the accelerometer's gravity takes over within
+    about a second."""
+    fd = FallDetector()
+    fd.update((0.0, 0.0, 9.81))
+    cycles = next(k for k in range(200) if fd.update((0.0, -9.8, 1.0)))
+    assert 10 <= cycles <= 60
+
+
+_vectors = st.tuples(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1)).filter(
+    lambda v: 0.1 < math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
+)
+
+
+@given(st.lists(st.tuples(_vectors, st.floats(0.0, 0.69) | st.floats(1.31, 5.0)), min_size=1, max_size=200))
+def test_fall_detector_reads_no_gravity_into_accelerations_far_from_1g(readings) -> None:
+    """A torso that does not turn (gyro 0) and whose accelerometer reads far from 1 g (a step's
+    impact, a free fall) keeps its estimate: the false alarms of fast gaits came from reading such
+    accelerations as gravity."""
+    fd = FallDetector()
+    fd.update((0.0, 0.0, 9.81), (0.0, 0.0, 0.0))
+    for direction, g_units in readings:
+        norm = math.sqrt(sum(c * c for c in direction))
+        fd.update(tuple(9.81 * g_units * c / norm for c in direction), (0.0, 0.0, 0.0))
+    assert fd.up_z == pytest.approx(1.0) and not fd.fallen
+
+
+@given(st.lists(st.tuples(_vectors, st.floats(0.71, 1.29)), min_size=1, max_size=200))
+def test_fall_detector_stays_upright_while_gravity_reads_upright(readings) -> None:
+    """Readings near 1 g whose direction is within 37 deg of upright (z >= 0.8 of the unit
+    vector) pull the estimate among directions at least that upright: never a fall."""
+    fd = FallDetector()
+    fd.update((0.0, 0.0, 9.81), (0.0, 0.0, 0.0))
+    for direction, g_units in readings:
+        norm = math.sqrt(sum(c * c for c in direction))
+        unit = [c / norm for c in direction]
+        if unit[2] < 0.8:
+            continue
+        fd.update(tuple(9.81 * g_units * c for c in unit), (0.0, 0.0, 0.0))
+        assert fd.up_z >= 0.8 - 1e-9
+    assert not fd.fallen
 
 
 def test_fall_detector_on_the_real_forward_fall(fixtures_dir) -> None:
@@ -81,7 +127,8 @@ def test_fall_detector_on_the_real_forward_fall(fixtures_dir) -> None:
     fd = FallDetector()
     fell_at = None
     for k, line in enumerate((fixtures_dir / "agent_perceptions_full_run.txt").read_text().splitlines()):
-        if fd.update(parse_perception(line).acc) and fell_at is None:
+        perception = parse_perception(line)
+        if fd.update(perception.acc, perception.gyro) and fell_at is None:
             fell_at = k
     assert fell_at is not None
     assert 40 <= fell_at <= 200  # after the beam at perception 4, within the first 4 s

@@ -133,13 +133,22 @@ def test_accelerometer_reads_gravity_at_rest_and_zero_in_free_fall(standing, wor
     assert falling.accelerometer() == pytest.approx((0.0, 0.0, 0.0), abs=0.01)
 
 
-def test_accelerometer_spikes_after_a_beam_like_the_real_server(world):
+def test_accelerometer_reads_before_the_step_and_sees_an_init_but_not_a_beam(world):
+    """The real capture's ACC z around the start (agent_perceptions_first20.txt, lines 3-5): 29.42
+    after the ``init`` move stopped the robot's fall, 0.00 after the beam (the accelerometer read
+    before it, in free fall), 9.81 after that (the fall restarted from rest, as before). The real
+    robot had fallen 3 steps when its ``init`` came."""
     robot = world.add_robot()
-    for _ in range(3):  # the real agent's beam came after three steps of falling
+    for _ in range(3):
         world.step()
-    robot.beam(-1.0, 0.0, 0.0)
+    robot.place(-14.2, 9.2, 0.4, yaw_deg=0.0)  # what an init does (Simulation._init)
     world.step()
-    assert robot.accelerometer()[2] == pytest.approx(29.42, abs=0.05)  # observed 29.42
+    readings = [robot.accelerometer()[2]]
+    robot.beam(-1.0, 0.0, 0.0)
+    for _ in range(2):
+        world.step()
+        readings.append(robot.accelerometer()[2])
+    assert readings == pytest.approx([29.42, 0.0, 9.81], abs=0.01)
 
 
 def test_gyro_is_in_the_torso_frame_in_degrees(world):

@@ -112,7 +112,7 @@ class _TorsoView:
 
 def _perception(sim: Simulation, state: AgentState) -> Perception:
     """What the agent's parser would read from this cycle's perception, numbers rounded as
-    printed; no See (this agent never looks), no GYR, FRP or hear (it reads none of them)."""
+    printed; no See (this agent never looks), no FRP or hear (it reads neither)."""
     robot = state.robot
     assert robot is not None
     game = sim.game
@@ -127,11 +127,12 @@ def _perception(sim: Simulation, state: AgentState) -> Perception:
         game.play_mode,
     )
     ax, ay, az = robot.accelerometer()
+    gx, gy, gz = robot.gyro()
     joints = dict(zip(_PERCEPTORS, map(round, robot.joint_degrees(), _TWO_DECIMALS)))
     return Perception(
         round(sim.world.time, 2),
         gs,
-        None,
+        (round(gx, 2), round(gy, 2), round(gz, 2)),
         (round(ax, 2), round(ay, 2), round(az, 2)),
         joints,
         {},

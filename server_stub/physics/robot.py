@@ -87,8 +87,14 @@ class Robot:
         self._yielding = np.zeros(_N, dtype=bool)  # motors at their torque limit in the last step
         self._motor_load = np.zeros(_N)  # torque each motor applied in the last step (stops: 0)
         self._slip_torque = np.zeros(_N)  # torque of the last step's slip forces about each hinge
-        self._prev_velocity: tuple[float, ...] = (0.0, 0.0, 0.0)
+        #: the torso's velocity now: after the last step, or 0 after a beam or a move
         self._velocity: tuple[float, ...] = (0.0, 0.0, 0.0)
+        #: the accelerometer as SimSpark's (Accelerometer::PrePhysicsUpdateInternal): the reading
+        #: perceived after a step, made before it from the velocity change since the last
+        #: reading; the velocity it saw last; what it sees if a beam came after it this cycle
+        self._acc: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self._acc_velocity: tuple[float, ...] = (0.0, 0.0, 0.0)
+        self._acc_view: tuple[tuple[float, ...], tuple[float, ...]] | None = None
         #: no step has run since this robot was made: it has touched nothing yet (a reused body
         #: may still hold its last life's contacts until the next collision pass)
         self._new = True
@@ -125,8 +131,10 @@ class Robot:
     # ----- the step, as ``World.step`` drives it: begin_step, then per physics sub-step
     # before_substep / (the solve) / after_substep, then end_step -----
     def begin_step(self) -> None:
-        """Apply last interval's commands (the latency rule) and set this step's motors
-        (``server_stub.physics.motors``)."""
+        """Read the accelerometer, apply last interval's commands (the latency rule) and set this
+        step's motors (``server_stub.physics.motors``)."""
+        if not self._new:
+            self._sense_acceleration()
         angles, rates, torques = self._joint_state()
         if self._delay:
             due, self._pending = self._pending, self._requested
@@ -225,9 +233,26 @@ class Robot:
         self._invalidate()
 
     def end_step(self) -> None:
-        """Keep the torso's velocity before and after the step for the accelerometer."""
-        self._prev_velocity = self._velocity
+        """Keep the torso's velocity after the step for the next accelerometer reading."""
         self._velocity = self._base_motion()[0]
+
+    def _sense_acceleration(self) -> None:
+        """SimSpark's accelerometer reads in the pass before the physics step: the torso's velocity
+        change since its last reading over one cycle, less gravity, in the torso's frame then. So
+        the perception after step k carries the acceleration of step k - 1: on a recorded walk the
+        real server's ACC equals, line for line from the 6th, what a reading after each step gives
+        one line earlier. Of that pass, a robot's ``init`` and a trainer's move come before it, a
+        beam after it (nao_hetero.rsg lists the torso's accelerometer before its BeamEffector):
+        the reading after an ``init`` spikes (29.42 recorded: the fall stopped), the one after a
+        beam does not. A new robot's first reading is 0 (the real one is created a step before
+        its first perception, so its reading after the ``init`` is 29.42 where ours is 19.62)."""
+        velocity, rotation = self._acc_view or (self._velocity, self._base_pose()[1])
+        dt = self._config.cycle
+        (vx, vy, vz), (px, py, pz) = velocity, self._acc_velocity
+        world = ((vx - px) / dt, (vy - py) / dt, (vz - pz) / dt - self._config.gravity)
+        self._acc = _to_local(rotation, world)
+        self._acc_velocity = velocity
+        self._acc_view = None
 
     def _invalidate(self) -> None:
         self._joints: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -289,7 +314,10 @@ class Robot:
     # ----- placing -----
     def beam(self, x: float, y: float, heading_deg: float) -> None:
         """The server's beam: torso centre to (x, y, 0.4), upright facing ``heading_deg``
-        (0 = world +x), joint angles kept, all velocities zeroed. Motor commands stay (sticky)."""
+        (0 = world +x), joint angles kept, all velocities zeroed. Motor commands stay (sticky).
+        The accelerometer has read before it, in this cycle (``_sense_acceleration``)."""
+        if self._acc_view is None:
+            self._acc_view = (self._velocity, self._base_pose()[1])
         self._reset(x, y, BEAM_HEIGHT, _yaw_quaternion(heading_deg))
 
     def place(self, x: float, y: float, z: float, yaw_deg: float | None = None) -> None:
@@ -302,8 +330,7 @@ class Robot:
         self._reset(x, y, z, orientation)
 
     def _reset(self, x: float, y: float, z: float, orientation) -> None:
-        """Re-pose the body at rest. The accelerometer's previous velocity is kept on purpose:
-        the real server shows a one-cycle spike after a beam (docs/robot_and_server.md section 5)."""
+        """Re-pose the body at rest (the accelerometer sees the stop at its next reading)."""
         client = self._client
         angles = self._joint_state()[0]
         self.sync()
@@ -313,6 +340,7 @@ class Robot:
             self._body, self._indices, [[a] for a in angles], targetVelocities=[[0.0]] * _N, physicsClientId=client
         )
         self._invalidate()
+        self._velocity = (0.0, 0.0, 0.0)
 
     # ----- sensors -----
     def _joint_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -415,12 +443,9 @@ class Robot:
         return (math.degrees(x), math.degrees(y), math.degrees(z))
 
     def accelerometer(self) -> tuple[float, float, float]:
-        """Torso proper acceleration in the torso frame, m/s^2 (ACC): the velocity change over the
-        last step minus gravity, so (0, 0, 9.81) upright at rest and 0 in free fall."""
-        dt = self._config.cycle
-        (vx, vy, vz), (px, py, pz) = self._velocity, self._prev_velocity
-        world = ((vx - px) / dt, (vy - py) / dt, (vz - pz) / dt - self._config.gravity)
-        return _to_local(self._base_pose()[1], world)
+        """Torso proper acceleration in the torso frame, m/s^2 (ACC), as read before the last step
+        (``_sense_acceleration``): (0, 0, 9.81) upright at rest, 0 in free fall."""
+        return self._acc
 
     def foot_pressure(self) -> dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]]:
         """FRP per foot that touches: (centre of pressure, total contact force), both in the
