@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import NoReturn
 
 import pytest
 
@@ -32,6 +33,12 @@ def rcssserver3d() -> str:
     try:
         return find_rcssserver3d()
     except RealServerError as exc:
-        if os.environ.get(REQUIRE_REAL_SERVER_ENV) == "1":
-            pytest.fail(f"{REQUIRE_REAL_SERVER_ENV}=1 but {exc}")
-        pytest.skip(f"needs a real server: {exc}")
+        missing_real_server_part(f"a real server: {exc}")
+
+
+def missing_real_server_part(what: str) -> NoReturn:
+    """Skip the test for lack of ``what`` (the real server or what its build installs), with the
+    reason; fail instead where a real server must be there (``GALA_REQUIRE_REAL_SERVER=1``)."""
+    if os.environ.get(REQUIRE_REAL_SERVER_ENV) == "1":
+        pytest.fail(f"{REQUIRE_REAL_SERVER_ENV}=1 but this test needs {what}")
+    pytest.skip(f"needs {what}")

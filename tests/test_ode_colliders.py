@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import functools
 import json
-import os
 
 import numpy as np
 import pytest
@@ -20,7 +19,7 @@ from hypothesis import strategies as st
 from server_stub.config import PhysicsConfig
 from server_stub.physics import ode_kernels
 from server_stub.physics.rotations import rotation_into
-from tests.conftest import REQUIRE_REAL_SERVER_ENV
+from tests.conftest import missing_real_server_part
 from tests.libode_colliders import BOX, CAPSULE, FIXTURE, SPHERE, LibOde, random_pose
 
 _KINDS = {BOX: ode_kernels.BOX, SPHERE: ode_kernels.SPHERE, CAPSULE: ode_kernels.CAPSULE}
@@ -100,9 +99,7 @@ def _libode() -> LibOde:
     try:
         return LibOde()
     except OSError as exc:
-        if os.environ.get(REQUIRE_REAL_SERVER_ENV) == "1":
-            pytest.fail(f"{REQUIRE_REAL_SERVER_ENV}=1 but libode (installed with the real server) is missing: {exc}")
-        pytest.skip(f"needs libode (installed by ../shared/rcssserver3d/build.sh): {exc}")
+        missing_real_server_part(f"libode, which ../shared/rcssserver3d/build.sh installs: {exc}")
 
 
 @pytest.mark.real_server
