@@ -84,8 +84,8 @@ class Game:
         RequestInitPosition and RequestInitOrientation): down the side line at y = +10 in a row
         3 agent radii apart, starting 2 radii in from the corner of the own goal line; past the
         other side line the next row starts 2 radii further along +x (for both sides, so the right
-        team's rows move out past its goal line). The rows run on for the server's whole life (never
-        reset), facing the opponent goal. So robots created together stand apart until they beam,
+        team's rows move out past its goal line); facing the opponent goal. The rows start again
+        when a side empties (``leave``). So robots created together stand apart until they beam,
         and none stands in the other half before kick-off."""
         place = self._next_init[side]
         x, y = float(place[0]), float(place[1])
@@ -97,12 +97,17 @@ class Game:
         return x, y, (0.0 if side == "left" else 180.0)
 
     def leave(self, side: str, unum: int) -> None:
+        """A side whose last robot left is free for any team, and its ``init`` row starts again.
+        (The real server's row runs on for its whole life, so where a robot stands before its first
+        beam depends on every robot before it; here it does not, and an episode walks the same
+        whichever episodes a stand-in served before it: a resumed search gives the same scores.)"""
         self.taken[side].discard(unum)
         if not self.taken[side]:
             if side == "left":
                 self.team_left = None
             else:
                 self.team_right = None
+            self._next_init[side] = _first_init_place(side)
 
 
 def _first_init_place(side: str) -> np.ndarray:

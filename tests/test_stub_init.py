@@ -55,3 +55,17 @@ def test_a_team_created_at_once_stands_apart_until_it_beams() -> None:
     assert all(x < -13 for x, _, _ in torsos[:11]) and all(x > 13 for x, _, _ in torsos[11:])
     assert all(0.3 < z < 0.45 for *_, z in torsos)
     sim.close()
+
+
+def test_a_side_whose_robots_all_left_starts_its_row_again() -> None:
+    """So that an episode on a long-lived stand-in walks as on a fresh one (a resumed search gives
+    the same scores): the lone walker of every episode stands at the first place before its beam."""
+    game = Game()
+    for unum in (1, 2):
+        game.join("Walker", unum)
+    first, second = game.init_pose("left"), game.init_pose("left")
+    game.leave("left", 1)
+    assert game.init_pose("left") != first  # a robot of the side is still there
+    game.leave("left", 2)
+    game.join("Other", 1)
+    assert game.init_pose("left") == first and second != first
