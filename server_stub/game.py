@@ -38,7 +38,7 @@ class Game:
     taken: dict[str, set[int]] = field(default_factory=lambda: {"left": set(), "right": set()})
     #: where the next ``init`` of each side puts its robot, in float32 as the real server keeps it
     _next_init: dict[str, np.ndarray] = field(
-        default_factory=lambda: {side: _first_init_place(side) for side in ("left", "right")}
+        default_factory=lambda: {side: _first_init_place(side) for side in ("left", "right")}, init=False, repr=False
     )
 
     def advance(self) -> None:
