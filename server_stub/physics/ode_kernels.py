@@ -506,8 +506,8 @@ def box_plane(c, r, size, max_points):
     each only while that depth is >= 0. With 4 asked and those 3 made, the face's fourth corner
     (second + third - first), as deep as their depths' sum less the first's, only if that is > 0.
     So a box landing on an edge touches at 3 corners, never at the corner along its longest
-    projection, however deep. Matches libode 0.16.2's dCollide on 160,000 random poses to 1e-12
-    (``tests/test_ode_colliders.py``). Returns (points, depths)."""
+    projection, however deep. Equal to libode 0.16.2's dCollide on 160,000 random poses to 1e-12
+    (a scratch check; ``tests/test_ode_colliders.py`` keeps checking it). Returns (points, depths)."""
     a = np.empty(3)
     bb = np.empty(3)
     p = c.copy()
