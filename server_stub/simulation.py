@@ -24,7 +24,7 @@ from server_stub.agent_state import AgentState
 from server_stub.config import PhysicsConfig, ServerConfig
 from server_stub.game import Game, GameError, beam_pose
 from server_stub.net.agent_commands import flat_commands, read_commands
-from server_stub.physics.robot import Robot
+from server_stub.physics.robot import BEAM_HEIGHT, Robot
 from server_stub.physics.world import SPAWN_POSITION, World
 from server_stub.sensors.sensing import Sensing
 
@@ -181,7 +181,7 @@ class Simulation:
         state.team = team
         # SimSpark's InitEffector moves it as a beam does, but before the accelerometer reads
         x, y, heading = self.game.init_pose(state.side)
-        state.robot.place(x, y, field.AGENT_RADIUS, yaw_deg=heading)
+        state.robot.place(x, y, BEAM_HEIGHT, yaw_deg=heading)
         state.announce_identity = True
         self.scene_changed = True
 

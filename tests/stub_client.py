@@ -51,6 +51,13 @@ def joint(message: str, name: str) -> float:
     return float(re.search(rf"\(HJ \(n {name}\) \(ax (-?[\d.]+)\)\)", message).group(1))
 
 
+def torso_sensor(message: str, name: str) -> tuple[float, ...]:
+    """The torso's ``GYR`` (rt) or ``ACC`` (a) triple."""
+    found = re.search(rf"\({name} \(n torso\) \((?:a|rt) ([^)]*)\)\)", message)
+    assert found, message[:200]
+    return tuple(float(v) for v in found.group(1).split())
+
+
 def now(message: str) -> float:
     return float(re.search(r"\(time \(now (-?[\d.]+)\)\)", message).group(1))
 

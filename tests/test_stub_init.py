@@ -31,7 +31,7 @@ def test_init_places_follow_the_real_servers_rows() -> None:
     assert len(rows[0]) == len(rows[1]) >= 16
 
 
-def _torsos(sim: Simulation, states) -> list[tuple[float, float, float]]:
+def _torsos(states) -> list[tuple[float, float, float]]:
     return [state.robot.torso_position() for state in states]
 
 
@@ -49,7 +49,7 @@ def test_a_team_created_at_once_stands_apart_until_it_beams() -> None:
         sim.apply_frame(state, f"(init (unum {unum})(teamname {team}))".encode(), lambda problem, key: None)
     for _ in range(10):
         sim.step()
-    torsos = _torsos(sim, states)
+    torsos = _torsos(states)
     for (ax, ay, _), (bx, by, _) in itertools.combinations(torsos, 2):
         assert math.hypot(ax - bx, ay - by) > 1.0
     assert all(x < -13 for x, _, _ in torsos[:11]) and all(x > 13 for x, _, _ in torsos[11:])

@@ -16,6 +16,7 @@ from tests.stub_client import (
     joint,
     now,
     torso_from_monitor,
+    torso_sensor,
 )
 
 HJ_NAMES = [
@@ -353,12 +354,6 @@ def test_before_kick_off_a_robot_reaching_into_the_other_half_is_moved_back_as_t
         assert _stands_at(server, -1.0, unum=4) == pytest.approx(-1.0, abs=0.05)
 
 
-def _sensor(message: str, name: str) -> tuple[float, ...]:
-    found = re.search(rf"\({name} \(n torso\) \((?:a|rt) ([^)]*)\)\)", message)
-    assert found, message[:200]
-    return tuple(float(v) for v in found.group(1).split())
-
-
 def test_the_real_agents_commands_replayed_give_the_real_perceptions(fixtures_dir) -> None:
     """The captured agent's messages sent to the stub, one per perception as the real agent sent
     them: joint angles, GYR and ACC equal the real server's capture line for line for the first
@@ -379,8 +374,8 @@ def test_the_real_agents_commands_replayed_give_the_real_perceptions(fixtures_di
     for k, (mine, theirs) in enumerate(zip(ours, real)):
         for name in HJ_NAMES:
             assert joint(mine, name) == pytest.approx(joint(theirs, name), abs=0.021), (k + 1, name)
-        assert _sensor(mine, "GYR") == pytest.approx(_sensor(theirs, "GYR"), abs=0.021), k + 1
+        assert torso_sensor(mine, "GYR") == pytest.approx(torso_sensor(theirs, "GYR"), abs=0.021), k + 1
         if k != 2:
-            assert _sensor(mine, "ACC") == pytest.approx(_sensor(theirs, "ACC"), abs=0.021), k + 1
-    assert _sensor(ours[2], "ACC")[2] == pytest.approx(19.62, abs=0.01)
-    assert _sensor(real[2], "ACC")[2] == pytest.approx(29.42, abs=0.01)
+            assert torso_sensor(mine, "ACC") == pytest.approx(torso_sensor(theirs, "ACC"), abs=0.021), k + 1
+    assert torso_sensor(ours[2], "ACC")[2] == pytest.approx(19.62, abs=0.01)
+    assert torso_sensor(real[2], "ACC")[2] == pytest.approx(29.42, abs=0.01)

@@ -17,6 +17,7 @@ import numpy as np
 import pybullet as pb
 
 from protocol.nao import JOINTS
+from server_stub import field
 from server_stub.config import PhysicsConfig
 from server_stub.physics import contact, motors, nao_model, slip
 from server_stub.physics.rotations import body_poses, read_back, stored_matrix
@@ -28,8 +29,8 @@ _EFFECTOR_INDEX: dict[str, int] = {j.effector: i for i, j in enumerate(JOINTS)}
 _PERCEPTORS = [j.perceptor for j in JOINTS]
 _MIN = np.radians([j.min_deg for j in JOINTS])
 _MAX = np.radians([j.max_deg for j in JOINTS])
-#: Torso height of a beamed robot (docs/robot_and_server.md section 6).
-BEAM_HEIGHT = 0.4
+#: Torso height of a beamed robot (docs/robot_and_server.md section 6): the referee's agent radius.
+BEAM_HEIGHT = field.AGENT_RADIUS
 #: Force large enough to make the stop's velocity win against anything in one step.
 _STOP_FORCE = 1e4
 #: No command for any joint (``Robot._requested``).
