@@ -18,10 +18,12 @@ from gait import GENE_BOUNDS, repair_genes
 from optimizer.cli.transfer import reported_gaits
 from optimizer.compare import methods as methods_package
 from optimizer.compare.__main__ import main
-from optimizer.compare.budget import budgeted
+from optimizer.compare.budget import drive
 from optimizer.compare.methods import Problem, discover
 from optimizer.compare.statistics import holm, pairwise, summarise
 from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask
+from optimizer.run.driver import Driver
+from optimizer.run.folder import EpisodeLog
 from optimizer.search.ga import Batch
 
 TINY = [
@@ -37,6 +39,8 @@ TINY = [
     "3",
     "--check-repeats",
     "2",
+    "--robust-walks",
+    "1",
     "--quiet",
 ]
 
@@ -87,47 +91,36 @@ def test_a_killed_comparison_resumes_to_the_same_files(tmp_path: Path) -> None:
         assert (tmp_path / "cut" / name).read_text() == (tmp_path / "whole" / name).read_text(), name
 
 
-def test_robust_scoring_walks_each_gait_from_moved_starts_within_the_budget(tmp_path: Path) -> None:
+def test_robust_scoring_races_each_run_within_its_episode_budget(tmp_path: Path) -> None:
+    """Every gait walks once; only those whose first walk could enter the run's top 2 walk twice
+    more (keys .../k1, .../k2; the rule itself: tests/test_robust.py), each walk with its own
+    dither seed; the run stops once its episodes reach the budget."""
     out = tmp_path / "r"
-    argv = [
-        "--methods",
-        "random",
-        "--seeds",
-        "1",
-        "--budget",
-        "12",
-        "--population",
-        "4",
-        "--robust",
-        "3",
-        "--robust-quantile",
-        "0.25",
-        "--check-repeats",
-        "0",
-        "--quiet",
-        "--out",
-        str(out),
-    ]
+    argv = ["--methods", "random", "--seeds", "1", "--budget", "20", "--population", "4"]
+    argv += ["--robust-walks", "3", "--robust-top", "2", "--check-repeats", "0", "--quiet", "--out", str(out)]
     assert main(argv, make_evaluator=lambda s: FakeEvaluator()) == 0
     logged = _log(out)
-    assert len(logged) == 12 and all(r["key"].endswith(("/k0", "/k1", "/k2")) for r in logged)
-    assert all(abs(r["start"][0] + 5.0) <= 0.05 and abs(r["start"][2]) <= 10.0 for r in logged)
-    assert len({tuple(r["start"]) for r in logged}) == 12
+    firsts = [r for r in logged if "/k" not in r["key"]]
+    extras = [r for r in logged if "/k" in r["key"]]
+    raced = {r["key"].rsplit("/k", 1)[0] for r in extras}
+    assert 20 <= len(logged) <= 20 + 2 * 4  # at most the last batch's extra walks past the budget
+    assert raced and raced < {r["key"] for r in firsts}  # some gaits raced, not all
+    assert all(sum(r["key"].startswith(k + "/k") for r in extras) == 2 for k in raced)
+    assert len({r["seed"] for r in logged}) == len(logged)  # every walk its own dither draw
 
 
 class FallingEvaluator(FakeEvaluator):
-    """Every walk falls, after a distance that depends on its start (so K walks differ)."""
+    """Every walk falls, after a distance that depends on its seed (so K dithered walks differ)."""
 
     def evaluate(self, tasks: Sequence[EpisodeTask]) -> Iterator[EpisodeOutcome]:
         for outcome in super().evaluate(tasks):
-            start = outcome.task.start or (-5.0, 0.0, 0.0)
-            distance = 1.0 + 10.0 * abs(start[0] + 5.0)
+            distance = 1.0 + (outcome.task.seed % 1000) / 100.0
             yield EpisodeOutcome(
                 outcome.task, 0, {**outcome.result, "distance": distance, "fell": True, "fitness": 10.0 * distance}
             )
 
 
-@pytest.mark.parametrize("robust", [[], ["--robust", "2"]])
+@pytest.mark.parametrize("robust", [["--robust-walks", "1"], ["--robust-walks", "2", "--robust-quantile", "mean"]])
 def test_a_reported_best_says_what_its_own_walks_did(tmp_path: Path, robust: list[str]) -> None:
     """Without a check, optimizer.transfer sets the reported walk beside the new ones: it must be
     the walks that scored the best (their falls, their mean distance), not the score with no fall."""
@@ -138,7 +131,7 @@ def test_a_reported_best_says_what_its_own_walks_did(tmp_path: Path, robust: lis
     [reported] = results["reported"]
     [run] = results["runs"]
     own = [r for r in _log(out) if r["key"] == run["best_key"] or r["key"].startswith(run["best_key"] + "/k")]
-    assert len(own) == (2 if robust else 1)
+    assert len(own) == int(robust[1])
     assert reported["walk"]["fell"] is True
     assert reported["walk"]["distance"] == pytest.approx(sum(r["distance"] for r in own) / len(own))
     [gait] = reported_gaits(results)
@@ -149,8 +142,7 @@ def test_refusals_name_the_flag(tmp_path: Path, capsys) -> None:
     for flags, said in (
         (["--methods", "gala,nope"], "unknown method(s) nope"),
         (["--methods", "gala,gala"], "named twice"),
-        (["--robust-quantile", "0.2"], "--robust-quantile needs --robust"),
-        (["--budget", "2", "--robust", "3"], "less than one gait's 3 robust walks"),
+        (["--robust-walks", "0"], "--robust-walks"),
     ):
         with pytest.raises(SystemExit) as exit_:
             main([*flags, "--out", str(tmp_path / "x")], make_evaluator=lambda s: FakeEvaluator())
@@ -174,16 +166,15 @@ def test_every_method_stays_in_the_box_and_is_seeded(name: str) -> None:
     same seed, others for another."""
 
     def first(seed: int) -> list[np.ndarray]:
-        problem = Problem(GENE_BOUNDS, repair_genes, seed, 60, 10, True)
-        batches = budgeted(discover()[name].program(problem), 60)
-        asked, fitness = [], None
-        while True:
-            try:
-                batch = batches.send(fitness)
-            except StopIteration:
-                return asked
-            asked.append(batch.genes)
-            fitness = np.array([synthetic_fitness(g) for g in batch.genes])
+        program = discover()[name].program(Problem(GENE_BOUNDS, repair_genes, seed, 60, 10, True))
+        asked, fitness, count = [], None, 0
+        while count < 60:
+            batch = program.send(fitness)  # type: ignore[arg-type]
+            genes = batch.genes[: 60 - count]
+            asked.append(genes)
+            count += len(genes)
+            fitness = np.array([synthetic_fitness(g) for g in genes])
+        return asked
 
     batches = first(7)
     genes = np.concatenate(batches)
@@ -194,13 +185,17 @@ def test_every_method_stays_in_the_box_and_is_seeded(name: str) -> None:
     assert not np.array_equal(genes, np.concatenate(first(8)))
 
 
-def test_a_budget_cuts_the_batch_that_crosses_it() -> None:
+def test_a_budget_cuts_the_batch_that_crosses_it(tmp_path: Path) -> None:
     def program():
         for k in range(5):
-            yield Batch(f"b{k}", np.zeros((4, 7)))
+            yield Batch(f"b{k}", np.full((4, 7), float(k)))
 
-    assert [len(b.genes) for b in budgeted(program(), 10)] == [4, 4, 2]
-    assert [len(b.genes) for b in budgeted(program(), 100)] == [4] * 5
+    with EpisodeLog(tmp_path / "episodes.jsonl") as log:
+        driver = Driver(FakeEvaluator(), log, run_seed=1)
+        cut = drive(driver, program(), 10, "n")
+        everything = drive(driver, program(), 100, "o")
+    assert [g.key for g in cut][-3:] == ["n/b1/i003", "n/b2/i000", "n/b2/i001"] and len(cut) == 10
+    assert len(everything) == 20
 
 
 @settings(deadline=None, max_examples=40)
@@ -254,6 +249,10 @@ def test_a_tiny_comparison_on_the_stub(tmp_path: Path) -> None:
     ]
     assert main(argv) == 0
     logged = _log(out)
-    assert all(r["status"] == "ok" for r in logged) and len(logged) == 2 * 6 + 2 * 2
+    checks = [r for r in logged if r["key"].startswith("check/")]
+    assert all(r["status"] == "ok" for r in logged) and len(checks) == 2 * 2
+    for method in ("cmaes", "random"):  # the budget in episodes, raced walks included
+        assert 6 <= sum(r["key"].startswith(method + "/") for r in logged) <= 6 + 4 * 3
     assert all(0 < r["time"] <= 2.0 for r in logged)
+    assert all(r["track"] and r["drift"] is not None for r in checks)  # check walks are traced
     assert len(list(csv.DictReader((out / "runs.csv").open()))) == 2

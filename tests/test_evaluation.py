@@ -53,7 +53,7 @@ class FakeRunner:
         (tmp / f"child-{os.getpid()}").write_text(str(self.child.pid))
         (tmp / f"runner-{os.getpid()}").write_text("made")
 
-    def evaluate(self, genes, seed: int, start=None) -> FakeResult:
+    def evaluate(self, genes, seed: int, start=None, trace=False) -> FakeResult:
         mark = self.tmp / f"seen-{seed}"
         first_time = not mark.exists()
         mark.write_text(str(os.getpid()))

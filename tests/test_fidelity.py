@@ -29,13 +29,12 @@ from optimizer.episode.fidelity import (
     Walk,
     agreement,
     fell_in_majority,
-    heading_change,
     ratio_error,
-    sideways_drift,
     spearman,
     summarize,
     turn_factor,
 )
+from optimizer.episode.scoring import heading_change, sideways_drift
 
 ROOT = Path(__file__).resolve().parents[1]
 

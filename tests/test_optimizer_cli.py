@@ -19,14 +19,18 @@ from optimizer.cli import ga as ga_command
 from optimizer.cli import gala as gala_command
 from optimizer.episode import EpisodeResult
 from optimizer.evaluation.pool import EpisodeOutcome
+from optimizer.evaluation.record import WalkKind
 from optimizer.run.report import read_table_csv
 from optimizer.run.stability import jittered_starts
+from optimizer.run.walk_card import REAL_SERVER, STAND_IN, read_card
 from optimizer.search.config import GAConfig, GALAConfig
 from optimizer.search.ga import GARun
 from optimizer.search.gala import GALA
 
 BOUNDS = [[0.0, 1.0]] * 3
+#: the paper's protocol, small: one walk a gait, no refinement phase
 SMALL = ["--population", "6", "--iterations", "3", "--generations", "2", "--quiet"]
+SMALL += ["--robust-walks", "1", "--refine", "0"]
 
 
 def refused(main, argv: list[str], capsys) -> str:
@@ -142,8 +146,13 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
         assert row.repeat_min_distance_m == min(distances) and row.repeat_max_distance_m == max(distances)
         assert row.repeat_mean_distance_m == pytest.approx(sum(distances) / len(distances))
         assert result["check"]["std_distance"] == pytest.approx(float(np.std(distances, ddof=1)))
-        assert all(r["genes"] == result["best_genes"] and len(r["start"]) == 3 for r in repeats)
-        assert len({tuple(r["start"]) for r in repeats}) == 10
+        # from the run's start, each with its own dither seed
+        assert all(r["genes"] == result["best_genes"] and "start" not in r for r in repeats)
+        assert len({r["seed"] for r in repeats}) == 10
+    for gait in ("best_gait.json", "best_gait-pc0.8.json", "best_gait-pc0.3.json", "fastest_gait.json"):
+        card = read_card(out / gait)
+        assert card is not None and card.genes == tuple(vars(load_gait(out / gait)).values())
+        assert card.summary(REAL_SERVER)["walks"] == 10  # the run walked on servers given as --server
     printed = capsys.readouterr().out
     assert "| 0.80 |" in printed and "| 0/10 |" in printed
 
@@ -178,7 +187,7 @@ def test_fastest_gait_is_the_fastest_walk_that_passes_its_check(tmp_path: Path, 
         def evaluate(self, tasks):
             for outcome in super().evaluate(tasks):
                 fitness = outcome.result["fitness"]
-                fell = fitness > 25.0 or (outcome.task.start is not None and outcome.task.genes == self.fragile)
+                fell = fitness > 25.0 or (outcome.task.kind is WalkKind.CHECK and outcome.task.genes == self.fragile)
                 yield EpisodeOutcome(outcome.task, outcome.worker, {**outcome.result, "fell": fell})
 
     # the fragile gait: the fastest walk under 25 of the same run without checks
@@ -203,7 +212,8 @@ def test_fastest_gait_is_the_fastest_walk_that_passes_its_check(tmp_path: Path, 
     assert list(vars(load_gait(out / "fastest_gait.json")).values()) == runner_up["genes"]
     fragile_checks = [r for r in records if r["key"].startswith(f"check/{first['key']}/")]
     assert len(fragile_checks) == 10 and all(r["fell"] for r in fragile_checks)
-    assert f"fastest stable walk: {runner_up['distance']:.2f} m" in capsys.readouterr().out
+    d = runner_up["distance"]
+    assert f"fastest walk that held: fell in 0 of 10 check walks, {d:.2f}-{d:.2f} m" in capsys.readouterr().out
 
 
 def test_without_checks_the_table_has_no_check_figures(tmp_path: Path) -> None:
@@ -321,12 +331,16 @@ def test_ga_presets_and_its_folder(tmp_path: Path, capsys) -> None:
     assert len(results["history"]) == 3 and (out / "ga.png").stat().st_size > 0
     assert list(vars(load_gait(out / "best_gait.json")).values()) == results["best_genes"]
     episodes = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
-    assert len([r for r in episodes if "start" not in r]) == 6 + 2 * 5
+    search = [r for r in episodes if r["kind"] == "search"]
+    firsts = [r for r in search if "/k" not in r["key"]]
+    assert len(firsts) == 6 + 2 * 5  # every gait walks once; the raced ones 4 more times (default 5 walks)
+    assert {sum(e["key"].startswith(r["key"] + "/k") for e in search) for r in firsts} == {0, 4}
     repeats = [r for r in episodes if r["key"].startswith(f"check/{results['best_episode']['key']}/")]
-    assert len(repeats) == 10 == results["check"]["repeats"] == len(episodes) - 16  # the best, checked
+    assert len(repeats) == 10 == results["check"]["repeats"] == len(episodes) - len(search)  # the best, checked
     assert all(r["genes"] == results["best_genes"] for r in repeats)
     printed = capsys.readouterr().out
-    assert "best fitness" in printed and "fell in 0 of 10 moved starts" in printed
+    assert "best fitness" in printed and "fell in 0 of 10 check walks" in printed
+    assert read_card(out / "best_gait.json") is not None
     err = refused(ga_command.main, ["--resume", str(out), "--preset", "grefenstette"], capsys)
     assert "--preset grefenstette conflicts with the run's --preset dejong" in err
     assert "--mutation" in refused(ga_command.main, ["--mutation", "2"], capsys)
@@ -419,3 +433,28 @@ def test_episode_command_repeats_from_jittered_starts(monkeypatch, capsys) -> No
     assert out.splitlines()[-1] == (
         "3 walks: 1 fell; distance 1.000-4.000 m, mean 2.333 m; mean speed 0.100 m/s; 1 could not be run"
     )
+
+
+def test_the_refinement_phase_searches_on_from_the_best_and_leaves_table_i_alone(tmp_path: Path) -> None:
+    """Robust scoring and the refinement phase (the defaults): Table I is the same with or without
+    the refinement, which tries exactly --refine more gaits (CMA-ES from the rows' best-scored
+    gait) and on the synthetic hill ends at least as high as the rows did."""
+    base = ["--crossover", "0.8", "--population", "6", "--iterations", "3", "--generations", "2"]
+    base += ["--seed", "4", "--quiet", "--check-repeats", "3"]
+    for name, refine in (("rows", "0"), ("refined", "40")):
+        argv = [*base, "--refine", refine, "--out", str(tmp_path / name)]
+        assert gala_command.main(argv, make_evaluator=lambda s: FakeEvaluator()) == 0
+    rows, refined = tmp_path / "rows", tmp_path / "refined"
+    assert (rows / "table1.csv").read_text() == (refined / "table1.csv").read_text()
+    logged = [json.loads(line) for line in (refined / "episodes.jsonl").read_text().splitlines()]
+    tried = [r for r in logged if r["key"].startswith("refine/") and "/k" not in r["key"]]
+    assert len(tried) == 40 and not any(r["key"].startswith("refine/") for r in _episodes(rows))
+    before = json.loads((rows / "results.json").read_text())["fastest_score"]["score"]
+    after = json.loads((refined / "results.json").read_text())["fastest_score"]
+    assert after["score"] >= before and after["key"].startswith("refine/")
+    card = read_card(refined / "fastest_gait.json")
+    assert card is not None and card.summary(STAND_IN)["walks"] == 3
+
+
+def _episodes(folder: Path) -> list[dict]:
+    return [json.loads(line) for line in (folder / "episodes.jsonl").read_text().splitlines()]

@@ -42,7 +42,8 @@ def test_table_i_csv_round_trips_and_markdown_lists_every_row(tmp_path: Path, ga
             gala_result, distance_m=gala_result.best_fitness / 10, speed_mps=gala_result.best_fitness / 10 / 15
         ),
         TableRow(0.1, 0.08, 12.456, None, None),  # a fallen robot: no distance or speed
-        TableRow(0.9, 0.06, -3.25, 0.1 + 0.2, 1 / 3, 10, 2, 0.1 + 0.05, 0.2 + 0.1, 0.7),
+        TableRow(0.9, 0.06, -3.25, 0.1 + 0.2, 1 / 3, 10, 2, 0.1 + 0.05, 0.2 + 0.1, 0.7, False),
+        TableRow(0.5, 0.02, 80.0, 8.0, 8 / 15, 10, 0, 7.9, 8.0, 8.1, True),
     ]
     write_table_csv(rows, tmp_path / "table1.csv")
     assert read_table_csv(tmp_path / "table1.csv") == rows
@@ -52,8 +53,9 @@ def test_table_i_csv_round_trips_and_markdown_lists_every_row(tmp_path: Path, ga
     lines = (tmp_path / "table1.md").read_text().splitlines()
     assert len(lines) == 2 + len(rows)
     assert lines[0].startswith("| Crossover rate | Optimal mutation rate | Best fitness")
-    assert lines[3] == "| 0.10 | 0.08 | 12.4560 | - | - | - | - | - | - |"
-    assert lines[4] == "| 0.90 | 0.06 | -3.2500 | 0.30 | 0.333 | 2/10 | 0.15 | 0.30 | 0.70 |"
+    assert lines[3] == "| 0.10 | 0.08 | 12.4560 | - | - | - | - | - | - | - |"
+    assert lines[4] == "| 0.90 | 0.06 | -3.2500 | 0.30 | 0.333 | 2/10 | 0.15 | 0.30 | 0.70 | **FALLS** |"
+    assert lines[5].endswith("| 0/10 | 7.90 | 8.00 | 8.10 | yes |")
     assert f"{gala_result.optimal_mutation:.2f}" in lines[2]
 
 

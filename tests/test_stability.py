@@ -15,6 +15,7 @@ from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask, stable_seed
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.driver import Driver, ResumeMismatch
 from optimizer.run.folder import EpisodeLog, read_episode_log
+from optimizer.run.robust import ScoredGait
 from optimizer.run.stability import check, check_best, fastest_stable, jittered_starts
 from optimizer.search.config import StabilityConfig
 
@@ -55,8 +56,9 @@ class StartSensitive:
         pass
 
 
-def search_walk(driver: Driver, key: str, *genes: float) -> EpisodeRecord:
-    return driver.walk([driver.task(key, genes)])[key]
+def search_walk(driver: Driver, key: str, *genes: float) -> ScoredGait:
+    """A candidate scored by one walk, as a search scores it (``Driver.score``)."""
+    return driver.score([(key, genes)], driver.race())[0]
 
 
 def test_a_check_walks_the_gait_from_seeded_moved_starts_and_counts_falls(tmp_path: Path) -> None:
@@ -72,11 +74,43 @@ def test_a_check_walks_the_gait_from_seeded_moved_starts_and_counts_falls(tmp_pa
     assert starts == jittered_starts(BASE, CONFIG.jitter, 6, stable_seed(3, "check/pc0.8/final/g01/i002"))
     assert report.falls == sum(s[0] > BASE[0] for s in starts) and 0 < report.falls < 6
     assert not report.stable and report.failed == 0
-    assert f"fell in {report.falls} of 6 moved starts, 4.00-4.00 m (mean 4.00 m)" == report.summary()
+    assert f"fell in {report.falls} of 6 check walks, 4.00-4.00 m (mean 4.00 m)" == report.summary()
     assert report.to_dict()["mean_distance"] == 4.0 and report.to_dict()["falls"] == report.falls
     logged = read_episode_log(tmp_path / "episodes.jsonl")[0]
     assert [logged[r.key].start for r in repeats] == starts
     assert [logged[r.key].kind for r in repeats] == [WalkKind.CHECK] * 6 and logged[walk.key].kind is WalkKind.SEARCH
+
+
+def test_a_check_without_jitter_walks_from_the_runs_start_each_walk_its_own_dither_seed_traced(
+    tmp_path: Path,
+) -> None:
+    evaluator = StartSensitive()
+    with EpisodeLog(tmp_path / "episodes.jsonl") as log:
+        driver = Driver(evaluator, log, run_seed=3)
+        report = check(driver, search_walk(driver, "a/i000", 2.0), BASE, StabilityConfig(repeats=4))
+    tasks = evaluator.tasks[1:]
+    assert [t.key for t in tasks] == [r.key for r in report.repeats] and len(tasks) == 4
+    assert all(t.start is None and t.trace and t.kind is WalkKind.CHECK for t in tasks)
+    assert len({t.seed for t in tasks}) == 4 and not evaluator.tasks[0].trace
+
+
+def test_the_fastest_stable_gait_is_the_farthest_checked_walk_that_held(tmp_path: Path) -> None:
+    """Scored first is not checked farthest: of the candidates that hold, the one whose check
+    walks went farthest wins, though its search score was lower."""
+
+    class CheckFarther(StartSensitive):
+        def evaluate(self, tasks: Sequence[EpisodeTask]) -> Iterator[EpisodeOutcome]:
+            for outcome in super().evaluate(tasks):
+                bonus = 3.0 if outcome.task.kind is WalkKind.CHECK and outcome.task.genes[0] == 6.0 else 0.0
+                distance = outcome.result["distance"] + bonus
+                yield EpisodeOutcome(outcome.task, 0, {**outcome.result, "distance": distance})
+
+    with EpisodeLog(tmp_path / "episodes.jsonl") as log:
+        driver = Driver(CheckFarther(), log, run_seed=1)
+        for key, first_gene in (("s/i000", 7.0), ("s/i001", 6.0)):
+            search_walk(driver, key, first_gene)
+        report = fastest_stable(driver, driver.scored, BASE, CONFIG)
+    assert report is not None and report.gait.key == "s/i001" and report.mean_distance == 9.0
 
 
 def test_a_searchs_best_is_checked_unless_there_is_none_or_checks_are_off(tmp_path: Path) -> None:
@@ -103,7 +137,7 @@ def test_a_resumed_check_is_answered_from_the_log_and_another_start_is_refused(t
         assert again.tasks == [] and second.repeats == first.repeats
         # the same keys from another base point are other walks: the log cannot answer them
         with pytest.raises(ResumeMismatch, match="another start"):
-            check(driver, log.records["a/i000"], (0.0, 0.0, 0.0), CONFIG)
+            check(driver, driver.scored["a/i000"], (0.0, 0.0, 0.0), CONFIG)
     other_seed = StartSensitive()
     with EpisodeLog(tmp_path / "other.jsonl") as log:
         driver = Driver(other_seed, log, run_seed=4)
@@ -117,10 +151,10 @@ def test_the_fastest_stable_gait_skips_fast_walks_that_fall_from_moved_starts(tm
         driver = Driver(evaluator, log, run_seed=1)
         for key, first_gene in (("s/i000", 9.0), ("s/i001", 8.0), ("s/i002", 8.0), ("s/i003", 7.0), ("s/i004", 6.0)):
             search_walk(driver, key, first_gene)
-        report = fastest_stable(driver, log.records, BASE, CONFIG)
+        report = fastest_stable(driver, driver.scored, BASE, CONFIG)
     assert report is not None and report.stable and report.walk.key == "s/i003"
     checked = {t.key.rsplit("/", 1)[0] for t in evaluator.tasks if t.start is not None}
-    # fastest first, one check per gait (s/i002 has s/i001's genes), none after the first that passes
+    # the 3 best-scored gaits, one check per gait (s/i002 has s/i001's genes)
     assert checked == {"check/s/i000", "check/s/i001", "check/s/i003"}
 
 
@@ -130,7 +164,7 @@ def test_when_no_candidate_passes_the_one_that_fell_least_is_kept(tmp_path: Path
         driver = Driver(evaluator, log, run_seed=1)
         for k, first_gene in enumerate((9.0, 8.0, 7.0, 6.0)):
             search_walk(driver, f"s/i{k:03d}", first_gene)
-        report = fastest_stable(driver, log.records, BASE, CONFIG)
+        report = fastest_stable(driver, driver.scored, BASE, CONFIG)
         records = dict(log.records)
     assert report is not None and not report.stable
     checked = sorted({t.key.rsplit("/", 1)[0] for t in evaluator.tasks if t.start is not None})
@@ -144,8 +178,9 @@ def test_when_no_candidate_passes_the_one_that_fell_least_is_kept(tmp_path: Path
 def test_every_walk_fell_gives_no_fastest(tmp_path: Path) -> None:
     with EpisodeLog(tmp_path / "episodes.jsonl") as log:
         driver = Driver(StartSensitive(), log, run_seed=1)
-        log.append(EpisodeRecord("s/i000", (1.0,), 3.0, seed=0, worker=0, distance=0.3, fell=True, time=2.0))
-        assert fastest_stable(driver, log.records, BASE, CONFIG) is None
+        walk = EpisodeRecord("s/i000", (1.0,), 3.0, seed=0, worker=0, distance=0.3, fell=True, time=2.0)
+        driver.scored["s/i000"] = ScoredGait(walk.key, walk.genes, walk.fitness, (walk,))
+        assert fastest_stable(driver, driver.scored, BASE, CONFIG) is None
 
 
 @settings(max_examples=50, deadline=None)

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import functools
-import math
 import os
 import secrets
 import signal
@@ -25,6 +24,7 @@ import numpy as np
 
 from gait import BOUNDS_BY_NAME, TFSParams, repair_genes, save_gait
 from optimizer.episode import (
+    CALIBRATED_COMMAND_NOISE,
     DEFAULT_START,
     EpisodeConfig,
     ServerAddress,
@@ -37,16 +37,19 @@ from optimizer.evaluation.pool import (
     Evaluator,
     ProcessPoolEvaluator,
 )
-from optimizer.evaluation.record import EpisodeRecord
 from optimizer.run.driver import BarProgress, Driver, ResumeMismatch
 from optimizer.run.folder import RunFolder, RunFolderError, new_run_path
-from optimizer.search.config import StabilityConfig
+from optimizer.run.robust import ScoredGait
+from optimizer.run.stability import StabilityReport
+from optimizer.run.walk_card import REAL_SERVER, STAND_IN, CardWalk, WalkCard
+from optimizer.search.config import ScoringConfig, StabilityConfig
 from protocol.cli_values import (
     count,
     non_negative,
     number,
     positive_float,
     positive_int,
+    probability,
 )
 
 #: Exit status of an interrupted run (the shell's convention for SIGINT).
@@ -62,6 +65,15 @@ def server_address(text: str) -> ServerAddress:
         return ServerAddress.parse(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def quantile_or_mean(text: str) -> float | str:
+    """A quantile within [0, 1], or ``mean``."""
+    return MEAN if text == MEAN else probability(text)
+
+
+#: How the settings store "score by the mean" (None would read as "not given").
+MEAN = "mean"
 
 
 def existing_run(text: str) -> RunFolder:
@@ -106,8 +118,8 @@ def add_check_arguments(parser: argparse.ArgumentParser) -> None:
         type=count,
         default=None,
         metavar="N",
-        help="walk each gait the run reports N more times from moved starts and count the "
-        "falls (default 10; 0: no check)",
+        help="walk each gait the run reports N more times, each with its own draw of the command "
+        "dither, and count the falls (default 10; 0: no check)",
     )
     parser.add_argument(
         "--check-jitter",
@@ -115,8 +127,47 @@ def add_check_arguments(parser: argparse.ArgumentParser) -> None:
         nargs=3,
         default=None,
         metavar=("DX", "DY", "DEG"),
-        help="how far a check moves the start: within +-DX, +-DY (m) and +-DEG (heading) "
-        "(default 0.05 0.05 10, the real server's beam noise)",
+        help="also move each check walk's start within +-DX, +-DY (m) and +-DEG (heading) "
+        "(default 0 0 0: the settling damps a moved start out; 0.05 0.05 10 is the real "
+        "server's beam noise)",
+    )
+
+
+def add_scoring_arguments(parser: argparse.ArgumentParser) -> None:
+    """How candidates are scored (``optimizer.run.robust``) and the dither every walk gets."""
+    parser.add_argument(
+        "--robust-walks",
+        type=positive_int,
+        default=None,
+        metavar="K",
+        help=f"score a gait over K walks, each with its own draw of the command dither, raced: only a "
+        f"gait whose first walk could enter its search's top walks the rest (default {ScoringConfig().walks}; "
+        "1: one walk, the paper's eq. 9)",
+    )
+    parser.add_argument(
+        "--robust-top",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help=f"racing: a first walk earns the other K - 1 when it beats the N-th best score of its "
+        f"search so far (default {ScoringConfig().top})",
+    )
+    parser.add_argument(
+        "--robust-quantile",
+        type=quantile_or_mean,
+        default=None,
+        metavar="Q",
+        help=f"score K walks by this quantile of their eq. 9 fitness (default {ScoringConfig().quantile:g}: with "
+        "K 5 the second-worst walk), or by their mean with 'mean'",
+    )
+    parser.add_argument(
+        "--command-noise",
+        type=non_negative,
+        default=None,
+        metavar="RAD_S",
+        help="the agent's dither of every walking velocity command, uniform within +-RAD_S, seeded "
+        f"per walk (default {CALIBRATED_COMMAND_NOISE:g}, calibrated to the real server's run-to-run "
+        "spread; 0 with --robust-walks 1 walks and scores exactly as the paper)",
     )
 
 
@@ -126,11 +177,34 @@ CHECK_DEFAULTS: dict[str, Any] = {
     "check_jitter": list(StabilityConfig().jitter),
 }
 
+#: Defaults of the scoring settings the commands store.
+SCORING_DEFAULTS: dict[str, Any] = {
+    "robust_walks": ScoringConfig().walks,
+    "robust_top": ScoringConfig().top,
+    "robust_quantile": ScoringConfig().quantile,
+    "command_noise": CALIBRATED_COMMAND_NOISE,
+}
+
+#: What a run made before robust scoring stored nothing about: one undithered walk a gait, and
+#: checks from starts moved within the real server's beam noise.
+_LEGACY_SCORING: dict[str, Any] = {"robust_walks": 1, "robust_quantile": MEAN, "command_noise": 0.0}
+_LEGACY_JITTER = (0.05, 0.05, 10.0)
+
 
 def stability_config(settings: Mapping[str, Any]) -> StabilityConfig:
     """The run's check; a run made before checks existed has none."""
     return StabilityConfig(
-        repeats=settings.get("check_repeats", 0), jitter=tuple(settings.get("check_jitter", StabilityConfig().jitter))
+        repeats=settings.get("check_repeats", 0), jitter=tuple(settings.get("check_jitter", _LEGACY_JITTER))
+    )
+
+
+def scoring_config(settings: Mapping[str, Any]) -> ScoringConfig:
+    """The run's scoring; a run made before robust scoring scored by one walk."""
+    quantile = settings.get("robust_quantile", _LEGACY_SCORING["robust_quantile"])
+    return ScoringConfig(
+        walks=settings.get("robust_walks", _LEGACY_SCORING["robust_walks"]),
+        top=settings.get("robust_top", ScoringConfig().top),
+        quantile=None if quantile == MEAN else quantile,
     )
 
 
@@ -152,6 +226,7 @@ def add_run_arguments(parser: argparse.ArgumentParser, population: int = 100) ->
         "cycle; the default) or legacy (the narrower box of earlier versions)",
     )
     add_episode_arguments(parser)
+    add_scoring_arguments(parser)
     add_check_arguments(parser)
     parser.add_argument(
         "--seed", type=int, default=None, help="fixes every random choice of the run (default: a random seed, recorded)"
@@ -248,9 +323,13 @@ def check_start_for_real_server(parser: argparse.ArgumentParser, start: Sequence
         parser.error(f"{flag} with --start {' '.join(f'{v:g}' for v in start)}: {problem}")
 
 
-def episode_config(walk_time: float, start: Sequence[float], agent_mode: str) -> EpisodeConfig:
+def episode_config(
+    walk_time: float, start: Sequence[float], agent_mode: str, command_noise: float = 0.0
+) -> EpisodeConfig:
     x, y, heading = start
-    return EpisodeConfig(walk_time=walk_time, start=(x, y), heading=heading, agent_mode=agent_mode)
+    return EpisodeConfig(
+        walk_time=walk_time, start=(x, y), heading=heading, agent_mode=agent_mode, command_noise=command_noise
+    )
 
 
 def _flag(name: str, value: Any) -> str:
@@ -297,12 +376,14 @@ class EvaluationSetup:
     dask_local: int | None = None
     #: the real server's command when each worker starts one of its own (``--real``)
     real_command: str | None = None
+    #: the agent's command dither of every walk (rad/s; ``EpisodeConfig.command_noise``)
+    command_noise: float = 0.0
 
 
 def pool_evaluator(setup: EvaluationSetup) -> Evaluator:
     """The local evaluator: one worker process per core (or per server), each with one runner;
     or, with ``--scheduler`` / ``--dask-local``, a Dask cluster (``optimizer.evaluation.dask_cluster``)."""
-    config = episode_config(setup.walk_time, setup.start, setup.agent_mode)
+    config = episode_config(setup.walk_time, setup.start, setup.agent_mode, setup.command_noise)
     if setup.scheduler is not None or setup.dask_local is not None:
         try:
             from optimizer.evaluation.dask_cluster import DaskEvaluator
@@ -362,7 +443,7 @@ def prepare_run(
         if args.seed is not None and args.seed != folder.manifest["seed"]:
             parser.error(f"--resume: --seed {args.seed} conflicts with the run's --seed {folder.manifest['seed']}")
     settings = resolve_settings(
-        parser, args, {**defaults, **EPISODE_DEFAULTS, **CHECK_DEFAULTS, **BOUNDS_DEFAULTS}, stored
+        parser, args, {**defaults, **EPISODE_DEFAULTS, **SCORING_DEFAULTS, **CHECK_DEFAULTS, **BOUNDS_DEFAULTS}, stored
     )
     servers = tuple(args.server or ())
     if servers and args.workers is not None and args.workers != len(servers):
@@ -420,6 +501,7 @@ def prepare_run(
         args.scheduler,
         args.dask_local,
         real_command,
+        settings.get("command_noise", _LEGACY_SCORING["command_noise"]),
     )
     return Run(command, folder, settings, seed, setup, resumed=stored is not None)
 
@@ -448,8 +530,8 @@ def run_session(
         f"{run.command}: run folder {run.folder.path} (seed {run.seed}, {run.setup.workers} worker(s)"
         + (f", {len(logged)} episodes already logged)" if run.resumed else ")")
     )
-    searched = (r.fitness for r in logged if r.is_search)
-    progress = BarProgress(planned_episodes, len(logged), max(searched, default=-math.inf), quiet=quiet)
+    # the best score so far comes back as the search is replayed from the log
+    progress = BarProgress(planned_episodes, len(logged), quiet=quiet)
     evaluator: Evaluator | None = None
     # SIGTERM (a scheduler's or a service manager's stop) ends the run as Ctrl-C does: resumable,
     # workers and the servers they started stopped
@@ -458,7 +540,8 @@ def run_session(
     )
     try:
         evaluator = make_evaluator(run.setup)
-        summary = body(Driver(evaluator, log, run.seed, progress))
+        driver = Driver(evaluator, log, run.seed, progress, scoring_config(run.settings))
+        summary = body(driver)
     except KeyboardInterrupt:
         progress.close()
         print(
@@ -484,12 +567,23 @@ def run_session(
 # --- result files shared by the commands ----------------------------------------------------------
 
 
-def best_episode(records: Mapping[str, EpisodeRecord], key: str | None) -> EpisodeRecord | None:
-    """The logged episode of a search's best (``KeyedSearch.best_key``): its distance and speed go
-    into the tables. None when the search has no best (every episode failed to be answered)."""
-    return None if key is None else records.get(key)
+def best_gait(driver: Driver, key: str | None) -> ScoredGait | None:
+    """The scored gait of a search's best (``KeyedSearch.best_key``): its walks' distance and
+    speed go into the tables. None when the search has no best (every episode failed)."""
+    return None if key is None else driver.scored.get(key)
 
 
 def write_gait(path: Path, genes: np.ndarray, notes: str) -> None:
     """The best gait as a gait file the agent takes with ``--gait``."""
     save_gait(TFSParams.from_array(genes), path, notes)
+
+
+def walked_on(setup: EvaluationSetup) -> str:
+    """The walk-card side of a run's own walks: the real server's when it walked on one."""
+    return REAL_SERVER if setup.real_command is not None or setup.servers else STAND_IN
+
+
+def card_of(run: Run, name: str, check: StabilityReport) -> WalkCard:
+    """The walk card of a checked gait: its check walks, on the server the run walked on."""
+    walks = tuple(map(CardWalk.from_record, check.repeats))
+    return WalkCard(name, check.gait.genes, run.setup.walk_time, run.setup.start[2], {walked_on(run.setup): walks})

@@ -6,7 +6,9 @@
 
 Writes manifest.json, episodes.jsonl, results.json, ga.png (best and mean fitness per
 generation) and best_gait.json into the run folder (default runs/ga-YYYYmmdd-HHMMSS). The best
-gait is then checked as GALA's are (``--check-repeats``, ``--check-jitter``; ``optimizer.run.stability``).
+gait is then checked as GALA's are (``--check-repeats``, ``--check-jitter``; ``optimizer.run.stability``)
+and gets a walk card beside it (best_gait.card.md/.png/.json). Gaits are scored as GALA's are:
+robustly over dithered walks by default (``--robust-walks``, ``--command-noise``).
 """
 
 from __future__ import annotations
@@ -19,7 +21,8 @@ from typing import Any
 from optimizer.cli.common import (
     EvaluatorMaker,
     add_run_arguments,
-    best_episode,
+    best_gait,
+    card_of,
     pool_evaluator,
     prepare_run,
     run_session,
@@ -32,6 +35,7 @@ from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
 from optimizer.run.report import plot_ga_convergence
 from optimizer.run.stability import check_best
+from optimizer.run.walk_card import write_card
 from optimizer.search.config import (
     DE_JONG,
     GREFENSTETTE,
@@ -109,7 +113,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         search = GARun(bounds, config, stable_seed(run.seed, PREFIX), repair=repair, prefix=PREFIX)
         result: GAResult = driver.run(search)
         folder = run.folder.path
-        best = best_episode(driver.log.records, search.best_key(PREFIX + "/"))
+        best = best_gait(driver, search.best_key(PREFIX + "/"))
         checked = check_best(driver, best, run.setup.start, stability)
         verdict = "" if checked is None else f"; {checked.summary()}"
         write_json(
@@ -117,7 +121,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             {
                 **result.to_dict(),
                 "settings": run.settings,
-                "best_episode": None if best is None else best.to_json(),
+                "best_episode": None if best is None else best.walks[0].to_json(),
                 "check": None if checked is None else checked.to_dict(),
             },
         )
@@ -127,7 +131,9 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             result.best_genes,
             f"{title(run.settings)}: fitness {result.best_fitness:.4f}{verdict} (run {folder})",
         )
-        distance = "-" if best is None else f"{best.distance:.2f} m"
+        if checked is not None:
+            write_card(card_of(run, "GA best", checked), folder / "best_gait.json")
+        distance = "-" if best is None else best.describe()
         return f"best fitness {result.best_fitness:.4f} ({distance}{verdict}); results in {folder}"
 
     return run_session(

@@ -3,8 +3,11 @@
 Walks every gait the run reported (each Table I row's best, ``best_gait.json``, ``fastest_gait.json``;
 a GA run's best) ``--repeats`` times on real rcssserver3d servers (``--real N`` started here, or
 ``--server`` run elsewhere; with neither, on the embedded stand-in, which re-checks a run made
-elsewhere) from starts moved within the run's check jitter, and sets what the run measured
-beside what was measured now:
+elsewhere) as the run's check walked them: from starts moved within its check jitter and, on
+the stand-in, each with its own draw of the run's command dither (a real server has its own
+spread; a run older than the dither, checked from unmoved starts, is walked from starts moved
+within the real server's beam noise, else the deterministic stand-in would walk one walk ten
+times); and sets what the run measured beside what was measured now:
 
     python -m optimizer.transfer runs/gala-20261201-101500 --real 2
     python -m optimizer.transfer runs/gala-20261201-101500 --server 127.0.0.1:3100:3200 --repeats 20
@@ -12,7 +15,11 @@ beside what was measured now:
 Writes into the run folder: ``transfer.csv`` (one row per gait: the run's figures, the new walks'
 falls, shortest, mean and longest distance), ``transfer.md`` (the same as a table),
 ``transfer.png`` (the run's distance against the new one, each with its spread) and
-``transfer.json`` (every walk). The run itself is not changed.
+``transfer.json`` (every walk). The run itself is not changed, but for the walk cards
+(``optimizer.run.walk_card``): every reported gait's gait file gets the new walks as the card's
+"real server" side (or "stand-in" side, when walked on the stand-in) beside it, the card's other
+side kept; a gait file without a card gets one with just the new side. A gait with no gait file
+in the folder (a comparison's) gets no card.
 """
 
 from __future__ import annotations
@@ -28,7 +35,7 @@ from typing import Any
 
 from matplotlib.figure import Figure
 
-from gait import GENE_NAMES
+from gait import GENE_NAMES, GaitFileError, load_gait
 from optimizer.cli.common import (
     LEGACY_START,
     EvaluationSetup,
@@ -45,20 +52,22 @@ from optimizer.evaluation.pool import EpisodeTask, EvaluationError, stable_seed
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.folder import RunFolder, write_json
 from optimizer.run.stability import distance_spread, jittered_starts
-from optimizer.search.config import StabilityConfig
+from optimizer.run.walk_card import CardError, CardWalk, WalkCard, read_card, side_name, write_card
 from protocol.cli_values import non_negative, number, positive_int
 
 
 @dataclass
 class ReportedGait:
     """A gait a run reported, under every name it was reported as, and what the run measured of
-    it: its check's walks where it was checked, else the one walk that found it."""
+    it: its check's walks where it was checked, else the one walk that found it. ``files``: the
+    run folder's gait files that may hold it (``gait_file_names``; ``gait_files`` keeps those that do)."""
 
     genes: tuple[float, ...]
     names: list[str]
     run_distances: list[float]
     run_falls: int
     walks: list[EpisodeRecord] = field(default_factory=list)
+    files: list[str] = field(default_factory=list)
 
     @property
     def name(self) -> str:
@@ -80,32 +89,109 @@ def _measured(check: Mapping[str, Any] | None, walk: Mapping[str, Any] | None) -
     return [], 0
 
 
+#: Where the commands write a reported gait's gait file (``optimizer.cli.gala.write_outputs``,
+#: ``optimizer.cli.ga``): a Table I row's best in ``best_gait-pc<rate>.json`` and, for the row of
+#: the highest fitness, in ``best_gait.json`` too; the GALA run's fastest stable walk in
+#: ``fastest_gait.json``; a GA run's best in ``best_gait.json``. A comparison writes none.
+BEST_GAIT = "best_gait.json"
+FASTEST_GAIT = "fastest_gait.json"
+
+
+#: How far a start is moved where nothing else varies a stand-in's walks: within the real
+#: server's beam noise (x, y m; heading deg), what the checks of runs before the dither used.
+BEAM_NOISE = (0.05, 0.05, 10.0)
+
+
+def row_gait_file(crossover: float) -> str:
+    return f"best_gait-pc{crossover:g}.json"
+
+
 def reported_gaits(results: Mapping[str, Any]) -> list[ReportedGait]:
     """The gaits of a GALA, GA or comparison run's ``results.json``, one entry per distinct gait,
-    in the order the run reports them (Table I rows, then the fastest walk)."""
-    found: list[tuple[str, Sequence[float], Mapping[str, Any] | None, Mapping[str, Any] | None]] = []
+    in the order the run reports them (Table I rows, then the fastest walk), each with the gait
+    files it may be in (``best_gait.json`` is every row's candidate: which row it holds is seen
+    by its genes, ``gait_files``)."""
+    found: list[tuple[str, Sequence[float], Mapping[str, Any] | None, Mapping[str, Any] | None, list[str]]] = []
     if "rows" in results:  # GALA
         for row in results["rows"]:
             found.append(
-                (f"Table I pc {row['crossover']:g}", row["best_genes"], row.get("check"), row.get("best_episode"))
+                (
+                    f"Table I pc {row['crossover']:g}",
+                    row["best_genes"],
+                    row.get("check"),
+                    row.get("best_episode"),
+                    [row_gait_file(row["crossover"]), BEST_GAIT],
+                )
             )
         fastest = results.get("fastest_episode")
         if fastest is not None:
-            found.append(("fastest", fastest["genes"], results.get("fastest_check"), fastest))
+            found.append(("fastest", fastest["genes"], results.get("fastest_check"), fastest, [FASTEST_GAIT]))
     elif "reported" in results:  # a comparison: each method's best on each seed
         for gait in results["reported"]:
-            found.append((gait["name"], gait["genes"], gait.get("check"), gait.get("walk")))
+            found.append((gait["name"], gait["genes"], gait.get("check"), gait.get("walk"), []))
     elif "best_genes" in results:  # GA
-        found.append(("GA best", results["best_genes"], results.get("check"), results.get("best_episode")))
+        found.append(("GA best", results["best_genes"], results.get("check"), results.get("best_episode"), [BEST_GAIT]))
     gaits: dict[tuple[float, ...], ReportedGait] = {}
-    for name, genes, check, walk in found:
+    for name, genes, check, walk, files in found:
         key = tuple(float(g) for g in genes)
         if key in gaits:
             gaits[key].names.append(name)
+            gaits[key].files.extend(f for f in files if f not in gaits[key].files)
             continue
         distances, falls = _measured(check, walk)
-        gaits[key] = ReportedGait(key, [name], distances, falls)
+        gaits[key] = ReportedGait(key, [name], distances, falls, files=list(files))
     return list(gaits.values())
+
+
+def gait_files(folder: Path, gait: ReportedGait) -> list[Path]:
+    """Those of the gait's candidate files in ``folder`` that hold its genes: a file missing
+    (a run still writing its first row) or holding another gait (``best_gait.json`` of another
+    row, a file left from before a resume) gets no card of this gait."""
+    held = []
+    for name in gait.files:
+        path = folder / name
+        try:
+            genes = tuple(float(g) for g in load_gait(path).as_array())
+        except GaitFileError:
+            continue
+        if genes == gait.genes:
+            held.append(path)
+    return held
+
+
+def update_cards(
+    folder: Path, gaits: Sequence[ReportedGait], side: str, walk_time: float, heading: float
+) -> tuple[list[Path], list[str]]:
+    """Put each gait's new walks on the card beside each of its gait files as ``side`` (the
+    card's other sides kept), or start a card there; returns the gait files whose card was
+    written, and notes for the user (a card that could not be read, or of other genes, is
+    replaced)."""
+    written: list[Path] = []
+    notes: list[str] = []
+    fileless: list[str] = []
+    for gait in gaits:
+        walks = [CardWalk.from_record(w) for w in gait.walks]
+        paths = gait_files(folder, gait)
+        if not paths:
+            fileless.append(gait.name)
+        for path in paths:
+            try:
+                card = read_card(path)
+            except CardError as exc:
+                notes.append(f"{exc}; replaced by a card of the new walks")
+                card = None
+            if card is not None and card.genes != gait.genes:
+                notes.append(f"{path.name}: its card was of other genes; replaced by a card of the new walks")
+                card = None
+            if card is None:
+                card = WalkCard(gait.name, gait.genes, walk_time, heading)
+            write_card(card.with_side(side, walks), path)
+            written.append(path)
+    if fileless:
+        notes.append(
+            f"no gait file in the run folder holds {len(fileless)} gait(s), so no walk card: {', '.join(fileless)}"
+        )
+    return written, notes
 
 
 def run_server_kind(folder: RunFolder) -> str:
@@ -270,14 +356,23 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     real = bool(args.real or args.server)
     start = _start(parser, args, tuple(settings.get("start", LEGACY_START)), real)
     jitter = tuple(args.jitter) if args.jitter is not None else stability_config(settings).jitter
-    if not any(jitter) and not real:
-        jitter = StabilityConfig().jitter  # the stand-in is deterministic: unmoved walks would be one walk
+    # the dither stands in for the real server's spread, so only the stand-in's walks get it
+    command_noise = 0.0 if real else float(settings.get("command_noise", 0.0))
+    if not any(jitter) and not real and command_noise == 0:
+        jitter = BEAM_NOISE  # the stand-in is deterministic: unmoved, undithered walks would be one walk
     seed = folder.manifest["seed"] if args.seed is None else args.seed
     servers = tuple(args.server or ())
     real_command = real_server_command(parser) if args.real else None
     workers = args.real or len(servers) or 1
     setup = EvaluationSetup(
-        settings["walk_time"], start, settings["agent_mode"], servers, workers, seed, real_command=real_command
+        settings["walk_time"],
+        start,
+        settings["agent_mode"],
+        servers,
+        workers,
+        seed,
+        real_command=real_command,
+        command_noise=command_noise,
     )
     target = "real server" if real else "stand-in"
     tasks = {}
@@ -285,7 +380,8 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         starts = jittered_starts(start, jitter, args.repeats, stable_seed(seed, f"transfer/{number_}"))
         for j, point in enumerate(starts):
             key = f"transfer/g{number_}/r{j:02d}"
-            tasks[key] = (gait, EpisodeTask(key, gait.genes, stable_seed(seed, key), point, WalkKind.CHECK))
+            task = EpisodeTask(key, gait.genes, stable_seed(seed, key), point, WalkKind.CHECK, trace=True)
+            tasks[key] = (gait, task)
     print(
         f"transfer: {len(gaits)} gait(s) x {args.repeats} walks on the {target} ({workers} worker(s))", file=sys.stderr
     )
@@ -316,6 +412,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             "run_server": run_kind,
             "start": list(start),
             "jitter": list(jitter),
+            "command_noise": command_noise,
             "seed": seed,
             "repeats": args.repeats,
             "real_command": real_command,
@@ -323,5 +420,9 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             "gaits": [{**_row(g), "genes": list(g.genes), "walks": [w.to_json() for w in g.walks]} for g in gaits],
         },
     )
-    print((folder.path / "transfer.md").read_text() + f"written to {folder.path}/transfer.{{csv,md,png,json}}")
+    cards, notes = update_cards(folder.path, gaits, side_name(real), settings["walk_time"], start[2])
+    for note in notes:
+        print(f"note: {note}", file=sys.stderr)
+    written = "".join(f"\nwalk card ({target} side): {p.stem}.card.{{json,md,png}}" for p in cards)
+    print((folder.path / "transfer.md").read_text() + f"written to {folder.path}/transfer.{{csv,md,png,json}}{written}")
     return 0

@@ -3,7 +3,7 @@
     python -m optimizer.compare --preset quick               # a first look: minutes on 2 cores
     python -m optimizer.compare                              # 6 methods x 10 seeds x 800 episodes (hours)
     python -m optimizer.compare --methods gala,cmaes --seeds 20 --budget 400
-    python -m optimizer.compare --robust 3 --robust-quantile 0.25   # score every gait over 3 moved starts
+    python -m optimizer.compare --robust-walks 1                  # score every gait by one walk (eq. 9)
     python -m optimizer.compare --resume runs/compare-...   # continue after Ctrl-C or kill -9
 
 Methods (each a module of ``optimizer/compare/methods``): GALA at the paper's settings, the GA
@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
-from dataclasses import replace
 from typing import Any
 
 from optimizer.cli.common import (
@@ -35,15 +34,16 @@ from optimizer.cli.common import (
     search_box,
     stability_config,
 )
-from optimizer.compare.budget import RobustScore, Scored, drive
+from optimizer.compare.budget import drive
 from optimizer.compare.methods import Method, Problem, discover
 from optimizer.compare.report import RunOutcome, plot_convergence, write_tables
 from optimizer.compare.statistics import pairwise, summarise
 from optimizer.evaluation.pool import stable_seed
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
+from optimizer.run.robust import ScoredGait
 from optimizer.run.stability import check_best
-from protocol.cli_values import count, non_negative, positive_int, probability
+from protocol.cli_values import non_negative, positive_int
 
 #: Settings a comparison stores. The default budget runs 6 methods x 10 seeds x 800 episodes,
 #: about 48,000 search episodes: 2-3 hours on the stub with 2 workers (5-7 episodes a second).
@@ -53,8 +53,6 @@ DEFAULTS: dict[str, Any] = {
     "budget": 800,
     "population": 40,
     "elitism": True,
-    "robust_walks": 0,
-    "robust_quantile": None,
     "success_distance": 4.95,  # the paper's headline walk
 }
 
@@ -102,24 +100,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=positive_int,
         default=None,
         metavar="EPISODES",
-        help="search episodes per run, the same for every method (default 800); with --robust K "
-        "each gait costs K of them",
-    )
-    p.add_argument(
-        "--robust",
-        dest="robust_walks",
-        type=count,
-        default=None,
-        metavar="K",
-        help="score each gait over K walks from starts moved within the check jitter (default 0: "
-        "one walk from the run's start)",
-    )
-    p.add_argument(
-        "--robust-quantile",
-        type=probability,
-        default=None,
-        metavar="Q",
-        help="with --robust: score by this quantile of the K walks instead of their mean",
+        help="search episodes per run, the same for every method (default 800); a raced gait "
+        "spends --robust-walks of them",
     )
     p.add_argument(
         "--success-distance",
@@ -134,13 +116,18 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _outcome(
-    method: Method, index: int, scored: Sequence[Scored], best: Scored, check_report: Any, success_distance: float
+    method: Method,
+    index: int,
+    scored: Sequence[ScoredGait],
+    best: ScoredGait,
+    check_report: Any,
+    success_distance: float,
 ) -> RunOutcome:
     curve: list[float] = []
     so_far = float("-inf")
     for candidate in scored:
         so_far = max(so_far, candidate.fitness / 10.0)
-        curve.extend([so_far] * len(candidate.records))  # each episode the candidate took
+        curve.extend([so_far] * len(candidate.walks))  # each episode the candidate took
     spread = None if check_report is None else check_report.spread()
     stable = check_report is None or check_report.stable
     return RunOutcome(
@@ -155,7 +142,7 @@ def _outcome(
         stable and best.fitness / 10.0 >= success_distance,
         tuple(curve),
         None if check_report is None else check_report.to_dict(),
-        tuple((w.distance, w.fell) for w in best.records if w.ran),
+        tuple((w.distance, w.fell) for w in best.walks if w.ran),
     )
 
 
@@ -164,22 +151,12 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     parser = build_parser()
     args = parser.parse_args(argv)
     apply_preset(args, PRESETS[args.preset or "default"])
-    if args.robust_quantile is not None and not args.robust_walks:
-        parser.error("--robust-quantile needs --robust K (K >= 1)")
     run = prepare_run(parser, args, "compare", DEFAULTS, argv)
     settings = run.settings
     methods = [discover()[name] for name in settings["methods"] or discover()]
     bounds, repair = search_box(settings)
     stability = stability_config(settings)
-    robust = (
-        RobustScore(settings["robust_walks"], stability.jitter, settings["robust_quantile"])
-        if settings["robust_walks"]
-        else None
-    )
-    per_candidate = robust.walks if robust else 1
-    budget = settings["budget"] // per_candidate  # candidates, so that every run spends the same episodes
-    if budget < 1:
-        parser.error(f"--budget {settings['budget']} is less than one gait's {per_candidate} robust walks")
+    budget = settings["budget"]  # episodes, the same for every run (a raced candidate spends several)
     seeds = settings["seeds"]
 
     def body(driver: Driver) -> str:
@@ -190,16 +167,14 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
                 problem = Problem(
                     bounds, repair, stable_seed(run.seed, prefix), budget, settings["population"], settings["elitism"]
                 )
-                scored = drive(driver, method.program(problem), budget, prefix, run.setup.start, robust)
+                scored = drive(driver, method.program(problem), budget, prefix)
                 best = max(scored, key=lambda s: s.fitness)  # the first of equals: the earliest found
-                # the candidate's walk under the candidate's own key (with --robust its walks are keyed .../kN)
-                walk = replace(best.records[0], key=best.key, fitness=best.fitness)
-                report = check_best(driver, walk, run.setup.start, stability)
+                report = check_best(driver, best, run.setup.start, stability)
                 runs.append(_outcome(method, index, scored, best, report, settings["success_distance"]))
-            _write(run.folder.path, runs, settings, budget * per_candidate)
+            _write(run.folder.path, runs, settings, budget)
         return (run.folder.path / "comparison.md").read_text() + f"results in {run.folder.path}"
 
-    planned = len(methods) * seeds * (budget * per_candidate + stability.repeats)
+    planned = len(methods) * seeds * (budget + stability.repeats)
     return run_session(run, planned, body, make_evaluator=make_evaluator, quiet=args.quiet)
 
 

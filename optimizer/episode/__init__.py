@@ -7,6 +7,7 @@ stand-in measured against the real server (``fidelity``).
 """
 
 from optimizer.episode.config import (
+    CALIBRATED_COMMAND_NOISE,
     DEFAULT_START,
     EpisodeConfig,
     EpisodeResult,
@@ -18,6 +19,7 @@ from optimizer.episode.scoring import Judge, TracePoint
 from optimizer.episode.servers import ServerAddress
 
 __all__ = [
+    "CALIBRATED_COMMAND_NOISE",
     "DEFAULT_START",
     "EpisodeConfig",
     "EpisodeResult",

@@ -18,6 +18,11 @@ Start = tuple[float, float, float]
 #: the fastest walks known (0.9 m/s for 15 s) end near x = 8.5, inside the 15 m half.
 DEFAULT_START: Start = (-5.0, 0.0, 0.0)
 
+#: The agent's command dither (rad/s) the optimizer walks with by default: the amplitude at which
+#: the stand-in's walk-to-walk spread matches the real server's own (docs/optimizer.md, "The
+#: dither's calibration"; ``bench/calibrate_dither.py``).
+CALIBRATED_COMMAND_NOISE = 1e-6
+
 #: The left team's robot must stay this far behind the centre line to be left alone before
 #: kick-off on a real server (its colliders reach ~0.15 m from the torso; the referee moves any
 #: robot whose bounding box enters the right half).
@@ -99,6 +104,13 @@ class EpisodeResult:
     status: str = "ok"
     reason: str = ""
     wall: float = 0.0
+    #: Where a traced walk (``EpisodeRunner.evaluate(trace=True)``) went besides forward: metres
+    #: it ended left (+) of its start line, degrees it turned (left +), and the torso's track
+    #: (``scoring.TRACK_FIELDS``, every ``scoring.TRACK_EVERY``-th monitor state and the last).
+    #: None for an untraced walk: the search does not pay for them.
+    drift: float | None = None
+    heading_change: float | None = None
+    track: tuple[tuple[float, ...], ...] | None = None
 
     def to_dict(self) -> dict:
         return asdict(self)

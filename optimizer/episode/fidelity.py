@@ -47,6 +47,7 @@ from optimizer.episode import (
     Start,
     TracePoint,
 )
+from optimizer.episode.scoring import heading_change, sideways_drift
 from optimizer.run.folder import write_json
 
 #: Where the stored gait sets are (a source checkout: they are data of the benchmark, not of the package).
@@ -122,31 +123,6 @@ def gait_set(name: str, directory: Path = GAIT_SET_DIR) -> list[FidelityGait]:
 
 # ----- one walk -----
 
-#: The forward axis's azimuth is the robot's heading only while the torso is upright: a torso
-#: tipping over swings it by tens of degrees in a few states (up z 0.8 = 37 deg of tilt).
-UPRIGHT_UP_Z = 0.8
-
-
-def heading_change(track: Sequence[TracePoint], upright_up_z: float = UPRIGHT_UP_Z) -> float:
-    """Degrees the torso turned about the vertical from the first traced state to the last one in
-    which it was still upright (up z >= ``upright_up_z``), left positive; unwrapped, so a walk
-    that turns past +-180 deg is not read as a small turn."""
-    upright = [i for i, p in enumerate(track) if p.up_z >= upright_up_z]
-    if len(track) < 2 or not upright:
-        return 0.0
-    headings = np.unwrap(np.radians([p.heading for p in track[: upright[-1] + 1]]))
-    return float(math.degrees(headings[-1] - headings[0]))
-
-
-def sideways_drift(track: Sequence[TracePoint], heading_deg: float) -> float:
-    """Metres the torso ended to the left (+) or right (-) of the line it started on, the line
-    along ``heading_deg`` through where it stood in the first traced state."""
-    if len(track) < 2:
-        return 0.0
-    h = math.radians(heading_deg)
-    dx, dy = track[-1].x - track[0].x, track[-1].y - track[0].y
-    return -dx * math.sin(h) + dy * math.cos(h)
-
 
 @dataclass(frozen=True)
 class Walk:
@@ -183,7 +159,7 @@ class Walk:
         }
         if with_track:
             # (game_time, x, y, z, up_z, heading): 4 decimals keep a 15-s track to ~20 kB
-            out["track"] = [[round(v, 4) for v in (p.game_time, p.x, p.y, p.z, p.up_z, p.heading)] for p in self.track]
+            out["track"] = [list(p.rounded()) for p in self.track]
         return out
 
 

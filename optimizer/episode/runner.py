@@ -102,23 +102,30 @@ class EpisodeRunner:
 
     # ----- public -----
     def evaluate(
-        self, genes: Sequence[float] | TFSParams, seed: int | None = None, start: Start | None = None
+        self,
+        genes: Sequence[float] | TFSParams,
+        seed: int | None = None,
+        start: Start | None = None,
+        trace: bool = False,
     ) -> EpisodeResult:
         """Walk ``genes`` once, from ``start`` (x, y, heading) if given, else from the config's.
         ``seed`` seeds the agent's command dither where the config asks for one
         (``EpisodeConfig.command_noise``); otherwise no outcome depends on it: the physics is
-        deterministic and the walking agent uses no vision, the only noisy sensor."""
+        deterministic and the walking agent uses no vision, the only noisy sensor. ``trace`` (or
+        the runner's own ``trace``) adds the walk's drift, turn and track to the result
+        (``EpisodeResult.track``); what the walk does is the same either way."""
         params = genes if isinstance(genes, TFSParams) else TFSParams.from_array(list(genes))
         config = self.config if start is None else self.config.starting_at(start)
         if seed is not None and config.command_noise > 0:
             config = replace(config, noise_seed=seed)
+        traced = trace or self.trace
         started = time.monotonic()
         self.last_trace = [] if self.trace else None
         reason = ""
         for attempt in (1, 2):
             try:
-                result = self._episode(params, config)
-                return EpisodeResult(**{**result.to_dict(), "wall": time.monotonic() - started})
+                result = self._episode(params, config, traced)
+                return replace(result, wall=time.monotonic() - started)
             except (EpisodeFailure, AgentError, OSError, ServerStartError) as exc:  # infrastructure, not bugs
                 reason = f"{type(exc).__name__}: {exc}"
                 log.warning("episode attempt %d failed: %s", attempt, reason)
@@ -197,26 +204,26 @@ class EpisodeRunner:
             noise_seed=config.noise_seed,
         )
 
-    def _episode(self, params: TFSParams, config: EpisodeConfig) -> EpisodeResult:
+    def _episode(self, params: TFSParams, config: EpisodeConfig, traced: bool) -> EpisodeResult:
         if self._goes_direct:
-            judge = Judge(config, self.trace)
+            judge = Judge(config, traced)
             if self._direct is None:
                 self._direct = DirectStub(self._seed)
             self._direct.run(params, config, judge)
             assert judge.result is not None
-            self.last_trace = judge.trace
+            self.last_trace = judge.trace if self.trace else None
             return judge.result
         address = self._address()
         link = self._link()
         self._prepare(link, config)
-        judge = Judge(config, self.trace)
+        judge = Judge(config, traced)
         deadline = time.monotonic() + config.episode_timeout
         if config.agent_mode == "inprocess":
             self._run_inprocess(params, address, link, judge, deadline)
         else:
             self._run_process(params, address, link, judge, deadline)
         assert judge.result is not None
-        self.last_trace = judge.trace
+        self.last_trace = judge.trace if self.trace else None
         return judge.result
 
     def _run_inprocess(

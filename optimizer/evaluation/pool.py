@@ -48,17 +48,19 @@ class EpisodeTask:
     """One episode to run: the candidate's key and genes, and its own seed (``stable_seed`` of the
     run seed and the key), so its result does not depend on which worker runs it or when.
     ``start`` (x, y, heading) moves this episode's start point; None walks from the run's.
-    ``kind`` goes into the episode's record (``optimizer.evaluation.record``)."""
+    ``kind`` goes into the episode's record (``optimizer.evaluation.record``). ``trace`` asks for
+    the walk's drift, turn and track (a walk card's material; ``EpisodeRunner.evaluate``)."""
 
     key: str
     genes: tuple[float, ...]
     seed: int
     start: Start | None = None
     kind: WalkKind = WalkKind.SEARCH
+    trace: bool = False
 
     def run_on(self, runner: Runner) -> dict[str, Any]:
         """This episode on ``runner``, as the result dict a worker sends back."""
-        return dict(runner.evaluate(self.genes, seed=self.seed, start=self.start).to_dict())
+        return dict(runner.evaluate(self.genes, seed=self.seed, start=self.start, trace=self.trace).to_dict())
 
 
 def failed_result(reason: str, wall: float) -> dict[str, Any]:
@@ -104,7 +106,7 @@ class EvaluationError(RuntimeError):
 class Runner(Protocol):
     """What a worker needs from an episode runner (``optimizer.episode.EpisodeRunner``)."""
 
-    def evaluate(self, genes: Sequence[float], seed: int, start: Start | None = None) -> Any: ...
+    def evaluate(self, genes: Sequence[float], seed: int, start: Start | None = None, trace: bool = False) -> Any: ...
 
     def close(self) -> None: ...
 

@@ -57,6 +57,11 @@ class EpisodeRecord:
     status: str = "ok"
     reason: str = ""
     wall: float = 0.0
+    #: a traced walk's drift (m, left +), turn (deg, left +) and thinned torso track
+    #: (``optimizer.episode.scoring.TRACK_FIELDS`` per point); None for an untraced walk
+    drift: float | None = None
+    heading_change: float | None = None
+    track: tuple[tuple[float, ...], ...] | None = None
 
     @property
     def ran(self) -> bool:
@@ -91,6 +96,8 @@ class EpisodeRecord:
             reason=self.reason,
             wall=self.wall,
         )
+        if self.track is not None:
+            document.update(drift=self.drift, heading_change=self.heading_change, track=[list(p) for p in self.track])
         return document
 
     @classmethod
@@ -110,12 +117,19 @@ class EpisodeRecord:
         start = document.get("start")
         if start is not None and not (isinstance(start, list) and len(start) == 3 and all(map(_is_number, start))):
             raise RecordError(f'"start" must be 3 numbers, found {_shown(start)}')
+        track = document.get("track")
+        if track is not None and not (
+            isinstance(track, list) and all(isinstance(p, list) and all(map(_is_number, p)) for p in track)
+        ):
+            raise RecordError(f'"track" must be a list of lists of numbers, found {_shown(track)}')
         checks = {
             "fitness": ("a finite number", _is_number),
             "distance": ("a finite number", _is_number),
             "time": ("a finite number", _is_number),
             "mean_speed": ("a finite number", _is_number),
             "wall": ("a finite number", _is_number),
+            "drift": ("a finite number", _is_number),
+            "heading_change": ("a finite number", _is_number),
             "fell": ("true or false", lambda v: isinstance(v, bool)),
             "status": ("a string", lambda v: isinstance(v, str)),
             "reason": ("a string", lambda v: isinstance(v, str)),
@@ -146,6 +160,9 @@ class EpisodeRecord:
             status=document.get("status", "ok"),
             reason=document.get("reason", ""),
             wall=float(document.get("wall", 0.0)),
+            drift=_float_or_none(document.get("drift")),
+            heading_change=_float_or_none(document.get("heading_change")),
+            track=None if track is None else tuple(tuple(float(v) for v in p) for p in track),
         )
 
     @classmethod
@@ -176,7 +193,14 @@ class EpisodeRecord:
             status=str(result["status"]),
             reason=str(result["reason"]),
             wall=float(result["wall"]),
+            drift=_float_or_none(result.get("drift")),
+            heading_change=_float_or_none(result.get("heading_change")),
+            track=None if result.get("track") is None else tuple(tuple(map(float, p)) for p in result["track"]),
         )
+
+
+def _float_or_none(value: Any) -> float | None:
+    return None if value is None else float(value)
 
 
 def _is_number(value: Any) -> bool:

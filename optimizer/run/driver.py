@@ -19,6 +19,8 @@ from optimizer.episode import Start
 from optimizer.evaluation.pool import EpisodeTask, Evaluator, stable_seed
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.folder import EpisodeLog
+from optimizer.run.robust import Race, ScoredGait, extra_key
+from optimizer.search.config import ScoringConfig
 from optimizer.search.ga import AskTellSearch
 
 
@@ -28,32 +30,76 @@ class ResumeMismatch(RuntimeError):
 
 
 class Progress(Protocol):
-    """Hears about the drive: a batch about to be evaluated, each episode as it is logged."""
+    """Hears about the drive: a batch about to be evaluated, each episode as it is logged, each
+    candidate's score as its search is told it."""
 
     def batch(self, prefix: str) -> None: ...
 
     def episode(self, record: EpisodeRecord) -> None: ...
 
+    def scored(self, fitness: float) -> None: ...
+
 
 class Driver:
     """Runs searches against one evaluator and one episode log (a run may drive several searches,
-    e.g. one GALA per crossover rate, through the same driver: keys never collide)."""
+    e.g. one GALA per crossover rate, through the same driver: keys never collide).
 
-    def __init__(self, evaluator: Evaluator, log: EpisodeLog, run_seed: int, progress: Progress | None = None) -> None:
+    Candidates are scored as ``scoring`` says (``optimizer.run.robust``: one walk, or k dithered
+    walks raced). ``scored`` keeps every candidate scored so far, by key: where a run finds its
+    best gaits."""
+
+    def __init__(
+        self,
+        evaluator: Evaluator,
+        log: EpisodeLog,
+        run_seed: int,
+        progress: Progress | None = None,
+        scoring: ScoringConfig = ScoringConfig(walks=1),
+    ) -> None:
         self.evaluator = evaluator
         self.log = log
         self.run_seed = run_seed
         self.progress = progress
+        self.scoring = scoring
+        #: every candidate scored, by key, in the order scored
+        self.scored: dict[str, ScoredGait] = {}
         #: episodes this driver evaluated (not replayed from the log)
         self.evaluated = 0
 
     def run(self, search: AskTellSearch) -> Any:
         """Drive ``search`` to the end and return its ``result()``."""
+        race = self.race()
         while not search.done:
-            tasks = [self.task(c.key, c.genes) for c in search.ask()]
-            records = self.walk(tasks)
-            search.tell({key: record.fitness for key, record in records.items()})
+            scored = self.score([(c.key, c.genes) for c in search.ask()], race)
+            search.tell({s.key: s.fitness for s in scored})
         return search.result()
+
+    def race(self) -> Race:
+        """A fresh race for one search."""
+        return Race(self.scoring)
+
+    def score(self, candidates: Sequence[tuple[str, Sequence[float] | np.ndarray]], race: Race) -> list[ScoredGait]:
+        """Score a batch: every candidate walks once, then, round by round, those ``race``
+        chooses walk the rest of their k walks (each round one more batch) and their scores join
+        the race, until it chooses none."""
+        firsts = self.walk([self.task(key, genes) for key, genes in candidates])
+        walks = {key: [firsts[key]] for key, _ in candidates}
+        genes_of = {key: genes for key, genes in candidates}
+        while chosen := race.choose([(key, firsts[key]) for key, _ in candidates if len(walks[key]) == 1]):
+            more = self.walk(
+                [self.task(extra_key(key, j), genes_of[key]) for key in chosen for j in range(1, self.scoring.walks)]
+            )
+            for key in chosen:
+                walks[key] += [more[extra_key(key, j)] for j in range(1, self.scoring.walks)]
+                race.enter(race.score(walks[key]))
+        out = []
+        for key, _ in candidates:
+            scored = ScoredGait(key, firsts[key].genes, race.score(walks[key]), tuple(walks[key]))
+            self.scored[key] = scored
+            out.append(scored)
+            if self.progress is not None:
+                self.progress.scored(scored.fitness)
+        return out
 
     def task(
         self,
@@ -61,9 +107,10 @@ class Driver:
         genes: Sequence[float] | np.ndarray,
         start: Start | None = None,
         kind: WalkKind = WalkKind.SEARCH,
+        trace: bool = False,
     ) -> EpisodeTask:
-        """The episode ``key`` of this run, with its own seed."""
-        return EpisodeTask(key, tuple(float(g) for g in genes), stable_seed(self.run_seed, key), start, kind)
+        """The episode ``key`` of this run, with its own seed (which also seeds its dither)."""
+        return EpisodeTask(key, tuple(float(g) for g in genes), stable_seed(self.run_seed, key), start, kind, trace)
 
     def walk(self, tasks: Sequence[EpisodeTask]) -> dict[str, EpisodeRecord]:
         """Each task's log record: from the log when it holds the key, else evaluated (as one
@@ -99,7 +146,7 @@ class Driver:
 class BarProgress:
     """One tqdm bar for a whole run, on stderr: episodes done of planned, episodes per second and
     the ETA (tqdm's), the batch being evaluated (crossover row, iteration, generation), the best
-    fitness so far and the number of failed episodes. Episodes replayed from the log are counted
+    score a search was told so far and the number of failed episodes. Episodes replayed from the log are counted
     from the start, so the rate and the ETA measure only the episodes run now."""
 
     def __init__(self, total: int, done: int = 0, best: float = -math.inf, *, quiet: bool = False) -> None:
@@ -113,11 +160,14 @@ class BarProgress:
         self._show()
 
     def episode(self, record: EpisodeRecord) -> None:
-        if record.is_search:
-            self.best = max(self.best, record.fitness)
         self.failed += not record.ran
         self._bar.update(1)
         self._show()
+
+    def scored(self, fitness: float) -> None:
+        if fitness > self.best:
+            self.best = fitness
+            self._show()
 
     def _show(self) -> None:
         postfix = {"batch": self._batch, "best": f"{self.best:.3f}"}

@@ -23,10 +23,12 @@ from optimizer.search.gala import GALAResult
 
 @dataclass(frozen=True)
 class TableRow:
-    """One row of Table I, plus the walk it stands for and its stability check (None where the
-    caller has no figure): ``repeat_falls`` of ``repeats`` walks from moved starts fell; they went
-    ``repeat_min_distance_m`` to ``repeat_max_distance_m``, ``repeat_mean_distance_m`` on average.
-    The mean is the figure to trust on a real server, where one walk can be a lucky one."""
+    """One row of Table I, plus the gait it stands for and its stability check (None where the
+    caller has no figure): ``distance_m`` is the mean of the walks its search scored it by;
+    ``repeat_falls`` of ``repeats`` check walks fell; they went ``repeat_min_distance_m`` to
+    ``repeat_max_distance_m``, ``repeat_mean_distance_m`` on average. ``holds`` is the verdict:
+    no check walk fell. The check's mean is the figure to trust on a real server, where one walk
+    can be a lucky one, and a row whose gait falls says so rather than showing a distance alone."""
 
     crossover_rate: float
     optimal_mutation_rate: float
@@ -38,6 +40,7 @@ class TableRow:
     repeat_min_distance_m: float | None = None
     repeat_mean_distance_m: float | None = None
     repeat_max_distance_m: float | None = None
+    holds: bool | None = None
 
     @classmethod
     def from_gala(
@@ -48,6 +51,7 @@ class TableRow:
         repeats: int | None = None,
         repeat_falls: int | None = None,
         spread: tuple[float, float, float] | None = None,
+        holds: bool | None = None,
     ) -> TableRow:
         """``spread``: the check's (shortest, longest, mean) distance."""
         shortest, longest, mean = spread or (None, None, None)
@@ -62,11 +66,13 @@ class TableRow:
             shortest,
             mean,
             longest,
+            holds,
         )
 
 
 COLUMNS = tuple(f.name for f in fields(TableRow))
 _COUNTS = frozenset({"repeats", "repeat_falls"})
+_FLAGS = frozenset({"holds"})
 _HEADINGS = (
     "Crossover rate",
     "Optimal mutation rate",
@@ -77,12 +83,15 @@ _HEADINGS = (
     "Shortest repeat (m)",
     "Mean repeat (m)",
     "Longest repeat (m)",
+    "Holds",
 )
 
 
 def _cell(name: str, value: float | None) -> str:
     if value is None:
         return ""
+    if name in _FLAGS:
+        return "yes" if value else "no"
     return str(int(value)) if name in _COUNTS else repr(float(value))
 
 
@@ -99,6 +108,8 @@ def write_table_csv(rows: Sequence[TableRow], path: Path) -> None:
 def _value(name: str, text: str) -> Any:  # the column decides: a count, a figure or none
     if text == "":
         return None
+    if name in _FLAGS:
+        return text == "yes"
     return int(text) if name in _COUNTS else float(text)
 
 
@@ -126,12 +137,14 @@ def _markdown_cells(row: TableRow) -> list[str]:
         number("{:.2f}", row.repeat_min_distance_m),
         number("{:.2f}", row.repeat_mean_distance_m),
         number("{:.2f}", row.repeat_max_distance_m),
+        "-" if row.holds is None else ("yes" if row.holds else "**FALLS**"),
     ]
 
 
 def write_table_markdown(rows: Sequence[TableRow], path: Path) -> None:
-    """Table I as the paper prints it (rates to 2 decimals, fitness to 4), then the walk and its
-    check ("1/10": one of ten walks from moved starts fell); a dash for no figure."""
+    """Table I as the paper prints it (rates to 2 decimals, fitness to 4), then the gait's walks and
+    its check ("1/10": one of ten check walks fell) and the verdict (**FALLS** where a check walk
+    fell); a dash for no figure."""
     lines = ["| " + " | ".join(_HEADINGS) + " |", "|" + "---:|" * len(_HEADINGS)]
     lines.extend("| " + " | ".join(_markdown_cells(row)) + " |" for row in rows)
     Path(path).write_text("\n".join(lines) + "\n")

@@ -1,0 +1,101 @@
+"""CMA-ES (Hansen's ``cma`` library) as a search program, in the gene box scaled to the unit cube.
+
+Scaling makes one step size fit genes in degrees, seconds and rad/s alike; ``cma``'s own bound
+handling keeps samples in the cube, and the gait's repair (t2 folded into the period) is applied to
+what is evaluated. A strategy that stops (converged, or its step size collapsed) starts again:
+from a random point when it was started from one, else from the best gait it has met, so a
+refinement keeps climbing from where it got to.
+
+Two uses: the optimizer comparison starts it from a random point with sigma 0.3 of the box
+(``optimizer.compare.methods.cmaes``); the main job's refinement phase starts it from the best gait
+the Table I rows found, with a smaller step (``optimizer.cli.gala``, ``--refine``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import cma
+import numpy as np
+
+from optimizer.search.ga import Batch, KeyedSearch, Repair, SearchProgram
+
+#: Initial step size from a random point, as a fraction of the box (the library's advice: about a
+#: quarter to a third of the range the optimum may lie in).
+SIGMA0 = 0.3
+
+
+def _strategy(rng: np.random.Generator, x0: np.ndarray, sigma0: float) -> cma.CMAEvolutionStrategy:
+    return cma.CMAEvolutionStrategy(
+        x0, sigma0, {"bounds": [0.0, 1.0], "seed": int(rng.integers(1, 2**31 - 1)), "verbose": -9}
+    )
+
+
+def cmaes_program(
+    bounds: np.ndarray,
+    repair: Repair,
+    seed: int,
+    start: Sequence[float] | None = None,
+    sigma0: float = SIGMA0,
+    candidates: int | None = None,
+) -> SearchProgram:
+    """CMA-ES from ``start`` (genes; None: a seeded random point) with step ``sigma0`` (a fraction
+    of the box), batches keyed ``gNNN``, for ``candidates`` candidates in all (None: for ever;
+    the last batch is cut to fit)."""
+    low, high = bounds[:, 0], bounds[:, 1]
+    rng = np.random.default_rng(seed)
+    x0 = None if start is None else np.clip((np.asarray(start, dtype=float) - low) / (high - low), 0.0, 1.0)
+    strategy = _strategy(rng, rng.uniform(0.0, 1.0, len(low)) if x0 is None else x0, sigma0)
+    generation, asked = 0, 0
+    best: tuple[float, np.ndarray] | None = None
+    while candidates is None or asked < candidates:
+        unit = strategy.ask()
+        if candidates is not None:
+            unit = unit[: candidates - asked]
+        genes = np.array([repair(low + np.asarray(u) * (high - low)) for u in unit])
+        fitness = yield Batch(f"g{generation:03d}", genes)
+        asked += len(unit)
+        generation += 1
+        if len(unit) < strategy.popsize:
+            return  # the budget cut this batch: cma takes only whole generations
+        strategy.tell(unit, [-float(f) for f in fitness])  # cma minimises
+        k = int(np.argmax(fitness))
+        if best is None or fitness[k] > best[0]:
+            best = (float(fitness[k]), np.clip((genes[k] - low) / (high - low), 0.0, 1.0))
+        if strategy.stop():  # a refinement starts again from the best it met, a search from anywhere
+            restart = rng.uniform(0.0, 1.0, len(low)) if x0 is None else best[1]
+            strategy = _strategy(rng, restart, sigma0)
+
+
+class CMAESRun(KeyedSearch):
+    """CMA-ES as a keyed search, keys ``{prefix}/gNNN/iNNN``: the main job's refinement phase."""
+
+    def __init__(
+        self,
+        bounds: np.ndarray,
+        repair: Repair,
+        seed: int,
+        start: Sequence[float],
+        sigma0: float,
+        candidates: int,
+        prefix: str,
+    ) -> None:
+        self._best: tuple[float, np.ndarray] | None = None
+        self._prefix = prefix
+        super().__init__(self._run(cmaes_program(bounds, repair, seed, start, sigma0, candidates)))
+
+    def _run(self, program: SearchProgram) -> SearchProgram:
+        fitness = None
+        while True:
+            try:
+                batch = program.send(fitness)  # type: ignore[arg-type]
+            except StopIteration:
+                return
+            fitness = yield Batch(f"{self._prefix}/{batch.prefix}", batch.genes)
+            k = int(np.argmax(fitness))
+            if self._best is None or fitness[k] > self._best[0]:
+                self._best = (float(fitness[k]), batch.genes[k].copy())
+
+    def result(self) -> tuple[float, np.ndarray] | None:
+        """The best score and genes the refinement met (None if it asked nothing)."""
+        return self._best

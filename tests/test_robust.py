@@ -1,0 +1,124 @@
+"""Robust scoring (``optimizer.run.robust``): a gait's score over dithered walks, raced. Property
+tests on a fake evaluator whose walks vary with their seed, as dithered walks do."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask
+from optimizer.evaluation.record import EpisodeRecord
+from optimizer.run.driver import Driver
+from optimizer.run.folder import EpisodeLog
+from optimizer.run.robust import Race, extra_key
+from optimizer.search.config import ScoringConfig
+
+
+class NoisyEvaluator:
+    """A walk goes ``genes[0]`` metres plus up to ``spread`` more, drawn from its seed (its dither);
+    it falls when ``genes[1]`` > 0.5 and its draw is in the upper half."""
+
+    def __init__(self, spread: float) -> None:
+        self.spread = spread
+        self.evaluated: list[str] = []
+
+    def evaluate(self, tasks: Sequence[EpisodeTask]) -> Iterator[EpisodeOutcome]:
+        for task in tasks:
+            self.evaluated.append(task.key)
+            draw = (task.seed % 1000) / 1000.0
+            fell = task.genes[1] > 0.5 and draw > 0.5
+            distance = task.genes[0] + self.spread * draw
+            result = {
+                "distance": distance,
+                "fell": fell,
+                "time": 15.0,
+                "fitness": 10.0 * distance,
+                "mean_speed": distance / 15.0,
+                "status": "ok",
+                "reason": "",
+                "wall": 0.0,
+            }
+            yield EpisodeOutcome(task, 0, result)
+
+
+def _record(fitness: float, fell: bool = False, status: str = "ok") -> EpisodeRecord:
+    return EpisodeRecord("k", (0.0,), fitness, distance=fitness / 10, fell=fell, status=status)
+
+
+def test_one_walk_scores_as_the_paper_and_k_walks_by_their_quantile_or_mean() -> None:
+    walks = [_record(v) for v in (50.0, 10.0, 40.0, 30.0, 20.0)]
+    assert Race(ScoringConfig(walks=1)).score(walks[:1]) == 50.0
+    assert Race(ScoringConfig(walks=5)).score(walks) == 20.0  # the 0.25 quantile of 5: the second-worst
+    assert Race(ScoringConfig(walks=5, quantile=None)).score(walks) == 30.0
+    assert Race(ScoringConfig(walks=5, quantile=0.0)).score(walks) == 10.0
+
+
+def test_the_first_round_races_only_the_best_first_walks_and_a_failed_walk_never() -> None:
+    race = Race(ScoringConfig(walks=3, top=2))
+    firsts = [("a", _record(10.0)), ("b", _record(30.0)), ("c", _record(20.0)), ("d", _record(99.0, status="failed"))]
+    assert race.choose(firsts) == ["b", "c"]
+    race.enter(25.0)
+    race.enter(15.0)
+    assert race.choose([("a", _record(10.0)), ("e", _record(16.0))]) == ["e"]  # beats the bar's 15
+    assert race.choose([("a", _record(15.0))]) == []  # equal is not better
+    assert Race(ScoringConfig(walks=1)).choose(firsts) == []
+
+
+def test_a_scoring_config_refuses_impossible_values() -> None:
+    for bad in ({"walks": 0}, {"top": 0}, {"quantile": 1.5}):
+        with pytest.raises(ValueError):
+            ScoringConfig(**bad)  # type: ignore[arg-type]
+
+
+@settings(deadline=None, max_examples=30)
+@given(
+    st.lists(
+        st.lists(st.tuples(st.floats(0.0, 10.0), st.floats(0.0, 1.0)), min_size=1, max_size=8),
+        min_size=1,
+        max_size=5,
+    ),
+    st.integers(2, 5),
+    st.integers(1, 3),
+    st.floats(0.0, 5.0),
+)
+def test_racing_keeps_single_walks_below_the_bar_and_walks_raced_gaits_k_times(
+    tmp_path_factory: pytest.TempPathFactory, batches: list, walks: int, top: int, spread: float
+) -> None:
+    """Whatever the walks: a raced gait has exactly k walks (keys <key>/k1 ...) and is scored by
+    them; after each batch, every gait left with one walk scores at most the top-th best raced
+    score so far, so the search's best is a raced gait once ``top`` gaits were raced."""
+    config = ScoringConfig(walks=walks, top=top)
+    path = tmp_path_factory.mktemp("race") / "episodes.jsonl"
+    evaluator = NoisyEvaluator(spread)
+    with EpisodeLog(path) as log:
+        driver = Driver(evaluator, log, run_seed=4, scoring=config)  # type: ignore[arg-type]
+        race = driver.race()
+        raced_scores: list[float] = []
+        for b, batch in enumerate(batches):
+            candidates = [(f"s/b{b}/i{i:03d}", np.array(genes)) for i, genes in enumerate(batch)]
+            scored = driver.score(candidates, race)
+            assert [s.key for s in scored] == [key for key, _ in candidates]
+            for gait in scored:
+                if gait.raced:
+                    assert [w.key for w in gait.walks] == [gait.key] + [extra_key(gait.key, j) for j in range(1, walks)]
+                    assert gait.fitness == race.score(gait.walks)
+                    raced_scores.append(gait.fitness)
+                else:
+                    assert gait.fitness == gait.walks[0].fitness
+            if len(raced_scores) >= top:
+                bar = sorted(raced_scores)[-top]
+                assert all(g.fitness <= bar for g in scored if not g.raced)
+                assert max(driver.scored.values(), key=lambda g: g.fitness).raced
+    assert len(evaluator.evaluated) == len(set(evaluator.evaluated))  # no walk twice
+
+
+def test_with_one_walk_nothing_is_raced(tmp_path: Path) -> None:
+    with EpisodeLog(tmp_path / "episodes.jsonl") as log:
+        driver = Driver(NoisyEvaluator(3.0), log, run_seed=1)  # type: ignore[arg-type]
+        scored = driver.score([(f"s/i{i:03d}", np.array([float(i), 0.0])) for i in range(6)], driver.race())
+    assert all(not g.raced for g in scored) and len(log.records) == 6
