@@ -109,7 +109,7 @@ REFINE_PREFIX = "refine"
 #: second, a 15-s walk costs ~0.85 s of wall time per worker), so 1.5-4 minutes.
 BUDGETS: dict[str, dict[str, Any]] = {
     "paper": {},
-    "quick": {"crossover": [0.8], "population": 20, "iterations": 20, "generations": 6, "refine": 300},
+    "quick": {"crossover": [0.8], "population": 20, "iterations": 20, "generations": 6, "refine": 400},
 }
 
 
