@@ -103,13 +103,12 @@ PAPER: dict[str, Any] = {
 REFINE_PREFIX = "refine"
 
 #: A first look on a 2-core machine: one row (the paper's best crossover rate), population 20,
-#: 20 iterations (19 feedbacks to the automaton), a 6-generation final GA: 515 episodes, plus up
-#: to 20 check walks (the row's best and the fastest walk, 10 each; one check when they are one).
-#: Measured on the stub with 2 workers: 2.2-6.4 episodes/s (random early gaits fall within a
-#: second, a 15-s walk costs ~0.85 s of wall time per worker), so 1.5-4 minutes.
+#: 20 iterations (19 feedbacks to the automaton), a 6-generation final GA (515 gaits), then 1200
+#: gaits of refinement, each gait raced as the default scoring says, plus the checks (10 walks for
+#: the row's best and for each of the 10 best-scored gaits). Measured in bench/RESULTS.md.
 BUDGETS: dict[str, dict[str, Any]] = {
     "paper": {},
-    "quick": {"crossover": [0.8], "population": 20, "iterations": 20, "generations": 6, "refine": 400},
+    "quick": {"crossover": [0.8], "population": 20, "iterations": 20, "generations": 6, "refine": 1200},
 }
 
 
@@ -397,7 +396,9 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         lines.append(f"results in {run.folder.path}")
         return "\n".join(lines)
 
-    planned = len(rates) * planned_episodes(config, stability.repeats) + run.settings["refine"] + stability.repeats
+    # the racing walks and how many candidates the checks walk are not known ahead: an estimate
+    planned = len(rates) * planned_episodes(config, stability.repeats) + run.settings["refine"]
+    planned += stability.candidates * stability.repeats
     return run_session(
         run,
         planned,
