@@ -92,10 +92,13 @@ def test_tiny_gala_on_the_stub_writes_every_output(tmp_path: Path) -> None:
     firsts = [r for r in records if "/k" not in r["key"]]
     walks = {r["key"]: [r] + [e for e in records if e["key"].startswith(r["key"] + "/k")] for r in firsts}
     assert len(firsts) == _planned() and {len(w) for w in walks.values()} <= {1, 3}
+    assert all("start" not in w[0] and all(len(e["start"]) == 3 for e in w[1:]) for w in walks.values())
     assert len({r["seed"] for r in logged}) == len(logged)  # every walk its own dither draw
     assert len(checks) % 3 == 0 and checks
-    for r in checks:  # from the run's start (no jitter by default), traced for the walk cards
-        assert "start" not in r and r["track"] and r["drift"] is not None and r["heading_change"] is not None
+    for r in checks:  # moved by at most the default jitter (the real server's beam noise), traced for the cards
+        x, y, heading = r["start"]
+        assert abs(x + 5.0) <= 0.05 and abs(y) <= 0.05 and abs(heading) <= 10.0 and (x, y, heading) != (-5, 0, 0)
+        assert r["track"] and r["drift"] is not None and r["heading_change"] is not None
         assert r["track"][-1][0] == pytest.approx(r["time"], abs=0.05)
     rows = list(csv.DictReader((out / "table1.csv").open()))
     assert len(rows) == 1 and float(rows[0]["crossover_rate"]) == 0.8

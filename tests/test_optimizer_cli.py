@@ -146,9 +146,9 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
         assert row.repeat_min_distance_m == min(distances) and row.repeat_max_distance_m == max(distances)
         assert row.repeat_mean_distance_m == pytest.approx(sum(distances) / len(distances))
         assert result["check"]["std_distance"] == pytest.approx(float(np.std(distances, ddof=1)))
-        # from the run's start, each with its own dither seed
-        assert all(r["genes"] == result["best_genes"] and "start" not in r for r in repeats)
-        assert len({r["seed"] for r in repeats}) == 10
+        # each from a start of its own, with a dither seed of its own
+        assert all(r["genes"] == result["best_genes"] and len(r["start"]) == 3 for r in repeats)
+        assert len({tuple(r["start"]) for r in repeats}) == len({r["seed"] for r in repeats}) == 10
     for gait in ("best_gait.json", "best_gait-pc0.8.json", "best_gait-pc0.3.json", "fastest_gait.json"):
         card = read_card(out / gait)
         assert card is not None and card.genes == tuple(vars(load_gait(out / gait)).values())

@@ -107,6 +107,9 @@ def test_racing_keeps_single_walks_below_the_bar_and_walks_raced_gaits_k_times(
                 if gait.raced:
                     assert [w.key for w in gait.walks] == [gait.key] + [extra_key(gait.key, j) for j in range(1, walks)]
                     assert gait.fitness == race.score(gait.walks)
+                    # the first walk from the run's start, the others moved within the jitter
+                    assert gait.walks[0].start is None and all(w.start is not None for w in gait.walks[1:])
+                    assert all(abs(w.start[2] - driver.start[2]) <= 10.0 for w in gait.walks[1:])  # type: ignore[index]
                     raced_scores.append(gait.fitness)
                 else:
                     assert gait.fitness == gait.walks[0].fitness

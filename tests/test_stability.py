@@ -87,7 +87,7 @@ def test_a_check_without_jitter_walks_from_the_runs_start_each_walk_its_own_dith
     evaluator = StartSensitive()
     with EpisodeLog(tmp_path / "episodes.jsonl") as log:
         driver = Driver(evaluator, log, run_seed=3)
-        report = check(driver, search_walk(driver, "a/i000", 2.0), BASE, StabilityConfig(repeats=4))
+        report = check(driver, search_walk(driver, "a/i000", 2.0), BASE, StabilityConfig(repeats=4, jitter=(0, 0, 0)))
     tasks = evaluator.tasks[1:]
     assert [t.key for t in tasks] == [r.key for r in report.repeats] and len(tasks) == 4
     assert all(t.start is None and t.trace and t.kind is WalkKind.CHECK for t in tasks)

@@ -127,9 +127,8 @@ def add_check_arguments(parser: argparse.ArgumentParser) -> None:
         nargs=3,
         default=None,
         metavar=("DX", "DY", "DEG"),
-        help="also move each check walk's start within +-DX, +-DY (m) and +-DEG (heading) "
-        "(default 0 0 0: the settling damps a moved start out; 0.05 0.05 10 is the real "
-        "server's beam noise)",
+        help="move the start of each check walk, and of each raced walk but a gait's first, within "
+        "+-DX, +-DY (m) and +-DEG (heading) (default 0.05 0.05 10, the real server's beam noise)",
     )
 
 
@@ -205,6 +204,7 @@ def scoring_config(settings: Mapping[str, Any]) -> ScoringConfig:
         walks=settings.get("robust_walks", _LEGACY_SCORING["robust_walks"]),
         top=settings.get("robust_top", ScoringConfig().top),
         quantile=None if quantile == MEAN else quantile,
+        jitter=stability_config(settings).jitter,
     )
 
 
@@ -540,7 +540,7 @@ def run_session(
     )
     try:
         evaluator = make_evaluator(run.setup)
-        driver = Driver(evaluator, log, run.seed, progress, scoring_config(run.settings))
+        driver = Driver(evaluator, log, run.seed, progress, scoring_config(run.settings), run.setup.start)
         summary = body(driver)
     except KeyboardInterrupt:
         progress.close()

@@ -15,11 +15,11 @@ from typing import Any, Protocol
 import numpy as np
 from tqdm import tqdm
 
-from optimizer.episode import Start
+from optimizer.episode import DEFAULT_START, Start
 from optimizer.evaluation.pool import EpisodeTask, Evaluator, stable_seed
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.folder import EpisodeLog
-from optimizer.run.robust import Race, ScoredGait, extra_key
+from optimizer.run.robust import Race, ScoredGait, extra_key, jittered_starts
 from optimizer.search.config import ScoringConfig
 from optimizer.search.ga import AskTellSearch
 
@@ -55,12 +55,15 @@ class Driver:
         run_seed: int,
         progress: Progress | None = None,
         scoring: ScoringConfig = ScoringConfig(walks=1),
+        start: Start = DEFAULT_START,
     ) -> None:
         self.evaluator = evaluator
         self.log = log
         self.run_seed = run_seed
         self.progress = progress
         self.scoring = scoring
+        #: the run's start, around which a gait's raced walks are moved (``ScoringConfig.jitter``)
+        self.start = start
         #: every candidate scored, by key, in the order scored
         self.scored: dict[str, ScoredGait] = {}
         #: episodes this driver evaluated (not replayed from the log)
@@ -86,9 +89,7 @@ class Driver:
         walks = {key: [firsts[key]] for key, _ in candidates}
         genes_of = {key: genes for key, genes in candidates}
         while chosen := race.choose([(key, firsts[key]) for key, _ in candidates if len(walks[key]) == 1]):
-            more = self.walk(
-                [self.task(extra_key(key, j), genes_of[key]) for key in chosen for j in range(1, self.scoring.walks)]
-            )
+            more = self.walk([task for key in chosen for task in self._raced_tasks(key, genes_of[key])])
             for key in chosen:
                 walks[key] += [more[extra_key(key, j)] for j in range(1, self.scoring.walks)]
                 race.enter(race.score(walks[key]))
@@ -100,6 +101,15 @@ class Driver:
             if self.progress is not None:
                 self.progress.scored(scored.fitness)
         return out
+
+    def _raced_tasks(self, key: str, genes: Sequence[float] | np.ndarray) -> list[EpisodeTask]:
+        """The other k - 1 walks of a raced candidate, from starts moved as its check's are."""
+        count = self.scoring.walks - 1
+        jitter = self.scoring.jitter
+        starts: list[Start | None] = [None] * count
+        if any(jitter):
+            starts = list(jittered_starts(self.start, jitter, count, stable_seed(self.run_seed, "robust/" + key)))
+        return [self.task(extra_key(key, j + 1), genes, start) for j, start in enumerate(starts)]
 
     def task(
         self,

@@ -28,8 +28,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from optimizer.episode import Start
 from optimizer.evaluation.record import EpisodeRecord
 from optimizer.search.config import ScoringConfig
+
+
+def jittered_starts(base: Sequence[float], jitter: Sequence[float], count: int, seed: int) -> list[Start]:
+    """``count`` start points (x, y, heading): ``base`` itself without jitter, else each drawn
+    uniformly within +-``jitter`` of it."""
+    if not any(jitter):
+        return [(base[0], base[1], base[2])] * count
+    rng = np.random.default_rng(seed)
+    offsets = rng.uniform(-1.0, 1.0, size=(count, 3)) * np.asarray(jitter, dtype=float)
+    return [(base[0] + dx, base[1] + dy, base[2] + dh) for dx, dy, dh in offsets.tolist()]
 
 
 def extra_key(key: str, walk: int) -> str:

@@ -24,18 +24,8 @@ from optimizer.episode import Start
 from optimizer.evaluation.pool import stable_seed
 from optimizer.evaluation.record import CHECK_PREFIX, EpisodeRecord, WalkKind
 from optimizer.run.driver import Driver
-from optimizer.run.robust import ScoredGait
+from optimizer.run.robust import ScoredGait, jittered_starts
 from optimizer.search.config import StabilityConfig
-
-
-def jittered_starts(base: Sequence[float], jitter: Sequence[float], count: int, seed: int) -> list[Start]:
-    """``count`` start points (x, y, heading): ``base`` itself without jitter, else each drawn
-    uniformly within +-``jitter`` of it."""
-    if not any(jitter):
-        return [(base[0], base[1], base[2])] * count
-    rng = np.random.default_rng(seed)
-    offsets = rng.uniform(-1.0, 1.0, size=(count, 3)) * np.asarray(jitter, dtype=float)
-    return [(base[0] + dx, base[1] + dy, base[2] + dh) for dx, dy, dh in offsets.tolist()]
 
 
 def ranked_gaits(scored: Mapping[str, ScoredGait]) -> list[ScoredGait]:
