@@ -249,7 +249,9 @@ def test_a_run_made_before_start_checks_and_the_robot_box_existed_resumes_as_it_
     with pytest.raises(Killed):
         gala_command.main([*argv, "--out", str(out)], make_evaluator=lambda s: FakeEvaluator(10))
     manifest = json.loads((out / "manifest.json").read_text())
-    for name in ("start", "check_repeats", "check_jitter", "bounds"):  # what an earlier version wrote
+    earlier = ("start", "check_repeats", "check_jitter", "bounds")  # what an earlier version did not write
+    earlier += ("robust_walks", "robust_top", "robust_quantile", "command_noise", "refine", "refine_sigma")
+    for name in earlier:
         del manifest["settings"][name]
     (out / "manifest.json").write_text(json.dumps(manifest))
     setups = []
@@ -259,7 +261,9 @@ def test_a_run_made_before_start_checks_and_the_robot_box_existed_resumes_as_it_
         return FakeEvaluator()
 
     assert gala_command.main(["--resume", str(out), "--quiet"], make_evaluator=fake) == 0
-    assert setups[0].start == (0.0, 0.0, 0.0)
+    assert setups[0].start == (0.0, 0.0, 0.0) and setups[0].command_noise == 0.0  # one undithered walk a gait
+    keys = [json.loads(line)["key"] for line in (out / "episodes.jsonl").read_text().splitlines()]
+    assert not any("/k" in k or k.startswith("refine/") for k in keys)  # no racing, no refinement
     assert "check/" not in (out / "episodes.jsonl").read_text()
     genes = np.array([r["genes"] for r in map(json.loads, (out / "episodes.jsonl").read_text().splitlines())])
     assert np.all(genes >= LEGACY_GENE_BOUNDS[:, 0]) and np.all(genes <= LEGACY_GENE_BOUNDS[:, 1])

@@ -5,7 +5,8 @@ same gait a few per cent differently run to run, and a gait on the edge of a fal
 its walks. A search scored by one walk therefore rewards the luckiest draw it meets (measured: 8 of
 the 12 farthest single walks of a 16,000-episode comparison fell on the real server). Here a gait
 is scored over ``ScoringConfig.walks`` walks, each with its own seed of the agent's command
-dither, which reproduces the real server's spread on the stand-in (docs/optimizer.md).
+dither, calibrated to reproduce the real server's spread on the stand-in, and all but the first
+from a start moved within the real server's beam noise (docs/optimizer.md).
 
 The k walks' score is a low quantile of their eq. 9 fitness by default (``ScoringConfig``).
 

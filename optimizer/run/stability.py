@@ -29,9 +29,12 @@ from optimizer.search.config import StabilityConfig
 
 
 def ranked_gaits(scored: Mapping[str, ScoredGait]) -> list[ScoredGait]:
-    """The gaits the searches were told of, best score first (by key on a tie), one per genes,
-    leaving out those whose every walk fell or could not be run."""
-    ranked = sorted((g for g in scored.values() if any(w.stood for w in g.walks)), key=lambda g: (-g.fitness, g.key))
+    """The gaits the searches were told of, one per genes, leaving out those whose every walk fell
+    or could not be run: the raced ones first (a robust score; a gait scored by one walk was, where
+    racing ran, at or below the bar of its search when it was scored, and one lucky walk is what
+    a check most often undoes), each group best score first (by key on a tie)."""
+    standing = (g for g in scored.values() if any(w.stood for w in g.walks))
+    ranked = sorted(standing, key=lambda g: (not g.raced, -g.fitness, g.key))
     seen: set[tuple[float, ...]] = set()
     out = []
     for gait in ranked:
