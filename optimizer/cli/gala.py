@@ -134,8 +134,8 @@ def build_parser() -> argparse.ArgumentParser:
         choices=sorted(BUDGETS),
         default=None,
         help="paper: the full Table I protocol (default); quick: crossover 0.8, population 20, "
-        "20 iterations, 6 final generations (2-4 minutes on 2 cores). Flags given "
-        "override it",
+        "20 iterations, 6 final generations, 1200 gaits of refinement (4-6 minutes on 2 cores). "
+        "Flags given override it",
     )
     p.add_argument(
         "--crossover",
