@@ -44,6 +44,8 @@ TINY = [
     "4",
     "--check-repeats",
     "2",
+    "--refine",
+    "20",
     "--quiet",
 ]
 
@@ -108,10 +110,13 @@ def test_transfer_walks_every_gait_and_writes_its_files(tmp_path: Path) -> None:
     walks = json.loads((out / "transfer.json").read_text())
     assert walks["target"] == "stand-in" and walks["run_server"] == "stand-in"
     assert [len(g["walks"]) for g in walks["gaits"]] == [3] * len(gaits)
-    # as the run's checks: from its start, each walk with its own draw of the run's dither
+    # as the run's checks: from starts moved within its check jitter, each walk with its own dither draw
     settings = json.loads((out / "manifest.json").read_text())["settings"]
     assert setups[0].command_noise == settings["command_noise"] > 0 and walks["command_noise"] > 0
-    assert {tuple(w["start"]) for g in walks["gaits"] for w in g["walks"]} == {DEFAULT_START}
+    starts = [tuple(w["start"]) for g in walks["gaits"] for w in g["walks"]]
+    jitter = settings["check_jitter"]
+    assert all(abs(s[i] - DEFAULT_START[i]) <= jitter[i] for s in starts for i in range(3)) and any(jitter)
+    assert len(set(starts)) == len(starts)
     assert len({w["seed"] for g in walks["gaits"] for w in g["walks"]}) == 3 * len(gaits)
     assert setups[0].real_command is None and setups[0].start == DEFAULT_START
     assert "| Table I pc 0.8" in (out / "transfer.md").read_text()
