@@ -21,7 +21,7 @@ from optimizer.episode import EpisodeResult
 from optimizer.evaluation.pool import EpisodeOutcome
 from optimizer.evaluation.record import WalkKind
 from optimizer.run.report import read_table_csv
-from optimizer.run.stability import jittered_starts
+from optimizer.run.robust import jittered_starts
 from optimizer.run.walk_card import REAL_SERVER, STAND_IN, read_card
 from optimizer.search.config import GAConfig, GALAConfig
 from optimizer.search.ga import GARun

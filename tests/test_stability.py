@@ -15,8 +15,8 @@ from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask, stable_seed
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.driver import Driver, ResumeMismatch
 from optimizer.run.folder import EpisodeLog, read_episode_log
-from optimizer.run.robust import ScoredGait
-from optimizer.run.stability import check, check_best, fastest_stable, jittered_starts
+from optimizer.run.robust import ScoredGait, jittered_starts
+from optimizer.run.stability import check, check_best, fastest_stable
 from optimizer.search.config import StabilityConfig
 
 BASE = (-3.0, 1.0, 30.0)

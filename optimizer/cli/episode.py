@@ -41,7 +41,8 @@ from optimizer.episode import EpisodeConfig, EpisodeResult, EpisodeRunner, Start
 from optimizer.episode.real_server import RealServerError, RealServerProcess
 from optimizer.episode.runner import quiet_agent_logs
 from optimizer.episode.servers import ManagedServer, ServerAddress
-from optimizer.run.stability import distance_spread, jittered_starts
+from optimizer.run.robust import jittered_starts
+from optimizer.run.stability import distance_spread
 from protocol.cli_values import non_negative, positive_int
 
 

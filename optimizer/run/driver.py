@@ -19,7 +19,7 @@ from optimizer.episode import DEFAULT_START, Start
 from optimizer.evaluation.pool import EpisodeTask, Evaluator, stable_seed
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.folder import EpisodeLog
-from optimizer.run.robust import Race, ScoredGait, extra_key, jittered_starts
+from optimizer.run.robust import Race, ScoredGait, extra_key, moved_starts
 from optimizer.search.config import ScoringConfig
 from optimizer.search.ga import AskTellSearch
 
@@ -104,11 +104,8 @@ class Driver:
 
     def _raced_tasks(self, key: str, genes: Sequence[float] | np.ndarray) -> list[EpisodeTask]:
         """The other k - 1 walks of a raced candidate, from starts moved as its check's are."""
-        count = self.scoring.walks - 1
-        jitter = self.scoring.jitter
-        starts: list[Start | None] = [None] * count
-        if any(jitter):
-            starts = list(jittered_starts(self.start, jitter, count, stable_seed(self.run_seed, "robust/" + key)))
+        seed = stable_seed(self.run_seed, "robust/" + key)
+        starts = moved_starts(self.start, self.scoring.jitter, self.scoring.walks - 1, seed)
         return [self.task(extra_key(key, j + 1), genes, start) for j, start in enumerate(starts)]
 
     def task(

@@ -44,6 +44,12 @@ def jittered_starts(base: Sequence[float], jitter: Sequence[float], count: int, 
     return [(base[0] + dx, base[1] + dy, base[2] + dh) for dx, dy, dh in offsets.tolist()]
 
 
+def moved_starts(base: Sequence[float], jitter: Sequence[float], count: int, seed: int) -> list[Start | None]:
+    """The starts of ``count`` walks of one gait: None (the run's own start, as a walk that was not
+    moved is logged) without a jitter, else ``jittered_starts``."""
+    return list(jittered_starts(base, jitter, count, seed)) if any(jitter) else [None] * count
+
+
 def extra_key(key: str, walk: int) -> str:
     """The key of walk ``walk`` (1 ... k - 1) of the candidate ``key``; walk 0 is ``key`` itself."""
     return f"{key}/k{walk}"

@@ -24,7 +24,7 @@ from optimizer.episode import Start
 from optimizer.evaluation.pool import stable_seed
 from optimizer.evaluation.record import CHECK_PREFIX, EpisodeRecord, WalkKind
 from optimizer.run.driver import Driver
-from optimizer.run.robust import ScoredGait, jittered_starts
+from optimizer.run.robust import ScoredGait, moved_starts
 from optimizer.search.config import StabilityConfig
 
 
@@ -121,11 +121,7 @@ def check(driver: Driver, gait: ScoredGait, base: Start, config: StabilityConfig
     """Walk ``gait`` ``config.repeats`` times, each walk with its own dither seed (and start, when
     the check moves starts), traced."""
     key = gait.key
-    starts: list[Start | None] = [None] * config.repeats
-    if any(config.jitter):
-        starts = list(
-            jittered_starts(base, config.jitter, config.repeats, stable_seed(driver.run_seed, CHECK_PREFIX + key))
-        )
+    starts = moved_starts(base, config.jitter, config.repeats, stable_seed(driver.run_seed, CHECK_PREFIX + key))
     tasks = [
         driver.task(f"{CHECK_PREFIX}{key}/r{j:02d}", gait.genes, start, WalkKind.CHECK, trace=True)
         for j, start in enumerate(starts)
