@@ -1,4 +1,4 @@
-"""The NAO agent: connects to rcssserver3d (or the stub), beams, and walks with the TFS gait.
+"""The NAO agent: connects to rcssserver3d (or the stub), beams, and walks with a gait (the paper's TFS by default).
 
 Public API for programs that run agents in-process (the optimizer's fast path)::
 

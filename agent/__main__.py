@@ -1,4 +1,4 @@
-"""``python -m agent``: one NAO that walks with the TFS gait against rcssserver3d or the stub."""
+"""``python -m agent``: one NAO that walks with a gait file's gait (any family) against rcssserver3d or the stub."""
 
 from __future__ import annotations
 

@@ -24,7 +24,7 @@ import numpy as np
 from agent.config import AgentConfig
 from agent.controller import joint_velocities
 from agent.fall import FallDetector
-from gait import TFSGait, leg_joint_targets
+from gait import Walker
 from protocol import commands
 from protocol.nao import BEAM_PLAY_MODES, CYCLE, JOINTS
 from protocol.perception import Perception
@@ -54,7 +54,7 @@ class Action:
 
 
 class WalkBehaviour:
-    def __init__(self, config: AgentConfig, gait: TFSGait) -> None:
+    def __init__(self, config: AgentConfig, gait: Walker) -> None:
         self.config = config
         self.gait = gait
         self.phase = Phase.CONNECTING
@@ -76,7 +76,7 @@ class WalkBehaviour:
     def targets(self, gait_time: float) -> dict[str, float]:
         """Joint targets in degrees for all 22 joints at ``gait_time``."""
         out = dict(self._posture)
-        out.update(leg_joint_targets(self.gait.angles(gait_time), _LIMITS))
+        out.update(self.gait.joint_targets(gait_time, _LIMITS))
         return out
 
     def _velocities(self, perception: Perception, gait_time: float) -> dict[str, float]:

@@ -16,7 +16,7 @@ from agent.behaviour import Phase, WalkBehaviour
 from agent.config import AgentConfig
 from agent.connection import ConnectionClosed, ServerConnection
 from agent.errors import AgentError
-from gait import TFSGait, TFSParams, load_gait
+from gait import Gait, load_gait
 from protocol import commands
 from protocol.errors import ProtocolError
 from protocol.perception import Perception, parse_perception
@@ -36,14 +36,12 @@ class AgentReport:
 class NaoAgent:
     """One robot, walking until ``config.duration`` seconds of gait time or until the server closes."""
 
-    def __init__(self, config: AgentConfig, gait: TFSParams | None = None) -> None:
-        """``gait`` overrides ``config.gait`` (a file), so a caller holding parameters needs no file."""
+    def __init__(self, config: AgentConfig, gait: Gait | None = None) -> None:
+        """``gait`` overrides ``config.gait`` (a file), so a caller holding genes needs no file."""
         self.config = config
-        if gait is not None:
-            params = gait
-        else:
-            params = load_gait(config.gait) if config.gait is not None else load_gait()
-        self.behaviour = WalkBehaviour(config, TFSGait(params))
+        if gait is None:
+            gait = load_gait(config.gait) if config.gait is not None else load_gait()
+        self.behaviour = WalkBehaviour(config, gait.walker())
         self.cycles = 0
         self._conn: ServerConnection | None = None
         self._syn = commands.syn() if config.sync else ""

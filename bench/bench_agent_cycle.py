@@ -19,7 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from agent.behaviour import WalkBehaviour  # noqa: E402
 from agent.config import AgentConfig  # noqa: E402
-from gait import TFSGait, load_gait  # noqa: E402
+from gait import load_gait  # noqa: E402
 from protocol.framing import encode_frame  # noqa: E402
 from protocol.perception import parse_perception  # noqa: E402
 
@@ -36,7 +36,7 @@ def main() -> None:
     recv.setblocking(False)
     samples: list[float] = []
     for _ in range(3):
-        behaviour = WalkBehaviour(AgentConfig(sync=True, start_now=True, settle_cycles=0), TFSGait(load_gait()))
+        behaviour = WalkBehaviour(AgentConfig(sync=True, start_now=True, settle_cycles=0), load_gait().walker())
         for text in messages:
             t0 = time.perf_counter()
             reply = behaviour.reply(parse_perception(text)) + "(syn)"

@@ -49,7 +49,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from agent.behaviour import WalkBehaviour  # noqa: E402
 from agent.config import AgentConfig  # noqa: E402
-from gait import TFSGait, TFSParams, load_gait  # noqa: E402
+from gait import TFS, Gait, load_gait  # noqa: E402
 from optimizer.episode import EpisodeConfig, EpisodeRunner  # noqa: E402
 from optimizer.episode.direct import DirectStub, _perception  # noqa: E402
 from optimizer.episode.real_server import RealServerProcess  # noqa: E402
@@ -65,9 +65,10 @@ GAITS_DIR = Path(__file__).resolve().parent / "fidelity_gaits"
 WAYS = ("direct", "socket", "real")
 
 
-def fast_gait() -> TFSParams:
+def fast_gait() -> Gait:
     gaits = json.loads((GAITS_DIR / "held_aside.json").read_text())["gaits"]
-    return TFSParams(**next(g["params"] for g in gaits if g["name"] == "line-10"))
+    params = next(g["params"] for g in gaits if g["name"] == "line-10")
+    return TFS.gait([params[name] for name in TFS.gene_names])
 
 
 def process_cpu(pid: int | None) -> float:
@@ -105,7 +106,7 @@ def _runner(way: str, real_command: str | None) -> tuple[EpisodeRunner, ServerPr
 
 
 def one_worker(
-    rounds: int, episodes: int, ways: Sequence[str], gaits: dict[str, TFSParams], real_command: str | None
+    rounds: int, episodes: int, ways: Sequence[str], gaits: dict[str, Gait], real_command: str | None
 ) -> dict[tuple[str, str], Tally]:
     tallies: dict[tuple[str, str], Tally] = {}
     for round_index in range(rounds):
@@ -185,7 +186,7 @@ def _walkers(sim: Simulation, count: int, first: int = 0) -> list[Walker]:
         x, y = -3.0 - 3.0 * (spot % 4), -7.5 + 5.0 * (spot // 4)
         config = AgentConfig(team=team, unum=unum, beam=(x, y, 0.0), sync=True, start_now=True)
         state = sim.join()
-        out.append(Walker(sim, WalkBehaviour(config, TFSGait(load_gait())), state, [commands.scene().encode()]))
+        out.append(Walker(sim, WalkBehaviour(config, load_gait().walker()), state, [commands.scene().encode()]))
     return out
 
 

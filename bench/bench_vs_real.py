@@ -34,7 +34,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from agent import AgentConfig, NaoAgent  # noqa: E402
-from gait import TFSParams, load_gait  # noqa: E402
+from gait import TFS, Gait, load_gait  # noqa: E402
 from optimizer.episode import DEFAULT_START, EpisodeConfig, EpisodeRunner  # noqa: E402
 from optimizer.episode.fidelity import FAST_REAL, real_server_or_none  # noqa: E402
 from optimizer.episode.real_server import RealServerProcess  # noqa: E402
@@ -78,7 +78,7 @@ def _process_cpu(pid: int | None) -> float:
 
 
 def _episodes(
-    server: str, process: ServerProcess, runner: EpisodeRunner, gaits: dict[str, TFSParams], count: int
+    server: str, process: ServerProcess, runner: EpisodeRunner, gaits: dict[str, Gait], count: int
 ) -> list[Timing]:
     runner.evaluate(gaits["shipped gait"])  # warm-up: server start, first connection
     out = []
@@ -108,7 +108,7 @@ def _episodes(
 
 
 def _agent_alone(
-    server: str, process: ServerProcess, params: TFSParams, count: int, walk_time: float, nudge: float | None
+    server: str, process: ServerProcess, params: Gait, count: int, walk_time: float, nudge: float | None
 ) -> Timing:
     """The agent walking on its own: no monitor connection, no trainer; start at once, walk
     ``walk_time`` s, disconnect."""
@@ -149,7 +149,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     command = real_server_or_none()
     if command is None:
         return 1
-    gaits = {"shipped gait": load_gait(), "fast gait (13.3 m real)": TFSParams(*FAST_REAL)}
+    gaits = {"shipped gait": load_gait(), "fast gait (13.3 m real)": TFS.gait(FAST_REAL)}
     config = EpisodeConfig(walk_time=args.walk_time)
     servers: list[tuple[str, Callable[[], ServerProcess], float | None]] = [
         ("stand-in", StubProcess, None),  # the stub answers scene at once: no (syn) nudge

@@ -1,15 +1,27 @@
-"""The Truncated Fourier Series (TFS) gait: 7 parameters -> hip and knee angles -> NAO leg joint targets.
+"""Gaits: families of genes -> joint targets, the paper's Truncated Fourier Series (TFS) the default.
 
-Pure functions of time and parameters: no sockets, no physics, and no import from the other packages,
+Pure functions of time and genes: no sockets, no physics, and no import from the other packages,
 so the agent, the optimizer and the tests all compute the same trajectories.
 """
 
+from gait.families import DEFAULT_FAMILY, FAMILIES, family_named
+from gait.family import Gait, GaitFamily, Walker
 from gait.gait_file import DEFAULT_GAIT_PATH, GaitFileError, load_gait, save_gait
 from gait.nao_legs import LEG_EFFECTORS, leg_joint_targets
 from gait.params import BOUNDS_BY_NAME, GENE_BOUNDS, GENE_NAMES, LEGACY_GENE_BOUNDS, TFSParams, repair_genes
 from gait.tfs import LegAngles, TFSGait
+from gait.tfs_family import TFS
+from gait.tfs_plus import TFS_PLUS
 
 __all__ = [
+    "DEFAULT_FAMILY",
+    "FAMILIES",
+    "TFS",
+    "TFS_PLUS",
+    "family_named",
+    "Gait",
+    "GaitFamily",
+    "Walker",
     "BOUNDS_BY_NAME",
     "GENE_NAMES",
     "GENE_BOUNDS",

@@ -18,7 +18,7 @@ from agent.behaviour import Phase, WalkBehaviour
 from agent.config import AgentConfig
 from agent.controller import joint_velocities
 from agent.fall import FallDetector
-from gait import TFSGait, load_gait
+from gait import load_gait
 from protocol.nao import JOINTS, SPEED_CAP
 from protocol.perception import parse_perception
 
@@ -35,7 +35,7 @@ def test_replay_of_the_real_calibration_walk_sends_the_recorded_commands(fixture
     perceptions = (folder / f"run{run}_perceptions.txt").read_text().splitlines()
     sent = (folder / f"run{run}_commands.txt").read_text().splitlines()
     config = AgentConfig(team="Calib", beam=(-10.0, 3.0, 0.0), sync=True, duration=15.0, start_now=True)
-    behaviour = WalkBehaviour(config, TFSGait(load_gait()))
+    behaviour = WalkBehaviour(config, load_gait().walker())
     replies = []
     for line in perceptions:
         replies.append(behaviour.reply(parse_perception(line)) + "(syn)")
@@ -136,7 +136,7 @@ def test_fall_detector_on_the_real_forward_fall(fixtures_dir) -> None:
 
 def test_walking_waits_for_play_on_unless_told() -> None:
     config = AgentConfig(settle_cycles=3, rebeam_cycle=2, duration=0.1)
-    behaviour = WalkBehaviour(config, TFSGait(load_gait()))
+    behaviour = WalkBehaviour(config, load_gait().walker())
     before = "(time (now 1.00))(GS (sl 0) (sr 0) (t 0.00) (pm BeforeKickOff))(HJ (n hj1) (ax 0.00))"
     playon = "(time (now 1.00))(GS (sl 0) (sr 0) (t 0.02) (pm PlayOn))(HJ (n hj1) (ax 0.00))"
     for _ in range(10):
@@ -151,7 +151,7 @@ def test_walking_waits_for_play_on_unless_told() -> None:
 
 def _walking_actions(config: AgentConfig, cycles: int) -> list:
     """The actions of a behaviour taken straight into walking, ``cycles`` walking cycles long."""
-    behaviour = WalkBehaviour(config, TFSGait(load_gait()))
+    behaviour = WalkBehaviour(config, load_gait().walker())
     playon = parse_perception("(time (now 1.00))(GS (sl 0) (sr 0) (t 0.02) (pm PlayOn))(HJ (n hj1) (ax 0.00))")
     actions = [behaviour.action(playon) for _ in range(config.settle_cycles + 2 + cycles)]
     assert behaviour.phase is Phase.WALKING

@@ -24,8 +24,9 @@ SPAN = GENE_BOUNDS[:, 1] - GENE_BOUNDS[:, 0]
 
 
 def synthetic_fitness(genes: Sequence[float]) -> float:
-    """A smooth hill over the gene box: a stand-in for walking distance, no physics."""
-    return float(50.0 - 40.0 * np.sum(((np.asarray(genes) - TARGET) / SPAN) ** 2))
+    """A smooth hill over the TFS gene box: a stand-in for walking distance, no physics (a larger
+    family's further genes do not move it)."""
+    return float(50.0 - 40.0 * np.sum(((np.asarray(genes)[: len(TARGET)] - TARGET) / SPAN) ** 2))
 
 
 class Killed(Exception):

@@ -171,3 +171,18 @@ def test_a_killed_worker_does_not_leave_its_stub_behind(tmp_path: Path) -> None:
         time.sleep(0.1)
     os.kill(stub_pid, signal.SIGKILL)
     raise AssertionError("the stub outlived its killed parent")
+
+
+def test_a_drift_penalty_takes_the_sideways_drift_off_the_fitness_and_nothing_else() -> None:
+    """``EpisodeConfig.drift_penalty`` W: fitness 10 x (distance - W |drift|), the drift the traced
+    walk's card shows; the walk itself (distance, fall, time) is the same walk."""
+    gait = load_gait()
+    with EpisodeRunner(EpisodeConfig(walk_time=3.0)) as plain:
+        straight = plain.evaluate(gait, trace=True)
+    with EpisodeRunner(EpisodeConfig(walk_time=3.0, drift_penalty=2.0)) as penalised:
+        bent = penalised.evaluate(gait, trace=True)
+    assert (bent.distance, bent.fell, bent.time) == (straight.distance, straight.fell, straight.time)
+    assert straight.fitness == 10.0 * straight.distance and straight.drift
+    assert bent.fitness == pytest.approx(10.0 * (straight.distance - 2.0 * abs(straight.drift)), abs=1e-9)
+    with pytest.raises(ValueError, match="drift_penalty"):
+        EpisodeConfig(drift_penalty=-1.0)

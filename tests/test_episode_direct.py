@@ -16,7 +16,7 @@ from typing import Any
 
 import pytest
 
-from gait import TFSParams, load_gait
+from gait import TFS, Gait, load_gait
 from optimizer.episode import EpisodeConfig, EpisodeRunner
 from optimizer.episode.config import Start
 
@@ -37,12 +37,12 @@ GAITS = (
 )
 
 
-def _gaits() -> dict[str, TFSParams]:
+def _gaits() -> dict[str, Gait]:
     found = {"shipped": load_gait()}
     for name in ("training", "held_aside"):
         for gait in json.loads((GAITS_DIR / f"{name}.json").read_text())["gaits"]:
             if gait["name"] in GAITS:
-                found[gait["name"]] = TFSParams(**gait["params"])
+                found[gait["name"]] = TFS.gait([gait["params"][n] for n in TFS.gene_names])
     assert len(found) == len(GAITS) + 1
     return found
 

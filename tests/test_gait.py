@@ -17,6 +17,7 @@ from gait import (
     GaitFileError,
     LegAngles,
     TFSGait,
+    TFS,
     TFSParams,
     leg_joint_targets,
     load_gait,
@@ -120,16 +121,23 @@ def test_repair_always_gives_a_valid_gait_inside_bounds(values: list[float]) -> 
 
 
 def test_default_gait_is_the_real_server_calibration_walk() -> None:
-    p = load_gait()
+    gait = load_gait()
+    assert gait.family is TFS
+    p = TFSParams.from_array(gait.genes)
     assert (p.c_h, p.c_k, p.A, p.B, p.C, p.t2) == (15, 30, 10, 10, 20, 0.35)
     assert p.period == pytest.approx(0.4)
 
 
 def test_gait_file_round_trip(tmp_path) -> None:
-    p = TFSParams(c_h=12.5, c_k=3.0, A=7.0, B=9.0, C=33.0, t2=0.2, w=12.0)
-    path = save_gait(p, tmp_path / "g.json", notes="test")
-    assert load_gait(path) == p
-    assert json.loads(path.read_text())["units"]["w"] == "rad/s"
+    gait = TFS.gait([12.5, 3.0, 7.0, 9.0, 33.0, 0.2, 12.0])
+    path = save_gait(gait, tmp_path / "g.json", notes="test")
+    assert load_gait(path) == gait
+    document = json.loads(path.read_text())
+    assert document["units"]["w"] == "rad/s" and document["family"] == "tfs" and document["format"] == "gait/2"
+    # the first format (no family) still loads, as the paper's TFS
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps({"format": "tfs-gait/1", "units": document["units"], "params": document["params"]}))
+    assert load_gait(old) == gait
 
 
 @pytest.mark.parametrize(
@@ -145,6 +153,12 @@ def test_gait_file_round_trip(tmp_path) -> None:
         (
             '{"format": "tfs-gait/1", "params": {"c_h": 15, "c_k": -3, "A": 10, "B": 10, "C": 20, "t2": 0.35, "w": 15.7}}',
             "c_k",
+        ),
+        ('{"format": "gait/2", "family": "hexapod", "params": {}}', "unknown gait family 'hexapod'; known: tfs"),
+        ('{"format": "gait/2", "family": "tfs", "params": {"c_h": "15"}}', "missing parameters"),
+        (
+            '{"format": "gait/2", "family": "tfs", "params": {"c_h": "a", "c_k": 30, "A": 10, "B": 10, "C": 20, "t2": 0.35, "w": 15.7}}',
+            "c_h must be a finite number",
         ),
     ],
 )

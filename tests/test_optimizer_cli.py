@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +18,7 @@ from gait import GENE_BOUNDS, LEGACY_GENE_BOUNDS, load_gait
 from optimizer.cli import episode as episode_command
 from optimizer.cli import ga as ga_command
 from optimizer.cli import gala as gala_command
+from optimizer.cli.refine import refinements
 from optimizer.episode import EpisodeResult
 from optimizer.evaluation.pool import EpisodeOutcome
 from optimizer.evaluation.record import WalkKind
@@ -134,8 +136,8 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
     for name in ("gala-pc0.8.png", "ga-pc0.8.png", "gala-pc0.3.png", "ga-pc0.3.png", "table1.md"):
         assert (out / name).stat().st_size > 0
     best_row = max(results, key=lambda r: r["best_fitness"])
-    assert list(vars(load_gait(out / "best_gait.json")).values()) == best_row["best_genes"]
-    assert list(vars(load_gait(out / "best_gait-pc0.3.json")).values()) == results[1]["best_genes"]
+    assert list(load_gait(out / "best_gait.json").genes) == best_row["best_genes"]
+    assert list(load_gait(out / "best_gait-pc0.3.json").genes) == results[1]["best_genes"]
     episodes = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
     searched = [r for r in episodes if not r["key"].startswith("check/")]
     assert len(searched) == 2 * gala_command.planned_episodes(gala_command.gala_config(manifest["settings"]))
@@ -151,7 +153,7 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
         assert len({tuple(r["start"]) for r in repeats}) == len({r["seed"] for r in repeats}) == 10
     for gait in ("best_gait.json", "best_gait-pc0.8.json", "best_gait-pc0.3.json", "fastest_gait.json"):
         card = read_card(out / gait)
-        assert card is not None and card.genes == tuple(vars(load_gait(out / gait)).values())
+        assert card is not None and card.genes == load_gait(out / gait).genes
         assert card.summary(REAL_SERVER)["walks"] == 10  # the run walked on servers given as --server
     printed = capsys.readouterr().out
     assert "| 0.80 |" in printed and "| 0/10 |" in printed
@@ -174,7 +176,7 @@ def test_the_farthest_walk_without_a_fall_is_kept(tmp_path: Path, capsys) -> Non
     assert any(r["fell"] for r in records) and any(not r["fell"] for r in records)
     fastest = max((r for r in records if not r["fell"]), key=lambda r: r["fitness"])
     assert json.loads((out / "results.json").read_text())["fastest_episode"] == fastest
-    assert list(vars(load_gait(out / "fastest_gait.json")).values()) == fastest["genes"]
+    assert list(load_gait(out / "fastest_gait.json").genes) == fastest["genes"]
     assert f"{fastest['distance']:.2f} m" in capsys.readouterr().out
 
 
@@ -209,7 +211,7 @@ def test_fastest_gait_is_the_fastest_walk_that_passes_its_check(tmp_path: Path, 
     results = json.loads((out / "results.json").read_text())
     assert results["fastest_episode"]["key"] == results["fastest_check"]["key"] == runner_up["key"]
     assert results["fastest_check"]["falls"] == 0
-    assert list(vars(load_gait(out / "fastest_gait.json")).values()) == runner_up["genes"]
+    assert list(load_gait(out / "fastest_gait.json").genes) == runner_up["genes"]
     fragile_checks = [r for r in records if r["key"].startswith(f"check/{first['key']}/")]
     assert len(fragile_checks) == 10 and all(r["fell"] for r in fragile_checks)
     d = runner_up["distance"]
@@ -251,6 +253,7 @@ def test_a_run_made_before_start_checks_and_the_robot_box_existed_resumes_as_it_
     manifest = json.loads((out / "manifest.json").read_text())
     earlier = ("start", "check_repeats", "check_jitter", "bounds")  # what an earlier version did not write
     earlier += ("robust_walks", "robust_top", "robust_quantile", "command_noise", "refine", "refine_sigma")
+    earlier += ("refine_population", "family")
     for name in earlier:
         del manifest["settings"][name]
     (out / "manifest.json").write_text(json.dumps(manifest))
@@ -263,7 +266,7 @@ def test_a_run_made_before_start_checks_and_the_robot_box_existed_resumes_as_it_
     assert gala_command.main(["--resume", str(out), "--quiet"], make_evaluator=fake) == 0
     assert setups[0].start == (0.0, 0.0, 0.0) and setups[0].command_noise == 0.0  # one undithered walk a gait
     keys = [json.loads(line)["key"] for line in (out / "episodes.jsonl").read_text().splitlines()]
-    assert not any("/k" in k or k.startswith("refine/") for k in keys)  # no racing, no refinement
+    assert not any("/k" in k or k.startswith("refine") for k in keys)  # no racing, no refinement
     assert "check/" not in (out / "episodes.jsonl").read_text()
     genes = np.array([r["genes"] for r in map(json.loads, (out / "episodes.jsonl").read_text().splitlines())])
     assert np.all(genes >= LEGACY_GENE_BOUNDS[:, 0]) and np.all(genes <= LEGACY_GENE_BOUNDS[:, 1])
@@ -333,7 +336,7 @@ def test_ga_presets_and_its_folder(tmp_path: Path, capsys) -> None:
     assert (settings["crossover"], settings["mutation"], settings["preset"]) == (0.6, 0.001, "dejong")
     results = json.loads((out / "results.json").read_text())
     assert len(results["history"]) == 3 and (out / "ga.png").stat().st_size > 0
-    assert list(vars(load_gait(out / "best_gait.json")).values()) == results["best_genes"]
+    assert list(load_gait(out / "best_gait.json").genes) == results["best_genes"]
     episodes = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
     search = [r for r in episodes if r["kind"] == "search"]
     firsts = [r for r in search if "/k" not in r["key"]]
@@ -441,8 +444,8 @@ def test_episode_command_repeats_from_jittered_starts(monkeypatch, capsys) -> No
 
 def test_the_refinement_phase_searches_on_from_the_best_and_leaves_table_i_alone(tmp_path: Path) -> None:
     """Robust scoring and the refinement phase (the defaults): Table I is the same with or without
-    the refinement, which tries exactly --refine more gaits (CMA-ES from the rows' best-scored
-    gait) and on the synthetic hill ends at least as high as the rows did."""
+    the refinement, which tries exactly --refine more gaits (CMA-ES from the fastest gait that held,
+    once per step, the gaits shared) and on the synthetic hill ends at least as high as the rows did."""
     base = ["--crossover", "0.8", "--population", "6", "--iterations", "3", "--generations", "2"]
     base += ["--seed", "4", "--quiet", "--check-repeats", "3"]
     for name, refine in (("rows", "0"), ("refined", "40")):
@@ -450,14 +453,34 @@ def test_the_refinement_phase_searches_on_from_the_best_and_leaves_table_i_alone
         assert gala_command.main(argv, make_evaluator=lambda s: FakeEvaluator()) == 0
     rows, refined = tmp_path / "rows", tmp_path / "refined"
     assert (rows / "table1.csv").read_text() == (refined / "table1.csv").read_text()
-    logged = [json.loads(line) for line in (refined / "episodes.jsonl").read_text().splitlines()]
-    tried = [r for r in logged if r["key"].startswith("refine/") and "/k" not in r["key"]]
-    assert len(tried) == 40 and not any(r["key"].startswith("refine/") for r in _episodes(rows))
+    tried = _refined(refined)
+    assert len(tried) == 40 and not _refined(rows)
     before = json.loads((rows / "results.json").read_text())["fastest_score"]["score"]
     after = json.loads((refined / "results.json").read_text())["fastest_score"]
-    assert after["score"] >= before and after["key"].startswith("refine/")
+    assert after["score"] >= before and after["key"].startswith("refine")
     card = read_card(refined / "fastest_gait.json")
     assert card is not None and card.summary(STAND_IN)["walks"] == 3
+    # two CMA-ES runs (steps 0.05 and 0.1), 20 gaits each: one generation of the default 20
+    generations = Counter("/".join(r["key"].split("/")[:2]) for r in tried)
+    assert generations == {"refine0/g000": 20, "refine1/g000": 20}
+    assert gala_command.PAPER["refine_population"] == 20 and gala_command.PAPER["refine_sigma"] == [0.05, 0.1]
+    wide = tmp_path / "wide"
+    argv = [*base, "--refine", "40", "--refine-population", "8", "--refine-sigma", "0.2", "--out", str(wide)]
+    assert gala_command.main(argv, make_evaluator=lambda s: FakeEvaluator()) == 0
+    generations = Counter("/".join(r["key"].split("/")[:2]) for r in _refined(wide))
+    assert generations == {f"refine0/g{g:03d}": 8 for g in range(5)}
+    settings = json.loads((wide / "manifest.json").read_text())["settings"]
+    assert settings["refine_population"] == 8 and settings["refine_sigma"] == [0.2]
+
+
+def test_the_refinement_shares_its_gaits_among_its_steps_and_an_older_run_keeps_its_one_run() -> None:
+    assert refinements({"refine": 41, "refine_sigma": [0.05, 0.1]}) == [("refine0", 0.05, 21), ("refine1", 0.1, 20)]
+    assert refinements({"refine": 3000, "refine_sigma": 0.05}) == [("refine", 0.05, 3000)]  # keyed as it was made
+
+
+def _refined(folder: Path) -> list[dict]:
+    """The refinement's gaits (their first walks) in a run's log."""
+    return [r for r in _episodes(folder) if r["key"].startswith("refine") and "/k" not in r["key"]]
 
 
 def _episodes(folder: Path) -> list[dict]:

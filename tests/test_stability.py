@@ -95,15 +95,17 @@ def test_a_check_without_jitter_walks_from_the_runs_start_each_walk_its_own_dith
 
 
 def test_the_fastest_stable_gait_is_the_farthest_checked_walk_that_held(tmp_path: Path) -> None:
-    """Scored first is not checked farthest: of the candidates that hold, the one whose check
-    walks went farthest wins, though its search score was lower."""
+    """Scored first is not checked farthest: of the candidates that hold, the one whose worst check
+    walk went farthest wins, though its search score was lower."""
 
     class CheckFarther(StartSensitive):
         def evaluate(self, tasks: Sequence[EpisodeTask]) -> Iterator[EpisodeOutcome]:
             for outcome in super().evaluate(tasks):
                 bonus = 3.0 if outcome.task.kind is WalkKind.CHECK and outcome.task.genes[0] == 6.0 else 0.0
                 distance = outcome.result["distance"] + bonus
-                yield EpisodeOutcome(outcome.task, 0, {**outcome.result, "distance": distance})
+                yield EpisodeOutcome(
+                    outcome.task, 0, {**outcome.result, "distance": distance, "fitness": 10 * distance}
+                )
 
     with EpisodeLog(tmp_path / "episodes.jsonl") as log:
         driver = Driver(CheckFarther(), log, run_seed=1)

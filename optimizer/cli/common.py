@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from gait import BOUNDS_BY_NAME, TFSParams, repair_genes, save_gait
+from gait import DEFAULT_FAMILY, FAMILIES, GaitFamily, family_named, save_gait
 from optimizer.episode import (
     CALIBRATED_COMMAND_NOISE,
     DEFAULT_START,
@@ -40,8 +40,8 @@ from optimizer.evaluation.pool import (
 from optimizer.run.driver import BarProgress, Driver, ResumeMismatch
 from optimizer.run.folder import RunFolder, RunFolderError, new_run_path
 from optimizer.run.robust import ScoredGait
-from optimizer.run.stability import StabilityReport
-from optimizer.run.walk_card import REAL_SERVER, STAND_IN, CardWalk, WalkCard
+from optimizer.run.stability import Fastest, StabilityReport, scored_summary
+from optimizer.run.walk_card import REAL_SERVER, STAND_IN, CardWalk, WalkCard, write_card
 from optimizer.search.config import ScoringConfig, StabilityConfig
 from protocol.cli_values import (
     count,
@@ -168,6 +168,14 @@ def add_scoring_arguments(parser: argparse.ArgumentParser) -> None:
         f"per walk (default {CALIBRATED_COMMAND_NOISE:g}, calibrated to the real server's run-to-run "
         "spread; 0 with --robust-walks 1 walks and scores exactly as the paper)",
     )
+    parser.add_argument(
+        "--drift-penalty",
+        type=non_negative,
+        default=None,
+        metavar="W",
+        help="take W metres off a walk's distance for each metre it drifted sideways from the line it "
+        "started on, so that the search prefers straight walks (default 0: eq. 9)",
+    )
 
 
 #: Defaults of the check settings the commands store.
@@ -182,6 +190,7 @@ SCORING_DEFAULTS: dict[str, Any] = {
     "robust_top": ScoringConfig().top,
     "robust_quantile": ScoringConfig().quantile,
     "command_noise": CALIBRATED_COMMAND_NOISE,
+    "drift_penalty": 0.0,
 }
 
 #: What a run made before robust scoring stored nothing about: one undithered walk a gait, and
@@ -209,8 +218,9 @@ def scoring_config(settings: Mapping[str, Any]) -> ScoringConfig:
 
 
 def add_run_arguments(parser: argparse.ArgumentParser, population: int = 100) -> None:
-    """Flags of every search command: GA numbers shared by GA and GALA, the seed, the run folder
-    and the workers; ``population`` is the command's own default, for its help."""
+    """Flags of the population searches (GA, GALA, the comparison): the GA numbers they share,
+    then every search command's (``add_walk_run_arguments``); ``population`` is the command's own
+    default, for its help."""
     parser.add_argument("--population", type=positive_int, default=None, help=f"population size (default {population})")
     parser.add_argument(
         "--elitism",
@@ -218,12 +228,25 @@ def add_run_arguments(parser: argparse.ArgumentParser, population: int = 100) ->
         default=None,
         help="carry the best individual into the next generation (default on)",
     )
+    add_walk_run_arguments(parser)
+
+
+def add_walk_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """Flags of every search command: the family and box, the episodes, scoring and checks, the
+    seed, where episodes run, the run folder and the workers."""
+    parser.add_argument(
+        "--family",
+        choices=list(FAMILIES),
+        default=None,
+        help="the gait family searched (default tfs, the paper's 7 genes): "
+        + "; ".join(f"{f.name}: {f.about}" for f in FAMILIES.values()),
+    )
     parser.add_argument(
         "--bounds",
-        choices=sorted(BOUNDS_BY_NAME),
+        choices=sorted({box for f in FAMILIES.values() for box in f.boxes}),
         default=None,
         help="the gene box searched: robot (from the NAO's joint limits, speed cap and control "
-        "cycle; the default) or legacy (the narrower box of earlier versions)",
+        "cycle; the default) or legacy (tfs only: the narrower box of earlier versions)",
     )
     add_episode_arguments(parser)
     add_scoring_arguments(parser)
@@ -267,14 +290,21 @@ def add_run_arguments(parser: argparse.ArgumentParser, population: int = 100) ->
     )
 
 
-#: The gene box a new run searches; a run folder without the setting was searched in the legacy box.
-BOUNDS_DEFAULTS: dict[str, Any] = {"bounds": "robot"}
+#: The family and gene box a new run searches; a run folder without the settings searched the TFS
+#: family, in the legacy box.
+BOUNDS_DEFAULTS: dict[str, Any] = {"family": DEFAULT_FAMILY, "bounds": "robot"}
+
+
+def run_family(settings: Mapping[str, Any]) -> str:
+    """The run's gait family (a run from before families: the paper's TFS)."""
+    return str(settings.get("family", DEFAULT_FAMILY))
 
 
 def search_box(settings: Mapping[str, Any]) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]]:
     """The run's gene bounds and the repair that keeps a chromosome inside them."""
-    bounds = BOUNDS_BY_NAME[settings.get("bounds", "legacy")]
-    return bounds, functools.partial(repair_genes, bounds=bounds)
+    family = family_named(run_family(settings))
+    bounds = family.boxes[settings.get("bounds", "legacy")]
+    return bounds, functools.partial(family.repair, bounds=bounds)
 
 
 #: Defaults of the episode settings every command stores.
@@ -324,11 +354,22 @@ def check_start_for_real_server(parser: argparse.ArgumentParser, start: Sequence
 
 
 def episode_config(
-    walk_time: float, start: Sequence[float], agent_mode: str, command_noise: float = 0.0
+    walk_time: float,
+    start: Sequence[float],
+    agent_mode: str,
+    command_noise: float = 0.0,
+    family: str = DEFAULT_FAMILY,
+    drift_penalty: float = 0.0,
 ) -> EpisodeConfig:
     x, y, heading = start
     return EpisodeConfig(
-        walk_time=walk_time, start=(x, y), heading=heading, agent_mode=agent_mode, command_noise=command_noise
+        walk_time=walk_time,
+        start=(x, y),
+        heading=heading,
+        agent_mode=agent_mode,
+        command_noise=command_noise,
+        family=family,
+        drift_penalty=drift_penalty,
     )
 
 
@@ -378,12 +419,18 @@ class EvaluationSetup:
     real_command: str | None = None
     #: the agent's command dither of every walk (rad/s; ``EpisodeConfig.command_noise``)
     command_noise: float = 0.0
+    #: the gait family the search's genes belong to
+    family: str = DEFAULT_FAMILY
+    #: fitness per metre of sideways drift (``EpisodeConfig.drift_penalty``)
+    drift_penalty: float = 0.0
 
 
 def pool_evaluator(setup: EvaluationSetup) -> Evaluator:
     """The local evaluator: one worker process per core (or per server), each with one runner;
     or, with ``--scheduler`` / ``--dask-local``, a Dask cluster (``optimizer.evaluation.dask_cluster``)."""
-    config = episode_config(setup.walk_time, setup.start, setup.agent_mode, setup.command_noise)
+    config = episode_config(
+        setup.walk_time, setup.start, setup.agent_mode, setup.command_noise, setup.family, setup.drift_penalty
+    )
     if setup.scheduler is not None or setup.dask_local is not None:
         try:
             from optimizer.evaluation.dask_cluster import DaskEvaluator
@@ -417,6 +464,11 @@ class Run:
     setup: EvaluationSetup
     resumed: bool
 
+    @property
+    def family(self) -> GaitFamily:
+        """The gait family the run searches."""
+        return family_named(self.setup.family)
+
 
 def apply_preset(args: argparse.Namespace, values: Mapping[str, Any]) -> None:
     """A preset (a budget) stands for the flags it sets; a flag given on the command line wins."""
@@ -445,6 +497,9 @@ def prepare_run(
     settings = resolve_settings(
         parser, args, {**defaults, **EPISODE_DEFAULTS, **SCORING_DEFAULTS, **CHECK_DEFAULTS, **BOUNDS_DEFAULTS}, stored
     )
+    family = family_named(run_family(settings))
+    if settings.get("bounds", "legacy") not in family.boxes:
+        parser.error(f"--bounds {settings['bounds']}: the {family.name} family has the boxes {', '.join(family.boxes)}")
     servers = tuple(args.server or ())
     if servers and args.workers is not None and args.workers != len(servers):
         parser.error(
@@ -502,6 +557,8 @@ def prepare_run(
         args.dask_local,
         real_command,
         settings.get("command_noise", _LEGACY_SCORING["command_noise"]),
+        run_family(settings),
+        settings.get("drift_penalty", 0.0),
     )
     return Run(command, folder, settings, seed, setup, resumed=stored is not None)
 
@@ -573,9 +630,9 @@ def best_gait(driver: Driver, key: str | None) -> ScoredGait | None:
     return None if key is None else driver.scored.get(key)
 
 
-def write_gait(path: Path, genes: np.ndarray, notes: str) -> None:
-    """The best gait as a gait file the agent takes with ``--gait``."""
-    save_gait(TFSParams.from_array(genes), path, notes)
+def write_gait(run: Run, path: Path, genes: Sequence[float] | np.ndarray, notes: str) -> None:
+    """A gait the run found, as a gait file of its family that the agent takes with ``--gait``."""
+    save_gait(run.family.gait(genes), path, notes)
 
 
 def walked_on(setup: EvaluationSetup) -> str:
@@ -586,4 +643,21 @@ def walked_on(setup: EvaluationSetup) -> str:
 def card_of(run: Run, name: str, check: StabilityReport) -> WalkCard:
     """The walk card of a checked gait: its check walks, on the server the run walked on."""
     walks = tuple(map(CardWalk.from_record, check.repeats))
-    return WalkCard(name, check.gait.genes, run.setup.walk_time, run.setup.start[2], {walked_on(run.setup): walks})
+    return WalkCard(
+        name, check.gait.genes, run.setup.walk_time, run.setup.start[2], {walked_on(run.setup): walks}, run.setup.family
+    )
+
+
+def hand_over(run: Run, fastest: Fastest | None, what: str) -> dict[str, Any]:
+    """Write the run's fastest walk as fastest_gait.json (notes: ``what`` and its verdict) with its
+    walk card beside it; returns its entries of results.json."""
+    if fastest is not None:
+        path = run.folder.path / "fastest_gait.json"
+        write_gait(run, path, fastest.gait.genes, f"{what}: {fastest.describe()}")
+        if fastest.check is not None:
+            write_card(card_of(run, "fastest walk", fastest.check), path)
+    return {
+        "fastest_episode": None if fastest is None else fastest.gait.walks[0].to_json(),
+        "fastest_score": None if fastest is None else scored_summary(fastest.gait),
+        "fastest_check": None if fastest is None or fastest.check is None else fastest.check.to_dict(),
+    }

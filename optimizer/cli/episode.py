@@ -28,7 +28,7 @@ import sys
 from collections.abc import Sequence
 from dataclasses import replace
 
-from gait import DEFAULT_GAIT_PATH, GaitFileError, TFSParams, load_gait
+from gait import DEFAULT_GAIT_PATH, Gait, GaitFileError, load_gait
 from optimizer.cli.common import (
     EPISODE_DEFAULTS,
     add_episode_arguments,
@@ -46,7 +46,7 @@ from optimizer.run.stability import distance_spread
 from protocol.cli_values import non_negative, positive_int
 
 
-def gait_file(text: str) -> TFSParams:
+def gait_file(text: str) -> Gait:
     try:
         return load_gait(text)
     except GaitFileError as exc:
@@ -62,7 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
         type=gait_file,
         default=None,
         metavar="FILE",
-        help=f"gait file to walk (default: the shipped gait, {DEFAULT_GAIT_PATH.name})",
+        help=f"gait file to walk, of any family (default: the shipped TFS gait, {DEFAULT_GAIT_PATH.name})",
     )
     add_server_arguments(p, repeatable=False)
     add_episode_arguments(p)
@@ -118,7 +118,7 @@ def summary(results: Sequence[EpisodeResult]) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    params = args.gait or load_gait(DEFAULT_GAIT_PATH)
+    gait = args.gait or load_gait(DEFAULT_GAIT_PATH)
     start = args.start or EPISODE_DEFAULTS["start"]
     server: ServerAddress | ManagedServer | None = args.server
     if args.real is not None:
@@ -138,14 +138,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         except RealServerError as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 1
-    results = _walk(params, base, server, points, args)
+    results = _walk(gait, base, server, points, args)
     if len(results) > 1 and not args.json:
         print(summary(results))
     return 0 if all(r.status == "ok" for r in results) else 1
 
 
 def _walk(
-    params: TFSParams,
+    gait: Gait,
     base: EpisodeConfig,
     server: ServerAddress | ManagedServer | None,
     points: Sequence[Start],
@@ -155,7 +155,7 @@ def _walk(
     quiet_agent_logs()  # each walk's outcome is printed here
     with EpisodeRunner(base, server, seed=args.seed) as runner:
         for x, y, heading in points:
-            result = runner.evaluate(params, start=(x, y, heading))
+            result = runner.evaluate(gait, start=(x, y, heading))
             results.append(result)
             where = f"start {x:.4f} {y:.4f} {heading:.4f}: " if len(points) > 1 else ""
             if args.json:

@@ -127,6 +127,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         )
         plot_ga_convergence(result.history, folder / "ga.png", title(run.settings))
         write_gait(
+            run,
             folder / "best_gait.json",
             result.best_genes,
             f"{title(run.settings)}: fitness {result.best_fitness:.4f}{verdict} (run {folder})",

@@ -7,17 +7,19 @@ best fitness. ``--budget quick`` is a first look in a few minutes.
 
 Every gait is scored robustly by default (``optimizer.run.robust``): a gait whose first walk could
 enter its search's top walks ``--robust-walks`` times in all, each with its own draw of the command
-dither that reproduces the real server's run-to-run spread, and is scored by their mean, a fall
-counting only the share of the walk it stood. ``--robust-walks 1 --command-noise 0`` is the
-paper's single undithered walk (eq. 9).
+dither that reproduces the real server's run-to-run spread, and is scored by their
+``--robust-quantile`` (default 0.25: the second-worst of 5), a fall counting the distance it
+reached. ``--robust-walks 1 --command-noise 0`` is the paper's single undithered walk (eq. 9).
 
 After the rows, a refinement phase (beyond the paper; ``--refine N``, 0 to skip) runs CMA-ES from
-the fastest gait of the rows that held its check for N more gaits, scored the same way: GALA's population levels
-off below what the gait family holds. Table I is the same with or without it.
+the fastest gait of the rows that held its check for N more gaits, scored the same way
+(``optimizer.cli.refine``, which ``python -m optimizer.refine`` runs on a gait file of your own):
+GALA's population levels off below what the gait family holds. Table I is the same with or
+without it. ``--family`` searches another gait family (``gait.FAMILIES``).
 
 Each row's best gait is then checked (``optimizer.run.stability``): walked ``--check-repeats``
 more times (default 10), each with its own dither draw; Table I gives its falls, spread and
-verdict (**FALLS** where a check walk fell). The five best-scored gaits of the whole run (learning
+verdict (**FALLS** where a check walk fell). The ten best-scored gaits of the whole run (learning
 phase and refinement included) are checked the same way: of those that held, the one whose
 check walks went farthest becomes fastest_gait.json; when none held, the steadiest, marked as
 falling in its notes and in the summary.
@@ -33,11 +35,9 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
-
-import numpy as np
 
 from optimizer.cli.common import (
     EvaluatorMaker,
@@ -46,6 +46,7 @@ from optimizer.cli.common import (
     apply_preset,
     best_gait,
     card_of,
+    hand_over,
     pool_evaluator,
     prepare_run,
     run_session,
@@ -53,7 +54,8 @@ from optimizer.cli.common import (
     stability_config,
     write_gait,
 )
-from optimizer.episode import Start
+from optimizer.cli.refine import DEFAULTS as REFINE_DEFAULTS
+from optimizer.cli.refine import refine
 from optimizer.evaluation.pool import stable_seed
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
@@ -66,15 +68,14 @@ from optimizer.run.report import (
 )
 from optimizer.run.robust import ScoredGait
 from optimizer.run.stability import (
+    Fastest,
     StabilityReport,
     check_best,
-    fastest_stable,
-    ranked_gaits,
+    fastest_walk,
+    scored_summary,
 )
 from optimizer.run.walk_card import write_card
-from optimizer.search.cmaes import CMAESRun
-from optimizer.search.config import GAConfig, GALAConfig, StabilityConfig
-from optimizer.search.ga import Repair
+from optimizer.search.config import GAConfig, GALAConfig
 from optimizer.search.ga import planned_episodes as ga_episodes
 from optimizer.search.gala import GALA, GALAResult
 from optimizer.search.la import (
@@ -95,20 +96,16 @@ PAPER: dict[str, Any] = {
     "scheme": "lrp",
     "elitism": GAConfig().elitism,
     "baseline_window": GALAConfig().baseline_window,
-    "refine": 3000,
-    "refine_sigma": 0.05,
+    **REFINE_DEFAULTS,
 }
 
-#: Keys of the refinement phase's episodes start with this.
-REFINE_PREFIX = "refine"
-
 #: A first look on a 2-core machine: one row (the paper's best crossover rate), population 20,
-#: 20 iterations (19 feedbacks to the automaton), a 6-generation final GA (515 gaits), then 1200
+#: 20 iterations (19 feedbacks to the automaton), a 6-generation final GA (515 gaits), then 1600
 #: gaits of refinement, each gait raced as the default scoring says, plus the checks (10 walks for
 #: the row's best and for each of the 10 best-scored gaits). Measured in bench/RESULTS.md.
 BUDGETS: dict[str, dict[str, Any]] = {
     "paper": {},
-    "quick": {"crossover": [0.8], "population": 20, "iterations": 20, "generations": 6, "refine": 1200},
+    "quick": {"crossover": [0.8], "population": 20, "iterations": 20, "generations": 6, "refine": 1600},
 }
 
 
@@ -134,7 +131,7 @@ def build_parser() -> argparse.ArgumentParser:
         choices=sorted(BUDGETS),
         default=None,
         help="paper: the full Table I protocol (default); quick: crossover 0.8, population 20, "
-        "20 iterations, 6 final generations, 1200 gaits of refinement (4-6 minutes on 2 cores). "
+        "20 iterations, 6 final generations, 1600 gaits of refinement. "
         "Flags given override it",
     )
     p.add_argument(
@@ -183,7 +180,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=count,
         default=None,
         metavar="N",
-        help=f"after the rows, CMA-ES tries N more gaits from the best-scored one, scored the same way "
+        help=f"after the rows, CMA-ES tries N more gaits from the fastest gait that held its check, scored "
+        f"the same way "
         f"(default {PAPER['refine']}; quick {BUDGETS['quick']['refine']}; 0: the paper's protocol alone)",
     )
     p.add_argument(
@@ -191,7 +189,17 @@ def build_parser() -> argparse.ArgumentParser:
         type=positive_float,
         default=None,
         metavar="S",
-        help=f"the refinement's first step, a fraction of the gene box (default {PAPER['refine_sigma']:g})",
+        nargs="+",
+        help="the first step of each of the refinement's CMA-ES runs, a fraction of the gene box: one run "
+        f"per step, the N gaits shared (default {' '.join(map(str, PAPER['refine_sigma']))})",
+    )
+    p.add_argument(
+        "--refine-population",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help=f"gaits per CMA-ES generation of the refinement (default {PAPER['refine_population']}; "
+        "the library's own for 7 genes is 9)",
     )
     add_run_arguments(p)
     return p
@@ -249,67 +257,6 @@ class Row:
         }
 
 
-def scored_summary(gait: ScoredGait) -> dict[str, Any]:
-    """A scored gait for results.json: its score and the walks behind it."""
-    return {
-        "key": gait.key,
-        "score": gait.fitness,
-        "walks": len(gait.walks),
-        "falls": gait.falls,
-        "mean_distance": gait.mean_distance,
-    }
-
-
-@dataclass
-class Fastest:
-    """The fastest gait of the run so far and its check (None when checks are off)."""
-
-    gait: ScoredGait
-    check: StabilityReport | None
-
-    def describe(self) -> str:
-        gait, check = self.gait, self.check
-        text = f"{gait.describe()} ({gait.key})"
-        if check is None:
-            return f"best-scored gait (unchecked): {text}"
-        verdict = "fastest walk that held" if check.stable else "NO FAST WALK HELD; the steadiest, which FALLS"
-        return f"{verdict}: {check.summary()}; scored {text}"
-
-
-def fastest_walk(driver: Driver, base: Start, stability: StabilityConfig) -> Fastest | None:
-    if stability.repeats == 0:
-        ranked = ranked_gaits(driver.scored)
-        return Fastest(ranked[0], None) if ranked else None
-    report = fastest_stable(driver, driver.scored, base, stability)
-    return None if report is None else Fastest(report.gait, report)
-
-
-def refine(
-    driver: Driver, settings: Mapping[str, Any], seed: int, bounds: np.ndarray, repair: Repair, start: ScoredGait
-) -> None:
-    """The refinement phase: CMA-ES from ``start`` (the fastest gait of the rows that held its
-    check), scored as the rows were.
-
-    Beyond the paper. Its Table I protocol stops at the rows; a user wants the fastest walk the
-    gait family holds, and with the default budget GALA's population levels off below it
-    (docs/optimizer.md, "Why a refinement phase"). Starting from a gait that held, not from the
-    best-scored one, matters: a fragile start's neighbourhood falls almost everywhere, and CMA-ES
-    learns nothing from a population of falls (measured: from a gait that fell in 4 of its 10
-    check walks, 2,997 of 3,000 refined gaits fell). Nothing of the rows changes: their keys,
-    seeds and Table I are the same with or without it."""
-    driver.run(
-        CMAESRun(
-            bounds,
-            repair,
-            stable_seed(seed, REFINE_PREFIX),
-            start.genes,
-            settings["refine_sigma"],
-            settings["refine"],
-            REFINE_PREFIX,
-        )
-    )
-
-
 def write_outputs(run: Run, rows: list[Row], fastest: Fastest | None) -> None:
     """Every result file, for the rows finished so far (rewritten after each row and after the
     refinement): the tables, plots and gait files, and a walk card beside every gait file."""
@@ -322,16 +269,9 @@ def write_outputs(run: Run, rows: list[Row], fastest: Fastest | None) -> None:
         {
             "settings": settings,
             "rows": [row.to_dict() for row in rows],
-            "fastest_episode": None if fastest is None else fastest.gait.walks[0].to_json(),
-            "fastest_score": None if fastest is None else scored_summary(fastest.gait),
-            "fastest_check": None if fastest is None or fastest.check is None else fastest.check.to_dict(),
+            **hand_over(run, fastest, "GALA run"),
         },
     )
-    if fastest is not None:
-        gait_path = path / "fastest_gait.json"
-        write_gait(gait_path, np.array(fastest.gait.genes), f"GALA run: {fastest.describe()}")
-        if fastest.check is not None:
-            write_card(card_of(run, "fastest walk", fastest.check), gait_path)
     if not rows:
         return
     latest = rows[-1]
@@ -353,7 +293,7 @@ def write_outputs(run: Run, rows: list[Row], fastest: Fastest | None) -> None:
     if max(range(len(rows)), key=lambda k: rows[k].result.best_fitness) == len(rows) - 1:
         names.append("best_gait.json")
     for name in names:
-        write_gait(path / name, result.best_genes, notes)
+        write_gait(run, path / name, result.best_genes, notes)
         if latest.check is not None:
             write_card(card_of(run, f"Table I row pc {result.crossover:g}", latest.check), path / name)
 
@@ -387,7 +327,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             fastest = fastest_walk(driver, run.setup.start, stability)
             write_outputs(run, rows, fastest)
         if run.settings.get("refine", 0) and fastest is not None:  # a run from before it: none
-            refine(driver, run.settings, run.seed, bounds, repair, fastest.gait)
+            refine(driver, run.settings, run.seed, bounds, repair, fastest.gait.genes)
             fastest = fastest_walk(driver, run.setup.start, stability)
             write_outputs(run, rows, fastest)
         falling = [f"{row.result.crossover:g}" for row in rows if row.check is not None and not row.check.stable]

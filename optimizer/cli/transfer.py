@@ -35,7 +35,7 @@ from typing import Any
 
 from matplotlib.figure import Figure
 
-from gait import GENE_NAMES, GaitFileError, load_gait
+from gait import GaitFamily, GaitFileError, family_named, load_gait
 from optimizer.cli.common import (
     LEGACY_START,
     EvaluationSetup,
@@ -45,6 +45,7 @@ from optimizer.cli.common import (
     existing_run,
     pool_evaluator,
     real_server_command,
+    run_family,
     stability_config,
 )
 from optimizer.episode import DEFAULT_START, Start, start_problem_on_real_server
@@ -108,13 +109,13 @@ def row_gait_file(crossover: float) -> str:
 
 
 def reported_gaits(results: Mapping[str, Any]) -> list[ReportedGait]:
-    """The gaits of a GALA, GA or comparison run's ``results.json``, one entry per distinct gait,
+    """The gaits of a GALA, refinement, GA or comparison run's ``results.json``, one entry per distinct gait,
     in the order the run reports them (Table I rows, then the fastest walk), each with the gait
     files it may be in (``best_gait.json`` is every row's candidate: which row it holds is seen
     by its genes, ``gait_files``)."""
     found: list[tuple[str, Sequence[float], Mapping[str, Any] | None, Mapping[str, Any] | None, list[str]]] = []
-    if "rows" in results:  # GALA
-        for row in results["rows"]:
+    if "rows" in results or "fastest_episode" in results:  # GALA (rows, then the fastest); a refinement
+        for row in results.get("rows", ()):
             found.append(
                 (
                     f"Table I pc {row['crossover']:g}",
@@ -161,7 +162,7 @@ def gait_files(folder: Path, gait: ReportedGait) -> list[Path]:
 
 
 def update_cards(
-    folder: Path, gaits: Sequence[ReportedGait], side: str, walk_time: float, heading: float
+    folder: Path, gaits: Sequence[ReportedGait], side: str, walk_time: float, heading: float, family: str
 ) -> tuple[list[Path], list[str]]:
     """Put each gait's new walks on the card beside each of its gait files as ``side`` (the
     card's other sides kept), or start a card there; returns the gait files whose card was
@@ -185,7 +186,7 @@ def update_cards(
                 notes.append(f"{path.name}: its card was of other genes; replaced by a card of the new walks")
                 card = None
             if card is None:
-                card = WalkCard(gait.name, gait.genes, walk_time, heading)
+                card = WalkCard(gait.name, gait.genes, walk_time, heading, family=family)
             write_card(card.with_side(side, walks), path)
             written.append(path)
     if fileless:
@@ -214,7 +215,7 @@ COLUMNS = (
     "mean_m",
     "max_m",
     "mean_ratio",
-) + tuple(f"gene_{n}" for n in GENE_NAMES)
+)  # then gene_<name> for each gene of the run's family
 
 
 def _row(gait: ReportedGait) -> dict[str, Any]:
@@ -234,16 +235,17 @@ def _row(gait: ReportedGait) -> dict[str, Any]:
         "mean_m": new[2],
         "max_m": new[1],
         "mean_ratio": ratio,
-        **{f"gene_{n}": g for n, g in zip(GENE_NAMES, gait.genes)},
     }
 
 
-def write_csv(gaits: Sequence[ReportedGait], path: Path) -> None:
+def write_csv(gaits: Sequence[ReportedGait], path: Path, family: GaitFamily) -> None:
+    genes = tuple(f"gene_{n}" for n in family.gene_names)
     with path.open("w", newline="") as out:
-        writer = csv.DictWriter(out, COLUMNS)
+        writer = csv.DictWriter(out, COLUMNS + genes)
         writer.writeheader()
         for gait in gaits:
-            writer.writerow({k: ("" if v is None else v) for k, v in _row(gait).items()})
+            row = {**_row(gait), **dict(zip(genes, gait.genes))}
+            writer.writerow({k: ("" if v is None else v) for k, v in row.items()})
 
 
 def write_markdown(gaits: Sequence[ReportedGait], path: Path, run_kind: str, target: str) -> None:
@@ -374,6 +376,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         seed,
         real_command=real_command,
         command_noise=command_noise,
+        family=run_family(settings),
     )
     target = "real server" if real else "stand-in"
     tasks = {}
@@ -403,7 +406,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     for gait in gaits:
         gait.walks.sort(key=lambda w: w.key)
     run_kind = run_server_kind(folder)
-    write_csv(gaits, folder.path / "transfer.csv")
+    write_csv(gaits, folder.path / "transfer.csv", family_named(setup.family))
     write_markdown(gaits, folder.path / "transfer.md", run_kind, target)
     plot(gaits, folder.path / "transfer.png", run_kind, target)
     write_json(
@@ -421,7 +424,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             "gaits": [{**_row(g), "genes": list(g.genes), "walks": [w.to_json() for w in g.walks]} for g in gaits],
         },
     )
-    cards, notes = update_cards(folder.path, gaits, side_name(real), settings["walk_time"], start[2])
+    cards, notes = update_cards(folder.path, gaits, side_name(real), settings["walk_time"], start[2], setup.family)
     for note in notes:
         print(f"note: {note}", file=sys.stderr)
     written = "".join(f"\nwalk card ({target} side): {p.stem}.card.{{json,md,png}}" for p in cards)

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, replace
 
 from agent import AgentConfig
+from gait import DEFAULT_FAMILY, family_named
 
 #: A start point on the field: x, y (m) and heading (deg, 0 = +x).
 Start = tuple[float, float, float]
@@ -72,6 +73,12 @@ class EpisodeConfig:
     #: spread with it. ``EpisodeRunner.evaluate(seed=...)`` sets the seed per episode.
     command_noise: float = 0.0
     noise_seed: int = 0
+    #: Fitness per metre of sideways drift taken off each metre walked: a walk's fitness is
+    #: 10 x (distance - drift_penalty x |drift|), the drift measured from the line the walk started
+    #: on (``scoring.sideways_drift``). 0: eq. 9 exactly. A straight walk is what a game needs.
+    drift_penalty: float = 0.0
+    #: The gait family whose genes the runner is given (``gait.FAMILIES``; a ``Gait`` names its own).
+    family: str = DEFAULT_FAMILY
 
     def starting_at(self, start: Start) -> EpisodeConfig:
         """This config with another start point and heading."""
@@ -81,6 +88,9 @@ class EpisodeConfig:
     def __post_init__(self) -> None:
         if not self.walk_time > 0:
             raise ValueError(f"walk_time must be > 0 s, got {self.walk_time}")
+        family_named(self.family)  # an unknown family is refused here, not in a worker
+        if not self.drift_penalty >= 0:
+            raise ValueError(f"drift_penalty must be >= 0, got {self.drift_penalty}")
         if self.agent_mode not in ("inprocess", "process"):
             raise ValueError(f"agent_mode must be 'inprocess' or 'process', got {self.agent_mode!r}")
         if self.embedded_stub not in ("direct", "socket"):

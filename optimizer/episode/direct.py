@@ -30,7 +30,7 @@ import numpy as np
 
 from agent.behaviour import WalkBehaviour
 from agent.config import AgentConfig
-from gait import TFSGait, TFSParams
+from gait import Gait
 from optimizer.episode.config import EpisodeConfig
 from optimizer.episode.monitor_link import EpisodeFailure
 from optimizer.episode.scoring import Judge
@@ -162,8 +162,8 @@ class DirectStub:
         # the runner's trainer connects at its first episode and gets a full scene then
         self.sim.scene_changed = True
 
-    def run(self, params: TFSParams, config: EpisodeConfig, judge: Judge) -> None:
-        """Walk ``params`` once from ``config``'s start; ``judge.result`` holds the outcome."""
+    def run(self, gait: Gait, config: EpisodeConfig, judge: Judge) -> None:
+        """Walk ``gait`` once from ``config``'s start; ``judge.result`` holds the outcome."""
         sim = self.sim
         sx, sy = config.start
         # what the runner's trainer sends before each episode
@@ -180,7 +180,7 @@ class DirectStub:
             command_noise=config.command_noise,
             noise_seed=config.noise_seed,
         )
-        behaviour = WalkBehaviour(agent_config, TFSGait(params))
+        behaviour = WalkBehaviour(agent_config, gait.walker())
         state = sim.join()
         inbox: list[bytes | np.ndarray | dict[str, float]] = [commands.scene().encode()]
         to_agent: Perception | None = None

@@ -38,7 +38,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from scipy import stats  # type: ignore[import-untyped]
 
-from gait import GENE_NAMES, TFSParams
+from gait import GENE_NAMES, TFS, Gait, TFSParams
 from optimizer.compare.statistics import holm
 from optimizer.episode import (
     DEFAULT_START,
@@ -78,6 +78,11 @@ class FidelityGait:
     @property
     def params(self) -> TFSParams:
         return TFSParams.from_array(np.asarray(self.genes))
+
+    @property
+    def gait(self) -> Gait:
+        """The set's gaits are of the paper's TFS family."""
+        return TFS.gait(self.genes)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -486,7 +491,7 @@ def walk_gaits(
     for gait in gaits:
         walks = []
         for repeat in range(repeats):
-            result = runner.evaluate(gait.params, seed=repeat)
+            result = runner.evaluate(gait.gait, seed=repeat)
             walk = Walk.from_episode(
                 result.distance, result.fell, result.time, result.status, runner.last_trace or (), runner.config.heading
             )

@@ -28,7 +28,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from agent import AgentConfig, AgentError, NaoAgent
-from gait import TFSParams, save_gait
+from gait import Gait, family_named, save_gait
 from optimizer.episode.config import EpisodeConfig, EpisodeResult, Start
 from optimizer.episode.direct import DirectStub
 from optimizer.episode.monitor_link import EpisodeFailure, MonitorLink
@@ -103,18 +103,18 @@ class EpisodeRunner:
     # ----- public -----
     def evaluate(
         self,
-        genes: Sequence[float] | TFSParams,
+        genes: Sequence[float] | Gait,
         seed: int | None = None,
         start: Start | None = None,
         trace: bool = False,
     ) -> EpisodeResult:
-        """Walk ``genes`` once, from ``start`` (x, y, heading) if given, else from the config's.
-        ``seed`` seeds the agent's command dither where the config asks for one
-        (``EpisodeConfig.command_noise``); otherwise no outcome depends on it: the physics is
+        """Walk ``genes`` (of the config's family, or a ``Gait``) once, from ``start`` (x, y,
+        heading) if given, else from the config's. ``seed`` seeds the agent's command dither where
+        the config asks for one (``EpisodeConfig.command_noise``); otherwise no outcome depends on it: the physics is
         deterministic and the walking agent uses no vision, the only noisy sensor. ``trace`` (or
         the runner's own ``trace``) adds the walk's drift, turn and track to the result
         (``EpisodeResult.track``); what the walk does is the same either way."""
-        params = genes if isinstance(genes, TFSParams) else TFSParams.from_array(list(genes))
+        gait = genes if isinstance(genes, Gait) else family_named(self.config.family).gait(genes)
         config = self.config if start is None else self.config.starting_at(start)
         if seed is not None and config.command_noise > 0:
             config = replace(config, noise_seed=seed)
@@ -124,7 +124,7 @@ class EpisodeRunner:
         reason = ""
         for attempt in (1, 2):
             try:
-                result = self._episode(params, config, traced)
+                result = self._episode(gait, config, traced)
                 return replace(result, wall=time.monotonic() - started)
             except (EpisodeFailure, AgentError, OSError, ServerStartError) as exc:  # infrastructure, not bugs
                 reason = f"{type(exc).__name__}: {exc}"
@@ -204,12 +204,12 @@ class EpisodeRunner:
             noise_seed=config.noise_seed,
         )
 
-    def _episode(self, params: TFSParams, config: EpisodeConfig, traced: bool) -> EpisodeResult:
+    def _episode(self, gait: Gait, config: EpisodeConfig, traced: bool) -> EpisodeResult:
         if self._goes_direct:
             judge = Judge(config, traced)
             if self._direct is None:
                 self._direct = DirectStub(self._seed)
-            self._direct.run(params, config, judge)
+            self._direct.run(gait, config, judge)
             assert judge.result is not None
             self.last_trace = judge.trace if self.trace else None
             return judge.result
@@ -219,18 +219,18 @@ class EpisodeRunner:
         judge = Judge(config, traced)
         deadline = time.monotonic() + config.episode_timeout
         if config.agent_mode == "inprocess":
-            self._run_inprocess(params, address, link, judge, deadline)
+            self._run_inprocess(gait, address, link, judge, deadline)
         else:
-            self._run_process(params, address, link, judge, deadline)
+            self._run_process(gait, address, link, judge, deadline)
         assert judge.result is not None
         self.last_trace = judge.trace if self.trace else None
         return judge.result
 
     def _run_inprocess(
-        self, params: TFSParams, address: ServerAddress, link: MonitorLink, judge: Judge, deadline: float
+        self, gait: Gait, address: ServerAddress, link: MonitorLink, judge: Judge, deadline: float
     ) -> None:
         config = self._agent_config(address, judge.config)
-        agent = NaoAgent(config, gait=params)
+        agent = NaoAgent(config, gait=gait)
         agent.connect()
         play_on_sent = False
         try:
@@ -251,9 +251,9 @@ class EpisodeRunner:
         self._await_robot_gone(link, deadline)
 
     def _run_process(
-        self, params: TFSParams, address: ServerAddress, link: MonitorLink, judge: Judge, deadline: float
+        self, gait: Gait, address: ServerAddress, link: MonitorLink, judge: Judge, deadline: float
     ) -> None:
-        gait_file = save_gait(params, Path(self._tmp.name) / "gait.json")
+        gait_file = save_gait(gait, Path(self._tmp.name) / "gait.json")
         config = judge.config
         sx, sy = config.start
         command = [

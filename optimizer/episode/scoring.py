@@ -115,7 +115,11 @@ class Judge:
             distance = (x - sx) * math.cos(self._heading) + (y - sy) * math.sin(self._heading)
             t = min(state.game_time, self.config.walk_time)
             speed = distance / t if t > 0 else 0.0
-            self.result = EpisodeResult(distance, fell, t, 10.0 * distance, speed, **self._shape())
+            fitness = 10.0 * distance
+            if self.config.drift_penalty:
+                drift = -(x - sx) * math.sin(self._heading) + (y - sy) * math.cos(self._heading)
+                fitness = 10.0 * (distance - self.config.drift_penalty * abs(drift))
+            self.result = EpisodeResult(distance, fell, t, fitness, speed, **self._shape())
 
     def _shape(self) -> dict[str, Any]:
         """A traced walk's drift, turn and thinned track (nothing for an untraced one)."""

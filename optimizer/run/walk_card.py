@@ -32,7 +32,7 @@ from typing import Any
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from gait import GENE_NAMES
+from gait import DEFAULT_FAMILY, family_named
 from optimizer.episode.scoring import TRACK_FIELDS, TracePoint, heading_change, sideways_drift
 from optimizer.evaluation.record import EpisodeRecord
 from optimizer.run.folder import write_json
@@ -136,6 +136,8 @@ class WalkCard:
     #: the walking direction (deg) the tracks are drawn in, for walks without their own
     heading: float
     sides: Mapping[str, tuple[CardWalk, ...]] = field(default_factory=dict)
+    #: the gait family the genes belong to (``gait.FAMILIES``)
+    family: str = DEFAULT_FAMILY
 
     @classmethod
     def from_records(
@@ -146,17 +148,18 @@ class WalkCard:
         heading: float,
         side: str,
         records: Iterable[EpisodeRecord],
+        family: str = DEFAULT_FAMILY,
     ) -> WalkCard:
         """A card of one side, from its walks' episode records (a check's repeats, a transfer's)."""
         walks = tuple(CardWalk.from_record(r) for r in records)
-        return cls(name, tuple(float(g) for g in genes), float(walk_time), float(heading), {side: walks})
+        return cls(name, tuple(float(g) for g in genes), float(walk_time), float(heading), {side: walks}, family)
 
     def with_side(self, side: str, walks: Sequence[CardWalk]) -> WalkCard:
         """This card with ``side``'s walks replaced by ``walks`` (added last if it is new); the
         other sides are kept as they are, so walks on one server never disturb another's."""
         sides = dict(self.sides)
         sides[side] = tuple(walks)
-        return WalkCard(self.name, self.genes, self.walk_time, self.heading, sides)
+        return WalkCard(self.name, self.genes, self.walk_time, self.heading, sides, self.family)
 
     def summary(self, side: str) -> dict[str, Any]:
         """The figures of one side (``KeyError`` for a side the card lacks), None where no walk
@@ -194,6 +197,7 @@ class WalkCard:
         return {
             "format": CARD_FORMAT,
             "name": self.name,
+            "family": self.family,
             "genes": list(self.genes),
             "walk_time": self.walk_time,
             "heading": self.heading,
@@ -216,6 +220,7 @@ class WalkCard:
                 walk_time=float(document["walk_time"]),
                 heading=float(document["heading"]),
                 sides={str(side): tuple(CardWalk.from_json(w) for w in walks) for side, walks in sides.items()},
+                family=str(document.get("family", DEFAULT_FAMILY)),  # a card from before families: TFS
             )
         except CardError:
             raise
@@ -309,8 +314,8 @@ _LABELS = (
 
 def card_markdown(card: WalkCard, picture: str | None = None) -> str:
     """The card as Markdown: the gait, then one column per side (server)."""
-    genes = ", ".join(f"{n} {g:.4g}" for n, g in zip(GENE_NAMES, card.genes))
-    lines = [f"# Walk card: {card.name}", "", f"Genes: {genes}.", ""]
+    genes = family_named(card.family).describe(card.genes)
+    lines = [f"# Walk card: {card.name}", "", f"Genes ({card.family} family): {genes}.", ""]
     if not card.sides:
         lines.append("No walks yet.")
     else:

@@ -25,10 +25,13 @@ from optimizer.search.ga import Batch, KeyedSearch, Repair, SearchProgram
 SIGMA0 = 0.3
 
 
-def _strategy(rng: np.random.Generator, x0: np.ndarray, sigma0: float) -> cma.CMAEvolutionStrategy:
-    return cma.CMAEvolutionStrategy(
-        x0, sigma0, {"bounds": [0.0, 1.0], "seed": int(rng.integers(1, 2**31 - 1)), "verbose": -9}
-    )
+def _strategy(
+    rng: np.random.Generator, x0: np.ndarray, sigma0: float, population: int | None
+) -> cma.CMAEvolutionStrategy:
+    options = {"bounds": [0.0, 1.0], "seed": int(rng.integers(1, 2**31 - 1)), "verbose": -9}
+    if population is not None:
+        options["popsize"] = population
+    return cma.CMAEvolutionStrategy(x0, sigma0, options)
 
 
 def cmaes_program(
@@ -38,14 +41,16 @@ def cmaes_program(
     start: Sequence[float] | None = None,
     sigma0: float = SIGMA0,
     candidates: int | None = None,
+    population: int | None = None,
 ) -> SearchProgram:
     """CMA-ES from ``start`` (genes; None: a seeded random point) with step ``sigma0`` (a fraction
-    of the box), batches keyed ``gNNN``, for ``candidates`` candidates in all (None: for ever;
-    the last batch is cut to fit)."""
+    of the box) and ``population`` gaits a generation (None: the library's 4 + 3 ln n), batches
+    keyed ``gNNN``, for ``candidates`` candidates in all (None: for ever; the last batch is cut
+    to fit)."""
     low, high = bounds[:, 0], bounds[:, 1]
     rng = np.random.default_rng(seed)
     x0 = None if start is None else np.clip((np.asarray(start, dtype=float) - low) / (high - low), 0.0, 1.0)
-    strategy = _strategy(rng, rng.uniform(0.0, 1.0, len(low)) if x0 is None else x0, sigma0)
+    strategy = _strategy(rng, rng.uniform(0.0, 1.0, len(low)) if x0 is None else x0, sigma0, population)
     generation, asked = 0, 0
     best: tuple[float, np.ndarray] | None = None
     while candidates is None or asked < candidates:
@@ -64,7 +69,7 @@ def cmaes_program(
             best = (float(fitness[k]), np.clip((genes[k] - low) / (high - low), 0.0, 1.0))
         if strategy.stop():  # a refinement starts again from the best it met, a search from anywhere
             restart = rng.uniform(0.0, 1.0, len(low)) if x0 is None else best[1]
-            strategy = _strategy(rng, restart, sigma0)
+            strategy = _strategy(rng, restart, sigma0, population)
 
 
 class CMAESRun(KeyedSearch):
@@ -79,10 +84,11 @@ class CMAESRun(KeyedSearch):
         sigma0: float,
         candidates: int,
         prefix: str,
+        population: int | None = None,
     ) -> None:
         self._best: tuple[float, np.ndarray] | None = None
         self._prefix = prefix
-        super().__init__(self._run(cmaes_program(bounds, repair, seed, start, sigma0, candidates)))
+        super().__init__(self._run(cmaes_program(bounds, repair, seed, start, sigma0, candidates, population)))
 
     def _run(self, program: SearchProgram) -> SearchProgram:
         fitness = None

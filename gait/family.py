@@ -1,0 +1,118 @@
+"""What a gait family is: its genes, the box they are searched in, and how genes become joint targets.
+
+A family is data plus three functions, so a new one is a module that builds a ``GaitFamily`` and
+registers it (``gait.families``); the agent, the optimizer and the gait files never name a family's
+internals. A ``Gait`` is one family's genes, checked once on construction, so an invalid gait never
+reaches a robot.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+#: Joint limits by effector name, (min_deg, max_deg), as the agent passes them (``protocol.nao``,
+#: which this package does not import so that it stays free of wire concerns).
+Limits = Mapping[str, tuple[float, float]]
+
+
+class Repair(Protocol):
+    """Moves a chromosome onto a family's feasible set without leaving ``bounds``."""
+
+    def __call__(self, genes: np.ndarray, bounds: np.ndarray) -> np.ndarray: ...
+
+
+class Walker(Protocol):
+    """One gait, evaluated: joint targets (degrees, by effector name) at any gait time. Stateless,
+    so that looking ahead (the action latency) is free."""
+
+    def joint_targets(self, t: float, limits: Limits) -> dict[str, float]: ...
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class GaitFamily:
+    """A gait family. ``boxes`` names the search boxes the family offers (the first is the default);
+    ``check`` raises ValueError for genes no robot should walk; ``repair`` moves a chromosome onto
+    the feasible set inside a box (the search operators work gene by gene); ``walker`` evaluates
+    checked genes."""
+
+    name: str
+    about: str
+    gene_names: tuple[str, ...]
+    gene_units: Mapping[str, str]
+    boxes: Mapping[str, np.ndarray]
+    check: Callable[[tuple[float, ...]], None] = field(repr=False)
+    repair: Repair = field(repr=False)
+    walker: Callable[[tuple[float, ...]], Walker] = field(repr=False)
+    #: the family this one extends by further genes, and the values of those genes at which it
+    #: walks exactly as that family (``from_gait``)
+    extends: GaitFamily | None = None
+    neutral: tuple[float, ...] = ()
+
+    def __repr__(self) -> str:
+        return f"GaitFamily({self.name!r})"
+
+    @property
+    def default_box(self) -> str:
+        return next(iter(self.boxes))
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """The default search box, (low, high) per gene."""
+        return self.boxes[self.default_box]
+
+    def describe(self, genes: Sequence[float]) -> str:
+        """Genes as a reader wants them, ``c_h 14.95, c_k 16.83, ...``, whether or not they are a
+        gait a robot may walk (a card or a log may hold any)."""
+        return ", ".join(f"{n} {g:.4g}" for n, g in zip(self.gene_names, genes))
+
+    def gait(self, genes: Sequence[float] | np.ndarray) -> Gait:
+        return Gait(self, tuple(float(g) for g in genes))
+
+    def from_gait(self, gait: Gait) -> Gait:
+        """``gait`` as a gait of this family: itself, or, from the family this one extends, the
+        same walk with the further genes at their neutral values. A ValueError otherwise."""
+        if gait.family is self:
+            return gait
+        if gait.family is self.extends:
+            return self.gait(gait.genes + self.neutral)
+        raise ValueError(f"a {gait.family.name} gait cannot start a {self.name} search (it extends no such family)")
+
+
+@dataclass(frozen=True)
+class Gait:
+    """One gait of one family. Construction checks the genes (their number, that they are finite
+    numbers, and the family's own rules)."""
+
+    family: GaitFamily
+    genes: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        names = self.family.gene_names
+        if len(self.genes) != len(names):
+            raise ValueError(
+                f"a {self.family.name} gait has {len(names)} genes ({', '.join(names)}), got {len(self.genes)}"
+            )
+        for name, value in zip(names, self.genes):
+            if not isinstance(value, (int, float)) or not np.isfinite(value):
+                raise ValueError(f"{self.family.name} gene {name} must be a finite number, got {value!r}")
+        object.__setattr__(self, "genes", tuple(float(v) for v in self.genes))  # JSON may give ints
+        self.family.check(self.genes)
+
+    @property
+    def params(self) -> dict[str, float]:
+        """The genes by name, in the family's order."""
+        return dict(zip(self.family.gene_names, self.genes))
+
+    def as_array(self) -> np.ndarray:
+        return np.array(self.genes, dtype=float)
+
+    def walker(self) -> Walker:
+        return self.family.walker(self.genes)
+
+    def describe(self) -> str:
+        """The genes as a reader wants them: ``c_h 14.95, c_k 16.83, ...``."""
+        return self.family.describe(self.genes)

@@ -1,0 +1,99 @@
+"""``python -m optimizer.refine``: CMA-ES from a gait file, scored and checked as every search,
+handing back the start when nothing beats it, across families, resumable."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_driver import FakeEvaluator, Killed
+
+from gait import TFS, TFS_PLUS, load_gait, save_gait
+from optimizer.cli import refine as refine_command
+from optimizer.cli.refine import START_KEY
+
+SMALL = ["--budget", "40", "--check-repeats", "2", "--seed", "2", "--quiet"]
+
+
+def _start_file(tmp_path: Path) -> Path:
+    return save_gait(load_gait(), tmp_path / "start.json")
+
+
+def _episodes(folder: Path) -> list[dict]:
+    return [json.loads(line) for line in (folder / "episodes.jsonl").read_text().splitlines()]
+
+
+def test_refine_climbs_from_the_file_and_hands_over_a_checked_gait(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "run"
+    argv = [str(_start_file(tmp_path)), *SMALL, "--out", str(out)]
+    assert refine_command.main(argv, make_evaluator=lambda s: FakeEvaluator()) == 0
+    episodes = _episodes(out)
+    first = next(e for e in episodes if e["key"] == f"{START_KEY}/i000")
+    assert first["genes"] == list(load_gait().genes)
+    assert sum(1 for e in episodes if e["key"].startswith("refine") and "/k" not in e["key"]) == 40
+    results = json.loads((out / "results.json").read_text())
+    assert results["fastest_score"]["key"].startswith("refine")  # the synthetic hill rises from the shipped gait
+    start_score = max(e["fitness"] for e in episodes if e["key"].startswith(START_KEY))
+    assert results["fastest_score"]["score"] > start_score
+    handed = load_gait(out / "fastest_gait.json")
+    assert handed.family is TFS and list(handed.genes) == results["fastest_episode"]["genes"]
+    assert (out / "fastest_gait.card.md").is_file()
+    assert "fastest walk that held" in capsys.readouterr().out
+
+
+def test_a_tfs_walk_starts_a_tfs_plus_search_with_its_additions_at_zero(tmp_path: Path) -> None:
+    out = tmp_path / "plus"
+    argv = [str(_start_file(tmp_path)), "--family", "tfs-plus", *SMALL, "--out", str(out)]
+    assert refine_command.main(argv, make_evaluator=lambda s: FakeEvaluator()) == 0
+    episodes = _episodes(out)
+    assert {len(e["genes"]) for e in episodes} == {13}
+    first = next(e for e in episodes if e["key"] == f"{START_KEY}/i000")
+    assert first["genes"] == [*load_gait().genes, *TFS_PLUS.neutral]
+    assert load_gait(out / "fastest_gait.json").family is TFS_PLUS
+    genes = np.array([e["genes"] for e in episodes])
+    assert np.all(genes >= TFS_PLUS.bounds[:, 0]) and np.all(genes <= TFS_PLUS.bounds[:, 1])
+
+
+def test_a_refinement_killed_midway_resumes_to_the_same_result(tmp_path: Path) -> None:
+    start = _start_file(tmp_path)
+    whole, cut = tmp_path / "whole", tmp_path / "cut"
+    assert refine_command.main([str(start), *SMALL, "--out", str(whole)], make_evaluator=lambda s: FakeEvaluator()) == 0
+    with pytest.raises(Killed):
+        refine_command.main([str(start), *SMALL, "--out", str(cut)], make_evaluator=lambda s: FakeEvaluator(25))
+    assert refine_command.main(["--resume", str(cut), "--quiet"], make_evaluator=lambda s: FakeEvaluator()) == 0
+    assert (cut / "fastest_gait.json").read_text() == (whole / "fastest_gait.json").read_text()
+
+
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        ([], "GAIT: a gait file to start from is needed"),
+        (["nowhere.json"], "GAIT: cannot read gait file nowhere.json"),
+        (["PLUS", "--family", "tfs"], "--family tfs: a tfs-plus gait cannot start a tfs search"),
+        (["START", "--sigma", "0"], "--sigma"),
+        (["START", "--budget", "0"], "--budget"),
+    ],
+)
+def test_bad_command_lines_are_refused_with_the_reason(tmp_path: Path, capsys, argv: list[str], words: str) -> None:
+    plus = save_gait(TFS_PLUS.gait([*load_gait().genes, 1, 2, 3, 4, 5, 6]), tmp_path / "plus.json")
+    files = {"PLUS": str(plus), "START": str(_start_file(tmp_path))}
+    with pytest.raises(SystemExit) as exit_info:
+        refine_command.main([files.get(a, a) for a in argv] + ["--out", str(tmp_path / "x")])
+    assert exit_info.value.code == 2
+    assert words in capsys.readouterr().err
+
+
+def test_the_drift_penalty_is_a_stored_setting_every_walk_of_the_run_gets(tmp_path: Path) -> None:
+    setups = []
+
+    def fake(setup):
+        setups.append(setup)
+        return FakeEvaluator()
+
+    out = tmp_path / "straight"
+    argv = [str(_start_file(tmp_path)), *SMALL, "--drift-penalty", "1.5", "--out", str(out)]
+    assert refine_command.main(argv, make_evaluator=fake) == 0
+    assert setups[0].drift_penalty == 1.5
+    assert json.loads((out / "manifest.json").read_text())["settings"]["drift_penalty"] == 1.5
