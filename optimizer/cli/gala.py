@@ -20,8 +20,8 @@ without it. ``--family`` searches another gait family (``gait.FAMILIES``).
 Each row's best gait is then checked (``optimizer.run.stability``): walked ``--check-repeats``
 more times (default 10), each with its own dither draw; Table I gives its falls, spread and
 verdict (**FALLS** where a check walk fell). The ten best-scored gaits of the whole run (learning
-phase and refinement included) are checked the same way: of those that held, the one whose
-check walks went farthest becomes fastest_gait.json; when none held, the steadiest, marked as
+phase and refinement included) are checked the same way: of those that held, the one whose worst
+check walk went farthest becomes fastest_gait.json; when none held, the steadiest, marked as
 falling in its notes and in the summary.
 
 Writes, as each row finishes and after the refinement: table1.csv and table1.md, gala-pc0.8.png

@@ -110,10 +110,10 @@ class EpisodeRunner:
     ) -> EpisodeResult:
         """Walk ``genes`` (of the config's family, or a ``Gait``) once, from ``start`` (x, y,
         heading) if given, else from the config's. ``seed`` seeds the agent's command dither where
-        the config asks for one (``EpisodeConfig.command_noise``); otherwise no outcome depends on it: the physics is
-        deterministic and the walking agent uses no vision, the only noisy sensor. ``trace`` (or
-        the runner's own ``trace``) adds the walk's drift, turn and track to the result
-        (``EpisodeResult.track``); what the walk does is the same either way."""
+        the config asks for one (``EpisodeConfig.command_noise``); otherwise no outcome depends on
+        it: the physics is deterministic and the walking agent uses no vision, the only noisy
+        sensor. ``trace`` (or the runner's own ``trace``) adds the walk's drift, turn and track to
+        the result (``EpisodeResult.track``); what the walk does is the same either way."""
         gait = genes if isinstance(genes, Gait) else family_named(self.config.family).gait(genes)
         config = self.config if start is None else self.config.starting_at(start)
         if seed is not None and config.command_noise > 0:

@@ -59,9 +59,12 @@ def sideways_drift(track: Sequence[TracePoint], heading_deg: float) -> float:
     along ``heading_deg`` through where it stood in the first traced state."""
     if len(track) < 2:
         return 0.0
-    h = math.radians(heading_deg)
-    dx, dy = track[-1].x - track[0].x, track[-1].y - track[0].y
-    return -dx * math.sin(h) + dy * math.cos(h)
+    return left_of(track[-1].x - track[0].x, track[-1].y - track[0].y, math.radians(heading_deg))
+
+
+def left_of(dx: float, dy: float, heading_rad: float) -> float:
+    """How far a displacement (dx, dy) lies to the left (+) of the direction ``heading_rad``."""
+    return -dx * math.sin(heading_rad) + dy * math.cos(heading_rad)
 
 
 #: A traced walk's track keeps every this many monitor states (0.2 s at the servers' 0.04 s) and the
@@ -117,7 +120,7 @@ class Judge:
             speed = distance / t if t > 0 else 0.0
             fitness = 10.0 * distance
             if self.config.drift_penalty:
-                drift = -(x - sx) * math.sin(self._heading) + (y - sy) * math.cos(self._heading)
+                drift = left_of(x - sx, y - sy, self._heading)  # what ``sideways_drift`` gives a traced walk
                 fitness = 10.0 * (distance - self.config.drift_penalty * abs(drift))
             self.result = EpisodeResult(distance, fell, t, fitness, speed, **self._shape())
 
