@@ -71,27 +71,25 @@ def main() -> None:
             )
             for k in range(n)
         ]
-        print(
-            f"VisionSensor.see, {n:2d} robot(s)        : "
-            f"{_us(lambda: sensor.see((-1.0, 0.0, 0.55), rot, 'left', (0, 0, 0.042), robots), 500):7.2f} us"
-        )
+        seen = _us(lambda robots=robots: sensor.see((-1.0, 0.0, 0.55), rot, "left", (0, 0, 0.042), robots), 500)
+        print(f"VisionSensor.see, {n:2d} robot(s)        : {seen:7.2f} us")
 
+    ball = (0, 0, 0.042)
     for n in (1, 22):
         robots = [_robot(rng, k) for k in range(n)]
         header = GameHeader(1.0, "PlayOn", team_left="A", team_right="B")
         scene = MonitorScene()
-        print(
-            f"MonitorScene.full, {n:2d} robot(s)       : {_us(lambda: scene.full(header, robots, (0, 0, 0.042)), 200):7.1f} us"
-        )
-        print(
-            f"MonitorScene.delta, {n:2d} still         : {_us(lambda: scene.delta(header, robots, (0, 0, 0.042)), 2000):7.1f} us"
-        )
+        full = _us(lambda scene=scene, header=header, robots=robots: scene.full(header, robots, ball), 200)
+        print(f"MonitorScene.full, {n:2d} robot(s)       : {full:7.1f} us")
+        still = _us(lambda scene=scene, header=header, robots=robots: scene.delta(header, robots, ball), 2000)
+        print(f"MonitorScene.delta, {n:2d} still         : {still:7.1f} us")
         moving = [[_robot(rng, k) for k in range(n)] for _ in range(2)]
         flip = iter(range(10**9))
-        print(
-            f"MonitorScene.delta, {n:2d} all moving    : "
-            f"{_us(lambda: scene.delta(header, moving[next(flip) % 2], (0, 0, 0.042)), 200):7.1f} us"
-        )
+
+        def delta(scene=scene, header=header, moving=moving, flip=flip):
+            return scene.delta(header, moving[next(flip) % 2], ball)
+
+        print(f"MonitorScene.delta, {n:2d} all moving    : {_us(delta, 200):7.1f} us")
 
 
 if __name__ == "__main__":

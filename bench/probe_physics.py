@@ -12,7 +12,7 @@ it falls from 11, 10 and 10 of them, by the start's timing): in how many the sta
 the real server falls, and its distance against the real one where both walk. ``flail``: 24
 robots driven by random motor speeds (normal, ``--sigma`` rad/s, new every 0.2 s) for 20 s; a
 torso faster than 5 m/s counts as a blow-up. ``name=value`` overrides a ``PhysicsConfig`` field
-(JSON value), e.g. ``sub_steps=3 slip=0.006``. Uses both cores.
+(JSON value), e.g. ``slip=0.006 contact_erp=0.3``. Uses both cores.
 """
 
 from __future__ import annotations

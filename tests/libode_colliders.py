@@ -18,7 +18,7 @@ import numpy as np
 
 FIXTURE = Path(__file__).resolve().parent / "data" / "libode" / "plane_contacts.json"
 
-#: the stand-in's shape kinds (``server_stub.physics.ode_kernels``): box, sphere, capsule
+#: the stand-in's shape kinds (``server_stub.physics.collision``): box, sphere, capsule
 BOX, SPHERE, CAPSULE = "box", "sphere", "capsule"
 
 _D = ctypes.c_double

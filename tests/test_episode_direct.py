@@ -71,22 +71,6 @@ def test_direct_episodes_walk_as_the_socket_path_does() -> None:
     assert max(distance for distance, _, _ in outcomes) > 5.0
 
 
-@pytest.mark.slow
-def test_direct_episodes_walk_as_the_socket_path_does_on_the_ode_backend(monkeypatch) -> None:
-    """The opt-in backend reads the robots differently (its own solver); the same holds there."""
-    monkeypatch.setenv("NAO_STUB_PHYSICS", "ode")
-    gaits = {name: params for name, params in _gaits().items() if name in ("shipped", "line-10", "random-033")}
-    walks = {}
-    for mode in ("direct", "socket"):
-        with EpisodeRunner(EpisodeConfig(embedded_stub=mode), trace=True) as runner:
-            for name, params in gaits.items():
-                result = runner.evaluate(params)
-                assert result.status == "ok", result.reason
-                walks[mode, name] = (result.distance, result.fell, result.time, result.fitness, runner.last_trace)
-    for name in gaits:
-        assert walks["direct", name] == walks["socket", name], name
-
-
 def test_a_dithered_walk_is_the_same_on_both_paths_and_its_seed_decides_it() -> None:
     """The agent's command dither (``EpisodeConfig.command_noise``, seeded per episode) reaches the
     agent alike on the direct path and over sockets: the same seed walks the same to the last bit,

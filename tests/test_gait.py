@@ -14,10 +14,10 @@ from gait import (
     DEFAULT_GAIT_PATH,
     GENE_BOUNDS,
     GENE_NAMES,
+    TFS,
     GaitFileError,
     LegAngles,
     TFSGait,
-    TFS,
     TFSParams,
     leg_joint_targets,
     load_gait,
@@ -147,17 +147,20 @@ def test_gait_file_round_trip(tmp_path) -> None:
         ('{"format": "other"}', "format"),
         ('{"format": "tfs-gait/1", "params": {"c_h": 1}}', "missing parameters"),
         (
-            '{"format": "tfs-gait/1", "units": {"t2": "ms"}, "params": {"c_h": 15, "c_k": 30, "A": 10, "B": 10, "C": 20, "t2": 0.35, "w": 15.7}}',
+            '{"format": "tfs-gait/1", "units": {"t2": "ms"}, '
+            '"params": {"c_h": 15, "c_k": 30, "A": 10, "B": 10, "C": 20, "t2": 0.35, "w": 15.7}}',
             "units",
         ),
         (
-            '{"format": "tfs-gait/1", "params": {"c_h": 15, "c_k": -3, "A": 10, "B": 10, "C": 20, "t2": 0.35, "w": 15.7}}',
+            '{"format": "tfs-gait/1", '
+            '"params": {"c_h": 15, "c_k": -3, "A": 10, "B": 10, "C": 20, "t2": 0.35, "w": 15.7}}',
             "c_k",
         ),
         ('{"format": "gait/2", "family": "hexapod", "params": {}}', "unknown gait family 'hexapod'; known: tfs"),
         ('{"format": "gait/2", "family": "tfs", "params": {"c_h": "15"}}', "missing parameters"),
         (
-            '{"format": "gait/2", "family": "tfs", "params": {"c_h": "a", "c_k": 30, "A": 10, "B": 10, "C": 20, "t2": 0.35, "w": 15.7}}',
+            '{"format": "gait/2", "family": "tfs", '
+            '"params": {"c_h": "a", "c_k": 30, "A": 10, "B": 10, "C": 20, "t2": 0.35, "w": 15.7}}',
             "c_h must be a finite number",
         ),
     ],

@@ -17,21 +17,21 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from server_stub.config import PhysicsConfig
-from server_stub.physics import ode_kernels
+from server_stub.physics import collision
 from server_stub.physics.rotations import rotation_into
 from tests.conftest import missing_real_server_part
 from tests.libode_colliders import BOX, CAPSULE, FIXTURE, SPHERE, LibOde, random_pose
 
-_KINDS = {BOX: ode_kernels.BOX, SPHERE: ode_kernels.SPHERE, CAPSULE: ode_kernels.CAPSULE}
+_KINDS = {BOX: collision.BOX, SPHERE: collision.SPHERE, CAPSULE: collision.CAPSULE}
 
 
 def _ours(case: dict) -> list[tuple[np.ndarray, float]]:
     if case["kind"] == BOX:  # on libode's own rotation matrix, so near-ties break the same way
-        points, depths = ode_kernels.box_plane(
+        points, depths = collision.box_plane(
             np.array(case["centre"]), np.array(case["rotation"]), np.array(case["size"]), case["max_points"]
         )
     else:
-        _, points, depths = ode_kernels.ground_contacts(
+        _, points, depths = collision.ground_contacts(
             np.array([0], dtype=np.int64),
             np.array([_KINDS[case["kind"]]], dtype=np.int64),
             np.array([case["size"]], dtype=float),
@@ -71,9 +71,9 @@ def test_a_foot_landing_on_its_edge_gets_three_points_not_the_far_corner():
     centre = np.array([-4.95067, -0.05272, 0.002466])
     quat = np.array([0.10657, -0.01095, -0.73022, 0.67477])
     size = np.array([0.08, 0.16, 0.02])
-    _, points, depths = ode_kernels.ground_contacts(
+    _, points, depths = collision.ground_contacts(
         np.array([0], dtype=np.int64),
-        np.array([ode_kernels.BOX], dtype=np.int64),
+        np.array([collision.BOX], dtype=np.int64),
         size[None],
         centre[None],
         quat[None] / np.linalg.norm(quat),

@@ -110,7 +110,7 @@ def test_a_wrong_field_names_its_position_and_what_was_expected(first20: list[st
     bad = edit(first20[0])
     assert bad != first20[0]
     with pytest.raises(ProtocolError) as info:
-        parse_perception(bad).vision  # a See's numbers are checked on first use
+        _ = parse_perception(bad).vision  # a See's numbers are checked on first use
     assert info.value.expected == expected
     assert expected in str(info.value) and str(info.value.position) in str(info.value)
     assert info.value.position is not None and 0 <= info.value.position <= len(bad)
@@ -125,7 +125,7 @@ def test_a_see_is_read_on_first_use(first20: list[str]) -> None:
     p = parse_perception(bad)
     assert p.joints == parse_perception(text).joints and p.time == 552.90  # the rest is read at once
     with pytest.raises(ProtocolError, match="F1L"):
-        p.vision
+        _ = p.vision
     other_form = parse_perception(text.replace("(pol 18.68 53.47 -4.95)", "(pol 1.868e1 +53.47 -4.95)"))
     assert other_form.vision is not None and other_form.vision.objects["F1L"] == Polar(18.68, 53.47, -4.95)
     # the layout is checked at once: an entry of unknown shape inside See goes to the slow path

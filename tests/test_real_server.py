@@ -240,7 +240,7 @@ def test_an_error_in_the_owner_stops_its_server(rcssserver3d: str) -> None:
         with EpisodeRunner(EpisodeConfig(walk_time=1.0), server) as runner:
             assert runner.evaluate(load_gait(DEFAULT_GAIT_PATH)).status == "ok"
             pid = server.pid
-            1 / 0
+            raise ZeroDivisionError("the caller fails inside the block")
     assert server.pid is None and _gone(pid)
 
 

@@ -205,7 +205,10 @@ def test_vision_order_inside_see_matches_the_fixture(fixtures_dir):
     ours = sensor.see(
         (-1.0, 0.0, 0.55), _upright_head(0.0), "left", (0, 0, 0.042), [SeenRobot("Probe", 1, {"rlowerarm": arm})]
     )
-    kinds = lambda text: re.findall(r"\((G\w+|F\w+|B|P|mypos|myorien|ballpos|L) ", text)
+
+    def kinds(text: str) -> list[str]:
+        return re.findall(r"\((G\w+|F\w+|B|P|mypos|myorien|ballpos|L) ", text)
+
     assert kinds(ours) == kinds(re.search(r"\(See .*?\)\)\)(?=\(HJ)", real).group(0))
 
 
@@ -444,7 +447,7 @@ def test_compiled_g_prints_what_python_prints(numbers):
     """The monitor's compiled %g (6 digits, C's rounding of the exact binary value) against
     Python's own %g, which uses C's rules: every kind of double, ties and powers of ten included.
     One number per row: a row with a number the kernel leaves to Python is printed by Python."""
-    assert g_rows(np.array(numbers)[:, None]) == ["%g" % v for v in numbers]
+    assert g_rows(np.array(numbers)[:, None]) == [format(v, "g") for v in numbers]
 
 
 def test_compiled_g_on_a_walking_robots_numbers():
@@ -456,7 +459,7 @@ def test_compiled_g_on_a_walking_robots_numbers():
             rng.normal(0, 1, (500, 16)) * 10.0 ** rng.integers(-20, 20, (500, 1)),
         ]
     )
-    assert g_rows(values) == [" ".join("%g" % v for v in row) for row in values.tolist()]
+    assert g_rows(values) == [" ".join(format(v, "g") for v in row) for row in values.tolist()]
 
 
 def test_robot_delta_has_the_real_shape(fixtures_dir):

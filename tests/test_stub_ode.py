@@ -1,9 +1,8 @@
-"""The "ode" physics backend (``server_stub.physics.ode_step``): its dynamics against Bullet's, its LCP
-solver, its ODE-style contacts, and the real server's standing numbers."""
+"""The stand-in's ODE step (``server_stub.physics``): its LCP solvers, ODE's colliders and contacts,
+the maximal bodies and their joint rows, islands of robots and the ball, and the real server's
+standing, walking and ball numbers."""
 
 from __future__ import annotations
-
-import dataclasses
 
 import numpy as np
 import pybullet as pb
@@ -11,83 +10,13 @@ import pytest
 
 from protocol.nao import JOINTS
 from server_stub.config import PhysicsConfig
-from server_stub.physics import calibration_walk, contact, ode_contacts, ode_island, ode_kernels, ode_maximal, ode_step
+from server_stub.physics import bodies, calibration_walk, collision, contact, island_step, robot_step, rows
+from server_stub.physics.integrate import gyroscopic_torque
+from server_stub.physics.solver import box_qp
 from server_stub.physics.world import World
+from tests.dense_step import dense_step
 
-#: the reduced-coordinate ODE step (the default is the maximal one, ``MAX`` below)
-ODE = dataclasses.replace(PhysicsConfig(), backend="ode", ode_maximal=False)
-
-
-def test_the_environment_picks_the_backend(monkeypatch):
-    monkeypatch.setenv("NAO_STUB_PHYSICS", "bullet")
-    assert PhysicsConfig().backend == "bullet"
-    monkeypatch.delenv("NAO_STUB_PHYSICS")
-    assert PhysicsConfig().backend == "ode"
-
-
-def test_free_flight_velocity_change_matches_bullets_multibody_step():
-    """M du = h Q with the kernel's mass matrix and forces gives Bullet's own step (no contacts,
-    motors off, no damping) for a tumbling robot with random joint rates; and u'Mu/2 is the
-    kinetic energy summed over the links."""
-    config = dataclasses.replace(PhysicsConfig(), linear_damping=0.0, angular_damping=0.0)
-    with World(config) as world:
-        robot = world.add_robot()
-        c, b = robot._client, robot.body_id
-        for link in range(-1, 22):
-            pb.changeDynamics(b, link, linearDamping=0.0, angularDamping=0.0, physicsClientId=c)
-        pb.setJointMotorControlArray(
-            b, list(range(22)), pb.VELOCITY_CONTROL, targetVelocities=[0.0] * 22, forces=[0.0] * 22, physicsClientId=c
-        )
-        rng = np.random.default_rng(1)
-        pb.resetBasePositionAndOrientation(
-            b, (0, 0, 3), pb.getQuaternionFromEuler(rng.normal(size=3) * 0.5), physicsClientId=c
-        )
-        pb.resetBaseVelocity(b, rng.normal(size=3).tolist(), (rng.normal(size=3) * 3).tolist(), physicsClientId=c)
-        rates = rng.normal(size=22) * 3
-        pb.resetJointStatesMultiDof(
-            b,
-            list(range(22)),
-            [[x] for x in rng.normal(size=22) * 0.5],
-            targetVelocities=[[x] for x in rates],
-            physicsClientId=c,
-        )
-        static = ode_step._Static(c, b, world._ground)
-        position, orientation = pb.getBasePositionAndOrientation(b, physicsClientId=c)
-        v0, w0 = pb.getBaseVelocity(b, physicsClientId=c)
-        links = pb.getLinkStates(
-            b, static.indices, computeLinkVelocity=1, computeForwardKinematics=1, physicsClientId=c
-        )
-        coms = np.array([position] + [s[0] for s in links])
-        quats = np.array([orientation] + [s[1] for s in links])
-        m, q, _ = ode_kernels.dynamics(
-            static.masses,
-            static.principal,
-            static.chains,
-            static.parents,
-            static.joint_of,
-            static.local_axes,
-            coms,
-            quats,
-            np.array([s[4] for s in links]),
-            np.array(v0),
-            np.array(w0),
-            rates,
-            np.array([0.0, 0.0, -9.81]),
-            0.0,
-            0.0,
-        )
-        u = np.concatenate([v0, w0, rates])
-        energy = 0.0
-        for k, (mass, moments) in enumerate(zip(static.masses, static.principal)):
-            quat, v, w = (orientation, v0, w0) if k == 0 else (links[k - 1][1], links[k - 1][6], links[k - 1][7])
-            r = np.array(pb.getMatrixFromQuaternion(quat)).reshape(3, 3)
-            energy += 0.5 * mass * np.dot(v, v) + 0.5 * np.array(w) @ r @ np.diag(moments) @ r.T @ np.array(w)
-        assert 0.5 * u @ m @ u == pytest.approx(energy, rel=1e-6)
-        predicted = np.linalg.solve(m, q) * 0.02
-        pb.stepSimulation(physicsClientId=c)
-        v1, w1 = pb.getBaseVelocity(b, physicsClientId=c)
-        rates1 = [s[1] for s in pb.getJointStates(b, static.indices, physicsClientId=c)]
-        assert np.abs(np.concatenate([v1, w1, rates1]) - u - predicted).max() < 1e-4
+MAX = PhysicsConfig()
 
 
 @pytest.mark.parametrize("seed", range(20))
@@ -101,7 +30,7 @@ def test_box_qp_solves_the_boxed_lcp_exactly(seed):
     lo = np.where(kind == 0, -np.inf, np.where(kind == 1, 0.0, -rng.uniform(0.1, 2, size=n)))
     hi = np.where(kind == 0, np.inf, np.where(kind == 1, np.inf, rng.uniform(0.1, 2, size=n)))
     state = rng.integers(-1, 2, size=n).astype(np.int64)  # any guess, even a wrong one
-    x, _ = ode_kernels.box_qp(a, b, lo, hi, state)
+    x, _ = box_qp(a, b, lo, hi, state)
     w = a @ x - b
     tol = 1e-7 * (1 + np.abs(b).max())
     assert np.all(x >= lo - 1e-12) and np.all(x <= hi + 1e-12)
@@ -112,7 +41,7 @@ def test_box_qp_solves_the_boxed_lcp_exactly(seed):
 
 
 def _contacts(kind, size, centre, quat=(0.0, 0.0, 0.0, 1.0)):
-    return ode_kernels.ground_contacts(
+    return collision.ground_contacts(
         np.array([0], dtype=np.int64),
         np.array([kind], dtype=np.int64),
         np.array([size], dtype=float),
@@ -124,7 +53,7 @@ def _contacts(kind, size, centre, quat=(0.0, 0.0, 0.0, 1.0)):
 
 def test_ground_contacts_follow_odes_plane_colliders():
     # a flat foot 1 mm into the ground: its 4 sole corners, nothing above
-    bodies, points, depths = _contacts(ode_kernels.BOX, (0.08, 0.16, 0.02), (0.0, 0.0, 0.009))
+    bodies, points, depths = _contacts(collision.BOX, (0.08, 0.16, 0.02), (0.0, 0.0, 0.009))
     assert len(bodies) == 4 and np.allclose(depths, 0.001)
     assert sorted(map(tuple, np.round(points[:, :2], 3))) == [
         (-0.04, -0.08),
@@ -133,15 +62,15 @@ def test_ground_contacts_follow_odes_plane_colliders():
         (0.04, 0.08),
     ]
     # just above: no contact at all (ODE makes none for separated geometry)
-    assert len(_contacts(ode_kernels.BOX, (0.08, 0.16, 0.02), (0.0, 0.0, 0.0101))[0]) == 0
+    assert len(_contacts(collision.BOX, (0.08, 0.16, 0.02), (0.0, 0.0, 0.0101))[0]) == 0
     # a heel strike: only the corners that reach the ground
     tilt = pb.getQuaternionFromEuler((0.2, 0.0, 0.0))
-    bodies, points, depths = _contacts(ode_kernels.BOX, (0.08, 0.16, 0.02), (0.0, 0.0, 0.025), tilt)
+    bodies, points, depths = _contacts(collision.BOX, (0.08, 0.16, 0.02), (0.0, 0.0, 0.025), tilt)
     assert len(bodies) == 2 and np.all(depths >= 0.0) and np.all(points[:, 1] < 0.0)
-    bodies, points, depths = _contacts(ode_kernels.SPHERE, (0.065, 0.065, 0.065), (1.0, 2.0, 0.06))
+    bodies, points, depths = _contacts(collision.SPHERE, (0.065, 0.065, 0.065), (1.0, 2.0, 0.06))
     assert len(bodies) == 1 and depths[0] == pytest.approx(0.005) and points[0] == pytest.approx([1.0, 2.0, -0.005])
     lying = pb.getQuaternionFromEuler((np.pi / 2, 0.0, 0.0))
-    bodies, points, depths = _contacts(ode_kernels.CAPSULE, (0.08, 0.015, 0.0), (0.0, 0.0, 0.014), lying)
+    bodies, points, depths = _contacts(collision.CAPSULE, (0.08, 0.015, 0.0), (0.0, 0.0, 0.014), lying)
     assert len(bodies) == 2 and np.allclose(depths, 0.001)
 
 
@@ -156,42 +85,6 @@ def _standing(config: PhysicsConfig):
     world.close()
 
 
-@pytest.fixture(scope="module")
-def standing():
-    yield from _standing(ODE)
-
-
-def test_standing_numbers_match_the_real_server(standing):
-    """docs/robot_and_server.md section 2: torso at 0.383 m, each foot 22.59 N; all 4 sole corners of each foot
-    carry load; nothing drifts."""
-    world, robot = standing
-    assert robot.torso_position()[2] == pytest.approx(0.383, abs=0.002)
-    pressure = robot.foot_pressure()
-    assert sorted(pressure) == ["lf", "rf"]
-    for _, force in pressure.values():
-        assert force[2] == pytest.approx(22.59, abs=0.1)
-    loaded = contact.loaded(robot.contact_points())
-    assert len(loaded) == 8
-    start = robot.torso_position()
-    for _ in range(100):
-        world.step()
-    assert np.allclose(robot.torso_position(), start, atol=1e-4)
-
-
-@pytest.mark.xfail(
-    reason="measured: the reduced-coordinate step falls from the calibration walk's own start, where "
-    "the real server walks 2.9-3.1 m (its bodies are re-placed from exact joints, so a foot lands a "
-    "cycle late); the default maximal step walks it (test_calibration_walk_on_the_maximal_step)",
-    strict=True,
-)
-def test_calibration_walk_on_the_reduced_step():
-    with World(ODE) as world:
-        result = calibration_walk.run(world)
-    assert not result.fell
-    assert result.dx == pytest.approx(3.0, rel=0.15)
-    assert abs(result.dy) <= 1.5 * 0.988
-
-
 def test_odes_box_plane_rule_counts_each_neighbour_from_the_deepest_corner():
     """A flat foot 1 mm deep, a hair off flat: 3 asked, the deepest corner and its two neighbours
     along the sole's sides (never the diagonal one), each as deep as the first less its side's
@@ -200,9 +93,9 @@ def test_odes_box_plane_rule_counts_each_neighbour_from_the_deepest_corner():
     tilt = pb.getQuaternionFromEuler((0.001, 0.002, 0.0))
 
     def contacts(asked):
-        return ode_kernels.ground_contacts(
+        return collision.ground_contacts(
             np.array([0], dtype=np.int64),
-            np.array([ode_kernels.BOX], dtype=np.int64),
+            np.array([collision.BOX], dtype=np.int64),
             np.array([[0.08, 0.16, 0.02]]),
             np.array([[0.0, 0.0, 0.009]]),
             np.array([tilt]),
@@ -224,16 +117,7 @@ def test_odes_box_plane_rule_counts_each_neighbour_from_the_deepest_corner():
     assert {tuple(np.sign(p[:2]).astype(int)) for p in points4} == {(-1, -1), (-1, 1), (1, -1), (1, 1)}
 
 
-# ----- the maximal-coordinate step (``PhysicsConfig.ode_maximal``, ``server_stub.physics.ode_maximal``) -----
-
-MAX = dataclasses.replace(PhysicsConfig(), backend="ode", ode_maximal=True)
-
-
-def _gaps(robot):
-    bodies, static = robot._ode_bodies, robot._ode_static
-    return ode_maximal.anchor_gaps(
-        static.parents, static.joint_of, bodies.pos, bodies.quat, bodies.anchor_child, bodies.anchor_parent
-    )
+# ----- the maximal-coordinate step (``tree_step``, ``bodies``, ``rows``) -----
 
 
 @pytest.fixture(scope="module")
@@ -242,27 +126,29 @@ def standing_max():
 
 
 def test_maximal_standing_numbers_match_the_real_server(standing_max):
-    """docs section 2: torso at 0.383 m, each foot 22.59 N, dead still; the hinges' anchor copies
-    stay together (the real server's monitor stream: 0.02 mm standing)."""
+    """docs section 2: torso at 0.383 m, each foot 22.59 N, all 4 sole corners of each foot
+    carrying load, dead still; the hinges' anchor copies stay together (the real server's monitor
+    stream: 0.02 mm standing)."""
     world, robot = standing_max
     assert robot.torso_position()[2] == pytest.approx(0.383, abs=0.002)
     pressure = robot.foot_pressure()
     assert sorted(pressure) == ["lf", "rf"]
     for _, force in pressure.values():
         assert force[2] == pytest.approx(22.59, abs=0.1)
+    assert len([c for c in robot.contact_points() if c[contact.NORMAL_FORCE] > 0.0]) == 8
     start = robot.torso_position()
     for _ in range(100):
         world.step()
     assert np.allclose(robot.torso_position(), start, atol=1e-4)
     assert np.abs(robot.gyro()).max() < 0.05
-    assert _gaps(robot).max() < 5e-5
+    assert world.anchor_gaps(robot).max() < 5e-5
 
 
 def _free_robot(seed):
     """A tumbling robot's bodies (exact joints, random angles and rates) and its static data."""
     world = World(MAX)
     robot = world.add_robot()
-    c, b = robot._client, robot.body_id
+    c, b = world._client, robot.body_id
     rng = np.random.default_rng(seed)
     pb.resetBasePositionAndOrientation(
         b, (0, 0, 3), pb.getQuaternionFromEuler(rng.normal(size=3) * 0.5), physicsClientId=c
@@ -275,26 +161,26 @@ def _free_robot(seed):
         targetVelocities=[[x] for x in rng.normal(size=22) * 3],
         physicsClientId=c,
     )
-    static = ode_step._Static(c, b, world._ground, robot.robot_type)
+    static = robot_step.RobotModel(c, b, world._ground, robot.robot_type)
     position, orientation = pb.getBasePositionAndOrientation(b, physicsClientId=c)
     v0, w0 = pb.getBaseVelocity(b, physicsClientId=c)
-    links = pb.getLinkStates(b, static.indices, computeForwardKinematics=1, physicsClientId=c)
+    links = pb.getLinkStates(b, list(range(22)), computeForwardKinematics=1, physicsClientId=c)
     coms = np.array([position] + [s[0] for s in links])
     quats = np.array([orientation] + [s[1] for s in links])
     anchors = np.array([s[4] for s in links])
-    rates = np.array([s[1] for s in pb.getJointStates(b, static.indices, physicsClientId=c)])
-    angles = np.array([s[0] for s in pb.getJointStates(b, static.indices, physicsClientId=c)])
-    vel, spin = ode_maximal.body_velocities(
+    rates = np.array([s[1] for s in pb.getJointStates(b, list(range(22)), physicsClientId=c)])
+    angles = np.array([s[0] for s in pb.getJointStates(b, list(range(22)), physicsClientId=c)])
+    vel, spin = bodies.body_velocities(
         static.parents, static.joint_of, static.local_axes, coms, quats, anchors, np.array(v0), np.array(w0), rates
     )
-    child, parent = ode_maximal.local_anchors(static.parents, static.joint_of, coms, quats, anchors)
+    child, parent = bodies.local_anchors(static.parents, static.joint_of, coms, quats, anchors)
     world.close()
     return static, coms, quats, vel, spin, child, parent, angles, rates
 
 
 def _free_step(static, coms, quats, vel, spin, child, parent, gravity=0.0, erp=0.2, implicit=True):
     none = np.zeros(0)
-    return ode_maximal.step(
+    return dense_step(
         static.masses,
         static.principal,
         static.parents,
@@ -335,7 +221,7 @@ def test_maximal_bodies_measure_the_joint_angles_pybullet_holds():
     """dJointGetHingeAngle and its rate, from the bodies placed by pybullet's exact joints, give
     pybullet's angles and rates back."""
     static, coms, quats, vel, spin, _, _, angles, rates = _free_robot(3)
-    measured, measured_rates = ode_maximal.measure(quats, spin, static.parents, static.joint_of, static.local_axes)
+    measured, measured_rates = bodies.measure(quats, spin, static.parents, static.joint_of, static.local_axes)
     assert np.allclose(measured, angles, atol=1e-9)
     assert np.allclose(measured_rates, rates, atol=1e-9)
 
@@ -377,7 +263,7 @@ def test_maximal_free_flight_keeps_momentum_and_loses_no_more_than_the_gyroscopi
 
 
 def _free_gaps(static, state, child, parent):
-    return ode_maximal.anchor_gaps(static.parents, static.joint_of, state[0], state[1], child, parent)
+    return bodies.anchor_gaps(static.parents, static.joint_of, state[0], state[1], child, parent)
 
 
 def test_maximal_joint_rows_pull_a_drifted_anchor_back_by_the_world_erp():
@@ -401,9 +287,9 @@ def test_odes_implicit_gyroscopic_torque_tends_to_the_explicit_one_for_small_ste
     inertia = np.diag([3.6e-6, 2e-4, 2e-4])
     w = np.array([1.0, 20.0, 5.0])
     explicit = -np.cross(w, inertia @ w)
-    assert np.allclose(ode_maximal.gyroscopic_torque(inertia, w, 1e-7, True), explicit, rtol=1e-4, atol=1e-7)
-    assert np.allclose(ode_maximal.gyroscopic_torque(inertia, w, 0.02, False), explicit)
-    implicit = ode_maximal.gyroscopic_torque(inertia, w, 0.02, True)
+    assert np.allclose(gyroscopic_torque(inertia, w, 1e-7, True), explicit, rtol=1e-4, atol=1e-7)
+    assert np.allclose(gyroscopic_torque(inertia, w, 0.02, False), explicit)
+    implicit = gyroscopic_torque(inertia, w, 0.02, True)
     assert np.linalg.norm(implicit) < 0.9 * np.linalg.norm(explicit)
 
 
@@ -412,18 +298,15 @@ def test_calibration_walk_on_the_maximal_step():
     2.91-3.14 m); every hinge's anchor copies stay within 1 cm and the knees part by millimetres,
     as the real server's do on walking gaits (3-6 mm on the 13.26 m gait)."""
     gaps = []
-    original = ode_step.apply
+    with World(MAX) as world:
+        step = world.step
 
-    def apply(robot, solved):
-        original(robot, solved)
-        gaps.append(_gaps(robot))
+        def stepped():
+            step()
+            gaps.extend(world.anchor_gaps(robot) for robot in world.robots)
 
-    ode_step.apply = apply
-    try:
-        with World(MAX) as world:
-            result = calibration_walk.run(world)
-    finally:
-        ode_step.apply = original
+        world.step = stepped
+        result = calibration_walk.run(world)
     assert not result.fell
     assert result.dx == pytest.approx(3.0, rel=0.15)
     assert abs(result.dy) <= 1.5 * 0.988
@@ -447,24 +330,24 @@ def test_maximal_step_keeps_a_flailing_robot_together():
                 for joint, speed in zip(JOINTS, rng.normal(size=22) * 3.0):
                     robot.command(joint.effector, float(speed))
             world.step()
-            worst_speed = max(worst_speed, float(np.linalg.norm(robot._base_motion()[0])))
-            worst_gap = max(worst_gap, float(_gaps(robot).max()))
+            worst_speed = max(worst_speed, float(np.linalg.norm(robot.stored_motion()[0])))
+            worst_gap = max(worst_gap, float(world.anchor_gaps(robot).max()))
     assert worst_speed < 5.0
     assert worst_gap < 0.02
 
 
 def test_the_tree_solve_equals_the_dense_solve(monkeypatch):
-    """``ode_maximal.step_tree`` (Baraff's tree elimination, the bounded rows on a Schur
-    complement) gives ``step``'s velocities and contact forces (one dense LCP) on a flailing
+    """``tree_step.step_tree`` (Baraff's tree elimination, the bounded rows on a Schur
+    complement) gives ``tests.dense_step``'s velocities and contact forces (one dense LCP) on a flailing
     robot: stops hit, feet and hands on the ground, motors at their torque limit; to rounding."""
-    tree = ode_maximal.step_tree
+    tree = robot_step.step_tree
     worst = [0.0, 0.0]
     limits = [0]
 
     def both(*args):
         args = list(args)
         state = args[24].copy()
-        dense = ode_maximal.step(*args)
+        dense = dense_step(*args)
         args[24] = state
         out = tree(*args)
         worst[0] = max(worst[0], np.abs(out[2] - dense[2]).max(), np.abs(out[3] - dense[3]).max())
@@ -473,7 +356,7 @@ def test_the_tree_solve_equals_the_dense_solve(monkeypatch):
         limits[0] += int(np.sum(np.abs(out[6]) >= 9.999))
         return out
 
-    monkeypatch.setattr(ode_maximal, "step_tree", both)
+    monkeypatch.setattr(robot_step, "step_tree", both)
     rng = np.random.default_rng(4)
     with World(MAX) as world:
         robot = world.add_robot()
@@ -501,16 +384,15 @@ def test_a_beam_moves_the_maximal_bodies_rigidly_and_keeps_the_joints_drift():
                 for joint, speed in zip(JOINTS, rng.normal(size=22) * 4.0):
                     robot.command(joint.effector, float(speed))
             world.step()
-        before = _gaps(robot)
-        bodies = robot._ode_bodies
-        centre = bodies.pos[0].copy()
+        before = world.anchor_gaps(robot)
+        centre = world.physics_of(robot).bodies.pos[0].copy()
         robot.beam(-6.0, -1.0, 45.0)
         world.step()
-        after = _gaps(robot)
+        after = world.anchor_gaps(robot)
     worst = int(np.argmax(before))
     assert before[worst] > 1e-4
     assert after[worst] > 0.5 * before[worst]
-    assert np.linalg.norm(robot._ode_bodies.pos[0] - centre) > 3.0
+    assert np.linalg.norm(world.physics_of(robot).bodies.pos[0] - centre) > 3.0
 
 
 def test_moving_bodies_rigidly_keeps_their_relative_poses():
@@ -518,7 +400,7 @@ def test_moving_bodies_rigidly_keeps_their_relative_poses():
     coms = coms + np.random.default_rng(0).normal(size=coms.shape) * 1e-3  # drifted bodies
     gaps = _free_gaps(static, (coms, quats), child, parent)
     new_orientation = np.array(pb.getQuaternionFromEuler((0.0, 0.0, 0.7)))
-    ode_maximal.move_rigidly(coms, quats, coms[0].copy(), quats[0].copy(), np.array([1.0, 2.0, 0.4]), new_orientation)
+    bodies.move_rigidly(coms, quats, coms[0].copy(), quats[0].copy(), np.array([1.0, 2.0, 0.4]), new_orientation)
     assert np.allclose(coms[0], [1.0, 2.0, 0.4])
     assert abs(abs(quats[0] @ new_orientation) - 1.0) < 1e-12
     assert np.allclose(_free_gaps(static, (coms, quats), child, parent), gaps, atol=1e-12)
@@ -537,23 +419,21 @@ def test_after_a_beam_the_torso_feels_the_drag_of_its_velocity_before_it():
             robot.beam(-3.0, 2.0, 0.0)
             for _ in range(40):
                 world.step()
-            robot._ode_bodies.spin[0] = (0.0, 0.0, spin)
+            world.physics_of(robot).bodies.spin[0] = (0.0, 0.0, spin)
             robot.beam(-3.0, 2.0, 0.0)
             world.step()
-            yaw.append(robot._base_motion()[1][2])
+            yaw.append(robot.stored_motion()[1][2])
     change = yaw[1] - yaw[0]
     assert -0.1 < change < -1e-4
 
 
-# ----- contacts besides the ground (ode_contacts, ode_island) -----
-
-NO_CONTACTS = dataclasses.replace(MAX, ode_contacts=False)
+# ----- contacts besides the ground (``driver``, ``island_step``) -----
 
 
 def test_the_island_solve_equals_the_tree_solve_for_one_robot(monkeypatch):
-    """``ode_island.step_island`` (a forest, per-contact normals and surfaces) on one flailing
+    """``island_step.step_island`` (a forest, per-contact normals and surfaces) on one flailing
     robot's bodies and ground contacts gives ``step_tree``'s velocities and forces, to rounding."""
-    tree = ode_maximal.step_tree
+    tree = robot_step.step_tree
     worst = [0.0, 0.0]
 
     def both(*args):
@@ -565,7 +445,7 @@ def test_the_island_solve_equals_the_tree_solve_for_one_robot(monkeypatch):
         roots = parents.copy()
         roots[0] = -1
         none = np.zeros(0, dtype=np.int64)
-        island = ode_island.step_island(
+        island = island_step.step_island(
             *(masses, principal, roots, joint_of, axes, ac, ap, pos, quat, vel, spin, g),
             *(np.full(nb, dl), np.full(nb, da), dv, ds, gyro, target, lo, hi, push, state),
             *(cb, cp, np.tile([0.0, 0.0, 1.0], (nc, 1)), cd, np.tile([cerp, ccfm, slip, 0.0, np.inf], (nc, 1))),
@@ -589,7 +469,7 @@ def test_the_island_solve_equals_the_tree_solve_for_one_robot(monkeypatch):
             worst[1] = max(worst[1], np.abs(out[4] - island[4]).max())
         return out
 
-    monkeypatch.setattr(ode_maximal, "step_tree", both)
+    monkeypatch.setattr(robot_step, "step_tree", both)
     rng = np.random.default_rng(4)
     with World(MAX) as world:
         robot = world.add_robot()
@@ -606,13 +486,13 @@ def test_the_island_solve_equals_the_tree_solve_for_one_robot(monkeypatch):
 def test_surfaces_combine_as_simspark_mixes_them():
     """Mean where both colliders set a value, the one side's where one does, ODE's world value
     where neither does (odecontactjointhandler.cpp)."""
-    s = ode_contacts._Surfaces(MAX)
+    s = rows.Surfaces(MAX)
     assert np.allclose(s.robot_ball, [0.55, (1e-4 + 0.05) / 2, (5e-3 + 0.6) / 2, 0.8, 0.8])
     assert np.allclose(s.robot_static, [0.6, 1e-4, 5e-3, 0.8, 2.0])
     assert np.allclose(s.ball_static, [0.5, 0.05, 0.6, 0.8, 1.4])
     assert np.allclose(s.ball_ground, [0.35, 0.05, (0.6 + 5e-3) / 2, 0.8, 0.8])
     assert np.allclose(s.robot_robot[:3], [0.6, 1e-4, 5e-3]) and np.isinf(s.robot_robot[4])
-    assert ode_contacts.surface((None,) * 5, (None,) * 5, MAX)[0] == MAX.ode_joint_erp
+    assert rows.surface((None,) * 5, (None,) * 5, MAX)[0] == MAX.ode_joint_erp
 
 
 def _two_robots(config, gap):
@@ -625,44 +505,34 @@ def _two_robots(config, gap):
 
 def test_two_robots_beamed_into_each_other_are_pushed_apart():
     """Beamed 0.25 m apart face to face (the lower arms 5 cm inside each other), the two robots
-    push each other out within 10 steps to the surface layer (1 mm) and stay out; without the
-    contacts they stand inside each other."""
-    deepest = {}
-    for name, config in (("contacts", MAX), ("none", NO_CONTACTS)):
-        world, a, b = _two_robots(config, 0.25)
-        with world:
-            depths = []
-            for step in range(60):
-                if step >= 10:
-                    points = pb.getClosestPoints(a.body_id, b.body_id, 0.0, physicsClientId=world._client)
-                    depths.append(min([p[8] for p in points], default=0.0))
-                world.step()
-            deepest[name] = min(depths)
-    assert deepest["none"] < -0.04
-    assert deepest["contacts"] > -0.003
+    push each other out within 10 steps to the surface layer (1 mm) and stay out."""
+    world, a, b = _two_robots(MAX, 0.25)
+    with world:
+        depths = []
+        for step in range(60):
+            if step == 1 or step >= 10:
+                points = pb.getClosestPoints(a.body_id, b.body_id, 0.0, physicsClientId=world._client)
+                depths.append(min([p[8] for p in points], default=0.0))
+            world.step()
+    assert depths[0] < -0.04  # inside each other after the beam
+    assert min(depths[1:]) > -0.003
 
 
 def test_two_robots_walking_into_each_other_do_not_pass_through():
     """Both walk the calibration gait towards each other from 0.6 m: their torsos never come
-    closer than 0.12 m (the torso is 0.1 m deep) and they do not swap sides; without contacts they
-    walk through each other."""
-    crossed = {}
-    for name, config in (("contacts", MAX), ("none", NO_CONTACTS)):
-        world, a, b = _two_robots(config, 0.6)
-        with world:
-            closest = np.inf
-            for cycle in range(400):
-                calibration_walk._act(a, cycle * 0.02)
-                calibration_walk._act(b, cycle * 0.02)
-                world.step()
-                pa, pb_ = np.array(a.torso_position()), np.array(b.torso_position())
-                if min(pa[2], pb_[2]) > 0.25:  # both up
-                    closest = min(closest, float(np.linalg.norm(pa[:2] - pb_[:2])))
-            crossed[name] = a.torso_position()[0] > b.torso_position()[0]
-        if name == "contacts":
-            assert closest > 0.12
-    assert crossed["none"]
-    assert not crossed["contacts"]
+    closer than 0.12 m (the torso is 0.1 m deep) and they do not swap sides."""
+    world, a, b = _two_robots(MAX, 0.6)
+    with world:
+        closest = np.inf
+        for cycle in range(400):
+            calibration_walk._act(a, cycle * 0.02)
+            calibration_walk._act(b, cycle * 0.02)
+            world.step()
+            pa, pb_ = np.array(a.torso_position()), np.array(b.torso_position())
+            if min(pa[2], pb_[2]) > 0.25:  # both up
+                closest = min(closest, float(np.linalg.norm(pa[:2] - pb_[:2])))
+        assert a.torso_position()[0] < b.torso_position()[0]
+    assert closest > 0.12
 
 
 def test_the_ball_and_the_robot_push_each_other_with_equal_and_opposite_impulses():
@@ -722,19 +592,14 @@ def test_a_robot_walking_into_the_ball_pushes_it_and_feels_it():
 
 def test_a_robot_beamed_into_a_goal_post_is_pushed_out():
     """A robot beamed with its chest 3 cm inside the front of the right goal's side box (SimSpark's
-    goal.rsg: 0.6 x 0.04 x 0.8 m from the goal line) is pushed back out of it; without the contacts
-    it stays in."""
-    x = {}
-    for name, config in (("contacts", MAX), ("none", NO_CONTACTS)):
-        with World(config) as world:
-            robot = world.add_robot()
+    goal.rsg: 0.6 x 0.04 x 0.8 m from the goal line) is pushed back out of it."""
+    with World(MAX) as world:
+        robot = world.add_robot()
+        world.step()
+        robot.beam(15.0 - 0.03, 1.07, 0.0)
+        for _ in range(50):
             world.step()
-            robot.beam(15.0 - 0.03, 1.07, 0.0)
-            for _ in range(50):
-                world.step()
-            x[name] = robot.torso_position()[0]
-    assert x["none"] > 14.965
-    assert x["contacts"] < 14.96
+        assert robot.torso_position()[0] < 14.96
 
 
 def test_the_ball_bounces_off_a_goal_post_and_rolls_on_the_ground():
@@ -786,8 +651,8 @@ def test_flailing_robots_tangled_together_do_not_blow_up():
                         robot.command(joint.effector, float(speed))
             world.step()
             for robot in robots:
-                worst_speed = max(worst_speed, float(np.linalg.norm(robot._base_motion()[0])))
-                worst_gap = max(worst_gap, float(_gaps(robot).max()))
+                worst_speed = max(worst_speed, float(np.linalg.norm(robot.stored_motion()[0])))
+                worst_gap = max(worst_gap, float(world.anchor_gaps(robot).max()))
                 touched += any(c[2] in ids for c in robot.contact_points())
     assert touched > 50
     assert worst_speed < 5.0
@@ -798,14 +663,14 @@ def test_a_robot_touching_only_the_ground_takes_the_per_robot_path(monkeypatch):
     """Alone on the field (the ball far off), every step of a robot is ``step_tree``'s: the island
     solve runs for the ball only."""
     calls = []
-    island = ode_island.step_island
+    island = island_step.step_island
 
     def counted(*args):
         calls.append(args[0].shape[0])
         return island(*args)
 
     with World(MAX) as world:
-        monkeypatch.setattr(ode_island, "step_island", counted)  # after the warm-up
+        monkeypatch.setattr(island_step, "step_island", counted)  # after the warm-up
         robot = world.add_robot()
         robot.beam(-3.0, 0.0, 0.0)
         for cycle in range(100):
@@ -862,7 +727,7 @@ def test_the_ball_follows_the_real_servers_recorded_path(case, ball, velocity, b
 
 def test_robots_beamed_onto_one_spot_are_pushed_apart_in_reasonable_time():
     """Four robots beamed onto one spot (hundreds of contact points; at most
-    ``ode_contacts.MAX_PAIR_POINTS`` kept a pair, the island solved by block pivoting): ten steps
+    ``driver.MAX_PAIR_POINTS`` kept a pair, the island solved by block pivoting): ten steps
     take seconds, not minutes (measured 0.05 s a step; 165 s for the first before), and the
     robots spread out."""
     import time

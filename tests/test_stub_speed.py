@@ -2,28 +2,26 @@
 they may change how fast a step is, never a bit of what it computes.
 
 - ``Robot.hold``: pybullet gives back exactly what the step wrote into it (centre, velocities,
-  hinge angles and rates; its motors, never stepped, report no torque), so the sensors and the
+  hinge angles and rates), so the sensors and the
   next step read the held numbers instead of asking pybullet;
 - ``Robot.keep_unwritten``: a lone walker's state is written into pybullet only when pybullet is
   asked (``Robot.sync``), its orientation read as pybullet rebuilds it (``rotations.read_back``,
   ``rotations.stored_matrix``: pybullet's own numbers, to the last bit);
-- ``ode_step.prepare_maximal`` on a held robot equals the same preparation from pybullet's state;
-- ``ode_maximal._mat_mul3`` is numba's ``@`` (OpenBLAS's dgemm) to the last bit.
+- ``linalg.mat_mul3`` is numba's ``@`` (OpenBLAS's dgemm) to the last bit.
 """
 
 from __future__ import annotations
-
-import dataclasses
 
 import numpy as np
 import pybullet as pb
 from numba import njit
 
 from server_stub.config import PhysicsConfig
-from server_stub.physics import calibration_walk, ode_maximal, ode_step, rotations
+from server_stub.physics import calibration_walk, rotations
+from server_stub.physics.linalg import mat_mul3
 from server_stub.physics.world import World
 
-MAX = dataclasses.replace(PhysicsConfig(), backend="ode", ode_maximal=True, ode_contacts=True)
+MAX = PhysicsConfig()
 
 
 def _walking_robot(world: World, cycles: int):
@@ -39,10 +37,11 @@ def _walking_robot(world: World, cycles: int):
 def test_a_held_robot_reads_what_pybullet_gives_back() -> None:
     with World(MAX) as world:
         for robot in _walking_robot(world, 150):
-            assert robot.held and robot._unwritten is not None  # alone on the field: nothing written yet
-            angles, rates, torques = robot._joint_state()
-            velocity, spin = robot._base_motion()
-            position, rotation, orientation = robot._base_pose()
+            assert robot.held and robot.pending_write  # alone on the field: nothing written yet
+            angles, rates = robot.joint_state()
+            velocity, spin = robot.stored_motion()
+            position, orientation = robot.stored_pose()
+            rotation = tuple(robot.torso_rotation().ravel().tolist())
             robot.sync()
             assert (position, orientation) == pb.getBasePositionAndOrientation(
                 robot.body_id, physicsClientId=world._client
@@ -51,21 +50,7 @@ def test_a_held_robot_reads_what_pybullet_gives_back() -> None:
             states = pb.getJointStates(robot.body_id, list(range(22)), physicsClientId=world._client)
             assert angles.tolist() == [s[0] for s in states]
             assert rates.tolist() == [s[1] for s in states]
-            assert torques.tolist() == [s[3] for s in states] == [0.0] * 22
             assert (velocity, spin) == pb.getBaseVelocity(robot.body_id, physicsClientId=world._client)
-
-
-def test_preparing_a_held_robot_equals_preparing_it_from_pybullet() -> None:
-    with World(MAX) as world:
-        for robot in _walking_robot(world, 100):
-            static = ode_step.static_of(robot, world._ground, MAX)
-            held = ode_step.prepare_maximal(robot, static, MAX)
-            robot.held = False  # as if pybullet had been written by someone else
-            read = ode_step.prepare_maximal(robot, static, MAX)
-            robot.held = True
-            assert read.bodies is held.bodies
-            for a, b in zip(held[1:], read[1:]):
-                assert np.array_equal(a, b)
 
 
 def test_an_orientation_reads_back_as_pybullet_rebuilds_it() -> None:
@@ -104,14 +89,14 @@ def test_only_things_far_apart_skip_bullets_collision_pass(monkeypatch) -> None:
         passes.clear()
         for _ in range(5):
             world.step()
-        assert passes == [] and robot._unwritten is not None
+        assert passes == [] and robot.pending_write
 
 
 @njit
 def _mismatches(a: np.ndarray, b: np.ndarray) -> int:
     bad = 0
     for t in range(a.shape[0]):
-        if not np.array_equal(a[t] @ b[t], ode_maximal._mat_mul3(a[t], b[t])):
+        if not np.array_equal(a[t] @ b[t], mat_mul3(a[t], b[t])):
             bad += 1
     return bad
 

@@ -1,5 +1,5 @@
 #!/bin/sh
-# Apply the "sync profile" (shared/fixtures/rcssserver3d/README.md) to the scripts that the
+# Apply the "sync profile" (tests/data/rcssserver3d/README.md) to the scripts that the
 # rcssserver3d/simspark packages installed, at image build time.
 #
 # Why edit the installed scripts instead of shipping a ~/.simspark overlay: an overlay would be

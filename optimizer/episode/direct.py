@@ -154,8 +154,6 @@ class DirectStub:
 
     def __init__(self, seed: int = 0) -> None:
         self.seed = seed
-        # PhysicsConfig() now: its backend comes from the environment (NAO_STUB_PHYSICS), read when
-        # the stub starts, as a stub process started now would read it
         self.sim = Simulation(ServerConfig(sync=True, realtime=False, beam_noise=False, seed=seed), PhysicsConfig())
         #: the monitor reader's knowledge, kept across episodes as a trainer's connection keeps it
         self._view = _TorsoView()

@@ -1,2 +1,6 @@
-"""The stand-in's physics: the world, the robot (model, motors, slip), the two step backends
-(Bullet, and the ODE-like ``ode_step``), pose maths, and the calibration walk's replay."""
+"""The stand-in's physics, by stage: the world (``world``) and its robots (``robot``, ``motors``,
+``nao_model``), the per-cycle driver (``driver``), collision (``collision``), the maximal bodies
+(``bodies``), constraint rows (``rows``), solvers (``solver``), integration (``integrate``), one
+robot's step and an island's (``robot_step``, ``tree_step``, ``island_step``), the small linear
+algebra they share (``linalg``, ``rotations``), contacts as the sensors read them (``contact``),
+and the calibration walk's replay (``calibration_walk``)."""

@@ -4,15 +4,14 @@ Where the contact model lives (docs/robot_and_server.md section 4):
 
 - its settings, each with the source of its value: ``server_stub.config.PhysicsConfig`` (the
   "contacts" block);
-- how contacts are made and solved: the "ode" backend's ground contacts and LCP
-  (``server_stub.physics.ode_kernels``, ``ode_step``, ``ode_maximal``), or, on the "bullet"
-  backend, Bullet's own collision pass with force-dependent slip added beside its solver
-  (``server_stub.physics.slip``);
+- how contacts are made and solved: the ground's colliders (``server_stub.physics.collision``),
+  Bullet's collision pass for everything else (``driver``), their rows (``rows``) and the step's
+  LCP (``solver``);
 - what a robot reports of them: this module.
 
-Both backends leave each robot's contact points of the last step in pybullet's tuple layout
-(``pybullet.getContactPoints``; the "ode" backends fill it with their solved forces), so the
-sensors read one format. The field positions below name that layout.
+The step leaves each robot's contact points in pybullet's tuple layout
+(``pybullet.getContactPoints``), filled with the forces it solved, so the sensors read one format.
+The field positions below name that layout.
 """
 
 from __future__ import annotations
@@ -33,21 +32,12 @@ FRICTION_DIR_2 = 13
 Vec3 = tuple[float, float, float]
 
 
-def loaded(points: Iterable[Sequence]) -> list[Sequence]:
-    """The points that carried load in the last step: where ODE would have had a contact joint
-    (Bullet also keeps points a little apart, with no force)."""
-    return [c for c in points if c[NORMAL_FORCE] > 0.0]
-
-
-def link_pressure(
-    points: Iterable[Sequence], links: Mapping[int, str], extra_force: Mapping[int, Sequence[float]]
-) -> dict[int, tuple[Vec3, Vec3]]:
+def link_pressure(points: Iterable[Sequence], links: Mapping[int, str]) -> dict[int, tuple[Vec3, Vec3]]:
     """Per link of ``links`` that touches: (centre of pressure, total contact force), both in the
     world frame. A link touches when a point carries load or overlaps (ODE makes a contact for
     touching geometry, so a foot resting without load still counts: the real walk shows 7% of
     its FRPs under 1 N). The centre is the points' mean weighted by normal force (the plain mean
-    when none carries load); the force is the points' normal and friction forces plus
-    ``extra_force`` on the link (the "bullet" backend's slip, applied outside Bullet's solver)."""
+    when none carries load); the force is the points' normal and friction forces."""
     sums: dict[int, list[float]] = {}
     for c in points:
         normal = c[NORMAL_FORCE]
@@ -73,8 +63,7 @@ def link_pressure(
     result: dict[int, tuple[Vec3, Vec3]] = {}
     for link in sorted(sums):
         s = sums[link]
-        ex, ey, ez = extra_force.get(link, (0.0, 0.0, 0.0))
-        force = (s[0] + ex, s[1] + ey, s[2] + ez)
+        force = (s[0], s[1], s[2])
         if s[6] > 0.0:
             centre = (s[3] / s[6], s[4] / s[6], s[5] / s[6])
         else:

@@ -1,10 +1,10 @@
-"""The server's motor rule for one step (docs/robot_and_server.md sections 3), compiled.
+"""The server's motor rule for one step (docs/robot_and_server.md section 3), compiled.
 
 Every cycle each robot's 22 hinges go through the same few comparisons: which commands may act
-(only while the joint is strictly inside its range), which joints a stop drives back, which motors
-hit their torque limit in the last step. Written with numpy these were a dozen calls on 22-element
-arrays, about 30 us a cycle in numpy's per-call cost alone; here they are one compiled loop.
-``server_stub.physics.robot`` owns the state and calls this once per step.
+(only while the joint is strictly inside its range) and which joints a stop drives back. Written
+with numpy these were a dozen calls on 22-element arrays, about 30 us a cycle in numpy's per-call
+cost alone; here they are one compiled loop. ``server_stub.physics.robot`` owns the state and
+calls this once per step; the step turns its targets and forces into motor rows (``rows``).
 """
 
 from __future__ import annotations
@@ -14,45 +14,19 @@ from numba import njit
 
 
 @njit(cache=True)
-def motor_step(
-    angles,
-    rates,
-    torques,
-    lower,
-    upper,
-    due,
-    motor,
-    last_target,
-    last_force,
-    torque_limit,
-    stop_erp,
-    stop_bounce,
-    cycle,
-    stop_force,
-):
-    """This step's (target velocities, forces, yielding, load, changed).
+def motor_step(angles, rates, lower, upper, due, motor, torque_limit, stop_erp, stop_bounce, cycle, stop_force):
+    """This step's (target velocities, forces) of the 22 motor rows.
 
     ``due`` holds the commands that act now (NaN: none for that joint); a command reaches the
     sticky ``motor`` (updated in place) only for a joint strictly inside (``lower``, ``upper``).
-    A joint outside is driven back by its stop, as ODE's limit rows do: at the larger of the ERP
-    correction and the bounced incoming speed, with a force that always wins (docs/robot_and_server.md section 3:
-    hj1 at 100 rad/s into +120 alternates 119.5 / 126.5 deg). ``torques`` are what the motors applied
-    in the last step, whose targets and forces were ``last_target`` / ``last_force`` (empty before
-    the first step): a motor (not a stop) at 99% of its limit yields, and its torque is its load.
-    ``changed`` says whether targets or forces differ from the last step's, i.e. whether Bullet
-    needs to be told.
+    A joint outside is driven back by its stop, as ODE's limit rows are: at the larger of the ERP
+    correction and the bounced incoming speed, with a force that always wins
+    (docs/robot_and_server.md section 3: hj1 at 100 rad/s into +120 alternates 119.5 / 126.5 deg).
     """
     n = angles.shape[0]
     target = np.empty(n)
     force = np.empty(n)
-    yielding = np.zeros(n, dtype=np.bool_)
-    load = np.zeros(n)
-    first = last_force.shape[0] != n
-    changed = first
     for i in range(n):
-        if not first and last_force[i] <= torque_limit:
-            yielding[i] = abs(torques[i]) >= 0.99 * torque_limit
-            load[i] = torques[i]
         if lower[i] < angles[i] < upper[i]:
             if not np.isnan(due[i]):
                 motor[i] = due[i]
@@ -68,30 +42,13 @@ def motor_step(
             bounce = stop_bounce * max(-rates[i], 0.0)
             target[i] = bounce if bounce > correction else correction
             force[i] = stop_force
-        else:  # not a number: left to Bullet as it is
+        else:  # not a number: the motor keeps its target
             target[i] = motor[i]
             force[i] = torque_limit
-        if not first and (target[i] != last_target[i] or force[i] != last_force[i]):
-            changed = True
-    return target, force, yielding, load, changed
+    return target, force
 
 
 def warm_up() -> None:
     """Compile (or load from numba's disk cache) before the first step needs it."""
     one = np.zeros(1)
-    motor_step(
-        one,
-        one,
-        one,
-        np.full(1, -1.0),
-        np.ones(1),
-        np.full(1, np.nan),
-        np.zeros(1),
-        np.zeros(0),
-        np.zeros(0),
-        10.0,
-        0.8,
-        1.0,
-        0.02,
-        1e4,
-    )
+    motor_step(one, one, np.full(1, -1.0), np.ones(1), np.full(1, np.nan), np.zeros(1), 10.0, 0.8, 1.0, 0.02, 1e4)

@@ -11,7 +11,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from protocol.nao import JOINTS, SPEED_CAP
+
+#: Every hinge's range in radians, in ``JOINTS`` order (docs/robot_and_server.md section 3).
+JOINT_MIN = np.radians([j.min_deg for j in JOINTS])
+JOINT_MAX = np.radians([j.max_deg for j in JOINTS])
 
 Vec3 = tuple[float, float, float]
 

@@ -19,7 +19,8 @@ import pybullet as pb
 from protocol.nao import JOINTS
 from server_stub import field
 from server_stub.config import PhysicsConfig
-from server_stub.physics import contact, motors, nao_model, slip
+from server_stub.physics import contact, motors, nao_model
+from server_stub.physics.nao_model import JOINT_MAX, JOINT_MIN
 from server_stub.physics.rotations import body_poses, read_back, stored_matrix
 
 _N = len(JOINTS)
@@ -27,8 +28,6 @@ _N = len(JOINTS)
 _TORSO_HALF_SIZE = np.array([0.05, 0.05, 0.09])
 _EFFECTOR_INDEX: dict[str, int] = {j.effector: i for i, j in enumerate(JOINTS)}
 _PERCEPTORS = [j.perceptor for j in JOINTS]
-_MIN = np.radians([j.min_deg for j in JOINTS])
-_MAX = np.radians([j.max_deg for j in JOINTS])
 #: Torso height of a beamed robot (docs/robot_and_server.md section 6): the referee's agent radius.
 BEAM_HEIGHT = field.AGENT_RADIUS
 #: Force large enough to make the stop's velocity win against anything in one step.
@@ -54,12 +53,12 @@ class Robot:
         robot_type: int,
         config: PhysicsConfig,
         command_delay_steps: int = 1,
-        bullet_steps: bool = True,
+        on_move: Callable[[Robot], None] | None = None,
     ) -> None:
-        """``bullet_steps`` False: the stub's own ODE step moves this robot and pybullet only finds
-        its contacts (``ode_contacts.Stepper``), so Bullet's motors need not be set."""
+        """``on_move`` is told of every beam and trainer's move, after pybullet holds the new pose:
+        the physics moves the robot's bodies with it (``driver.Stepper.moved``)."""
         self.robot_type = robot_type
-        self._bullet_steps = bullet_steps
+        self._on_move = on_move
         #: 1: a command acts in the step after the next (the real server's latency, for callers
         #: that step right after commanding); 0: in the next step, for a server that produces the
         #: latency itself by sending each perception one step late (``server_stub.net.server``).
@@ -71,23 +70,17 @@ class Robot:
         self._caps = [float(c) for c in nao_model.speed_caps(robot_type)]
         self._caps_array = np.array(self._caps)
         self._neg_caps = -self._caps_array
-        self._no_torque = np.zeros(_N)
         names = [pb.getJointInfo(body, i, physicsClientId=client)[12].decode() for i in self._indices]
         self._part_names = ("torso", *names)
         self._link_index = {name: i for i, name in enumerate(names)}
         self._head_link = self._link_index["head"]
-        #: Tangential slip force applied to each link in the last sub-step (see before_substep).
-        self._slip_force: dict[int, list[float]] = {}
         self._foot_keys = {names.index(part): key for key, part in nao_model.FOOT_PARTS.items()}
         # rad/s by joint index, NaN where no command came
         self._requested = np.full(_N, np.nan)  # commands since the last step
         self._pending = np.full(_N, np.nan)  # commands to apply at the start of the next step
         self._motor = np.zeros(_N)  # sticky motor target velocities, rad/s
-        #: targets and forces Bullet was last given (none before the first step)
+        #: this step's motor targets and forces, the solve's motor rows (none before the first step)
         self._sent: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros(0))
-        self._yielding = np.zeros(_N, dtype=bool)  # motors at their torque limit in the last step
-        self._motor_load = np.zeros(_N)  # torque each motor applied in the last step (stops: 0)
-        self._slip_torque = np.zeros(_N)  # torque of the last step's slip forces about each hinge
         #: the torso's velocity now: after the last step, or 0 after a beam or a move
         self._velocity: tuple[float, ...] = (0.0, 0.0, 0.0)
         #: the accelerometer as SimSpark's (Accelerometer::PrePhysicsUpdateInternal): the reading
@@ -102,7 +95,6 @@ class Robot:
         #: a solved state not yet written into pybullet (``keep_unwritten``), or None
         self._unwritten: tuple | None = None
         self._invalidate()
-        self._skeleton = self._skeleton_of()
 
     # ----- commands -----
     def command(self, effector: str, velocity: float) -> None:
@@ -129,106 +121,41 @@ class Robot:
         # np.clip for finite numbers, without its checks
         np.minimum(np.maximum(velocities, self._neg_caps, out=self._requested), self._caps_array, out=self._requested)
 
-    # ----- the step, as ``World.step`` drives it: begin_step, then per physics sub-step
-    # before_substep / (the solve) / after_substep, then end_step -----
+    def motor_commands(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """This step's motor targets and forces (``server_stub.physics.motors``; empty before the
+        first step) and the sticky target speeds: what the step's motor rows are made of."""
+        target, force = self._sent
+        return target, force, self._motor
+
+    # ----- the step, as ``World.step`` drives it: begin_step, the solve (which ends in ``hold``),
+    # end_step -----
     def begin_step(self) -> None:
         """Read the accelerometer, apply last interval's commands (the latency rule) and set this
         step's motors (``server_stub.physics.motors``)."""
         if not self._new:
             self._sense_acceleration()
-        angles, rates, torques = self._joint_state()
+        angles, rates = self.joint_state()
         if self._delay:
             due, self._pending = self._pending, self._requested
         else:
             due = self._requested
         self._requested = _NO_COMMANDS.copy()
         cfg = self._config
-        last_target, last_force = self._sent
-        target, force, self._yielding, self._motor_load, changed = motors.motor_step(
+        self._sent = motors.motor_step(
             angles,
             rates,
-            torques,
-            _MIN,
-            _MAX,
+            JOINT_MIN,
+            JOINT_MAX,
             due,
             self._motor,
-            last_target,
-            last_force,
             cfg.motor_torque,
             cfg.stop_erp,
             cfg.stop_bounce,
             cfg.cycle,
             _STOP_FORCE,
         )
-        if changed:
-            if self._bullet_steps:
-                pb.setJointMotorControlArray(
-                    self._body,
-                    self._indices,
-                    pb.VELOCITY_CONTROL,
-                    targetVelocities=target.tolist(),
-                    forces=force.tolist(),
-                    physicsClientId=self._client,
-                )
-            self._sent = (target, force)
 
-    def before_substep(self) -> None:
-        """Force-dependent slip (docs/robot_and_server.md section 4; ``server_stub.physics.slip``) at
-        every contact point that carried load in the last step (ODE only makes contacts for touching geometry, while
-        Bullet also keeps points up to ``contact_breaking_threshold`` apart)."""
-        self._slip_force = {}
-        cfg = self._config
-        touching = contact.loaded(self._contacts())
-        if not touching or cfg.slip <= 0.0:
-            return
-        forces, self._slip_torque = slip.contact_forces(
-            self._skeleton,
-            self._state_for_slip(),
-            np.array([c[contact.LINK_A] + 1 for c in touching]),
-            np.array([c[contact.POSITION_ON_A] for c in touching]),
-            np.array([c[contact.NORMAL_ON_B] for c in touching]),
-            self._motor_load,
-            self._yielding,
-            self._slip_torque,
-            cfg.slip,
-            cfg.cycle / cfg.sub_steps,
-        )
-        for c, force in zip(touching, forces.tolist()):
-            link = c[contact.LINK_A]
-            pb.applyExternalForce(
-                self._body, link, force, c[contact.POSITION_ON_A], pb.WORLD_FRAME, physicsClientId=self._client
-            )
-            total = self._slip_force.setdefault(link, [0.0, 0.0, 0.0])
-            total[0] += force[0]
-            total[1] += force[1]
-            total[2] += force[2]
-
-    def _state_for_slip(self) -> slip.Pose:
-        """Every part's and hinge's place and motion now, as the slip model takes them."""
-        position, _, orientation = self._base_pose()
-        velocity, spin = self._base_motion()
-        table = np.vstack([position + orientation + position + velocity + spin, self._link_table()])
-        return slip.Pose(table[:, :3], table[:, 3:7], table[:, 10:13], table[:, 13:16], table[1:, 7:10])
-
-    def _skeleton_of(self) -> slip.Skeleton:
-        """Masses and principal moments of the parts (torso first), each hinge's axis in its
-        link's frame, and which hinges lie between each part and the torso."""
-        client, body = self._client, self._body
-        dynamics = [pb.getDynamicsInfo(body, link, physicsClientId=client) for link in [-1] + self._indices]
-        infos = [pb.getJointInfo(body, i, physicsClientId=client) for i in self._indices]
-        chains = np.zeros((_N + 1, _N), dtype=bool)
-        for link, info in zip(self._indices, infos):
-            chains[link + 1] = chains[info[16] + 1]
-            chains[link + 1, link] = True
-        return slip.Skeleton(
-            np.array([d[0] for d in dynamics]),
-            np.array([d[2] for d in dynamics]),
-            np.array([info[13] for info in infos]),
-            chains,
-            self._config.motor_torque,
-        )
-
-    def after_substep(self) -> None:
+    def _stepped(self) -> None:
         """The bodies moved: every cached reading is stale."""
         self._new = False
         self._invalidate()
@@ -256,7 +183,7 @@ class Robot:
         self._acc_view = None
 
     def _invalidate(self) -> None:
-        self._joints: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._joints: tuple[np.ndarray, np.ndarray] | None = None
         self._pose: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]] | None = None
         self._motion: tuple[tuple[float, ...], tuple[float, ...]] | None = None
         self._contact_points: tuple | None = None
@@ -271,9 +198,13 @@ class Robot:
     ) -> None:
         """A step's solved state, kept instead of written into pybullet: it is written (``sync``)
         only before pybullet is asked about this robot (a link's pose, a collision pass, a beam), so
-        a walker far from everything costs no pybullet call a cycle (a robot Bullet steps as well
-        is written at once, ``ode_step.apply``); ``hold`` follows."""
+        a walker far from everything costs no pybullet call a cycle; ``hold`` follows."""
         self._unwritten = (position, orientation, velocity, spin, angles, rates)
+
+    @property
+    def pending_write(self) -> bool:
+        """Whether a solved state waits to be written into pybullet (``keep_unwritten``)."""
+        return self._unwritten is not None
 
     def sync(self) -> None:
         """Write the kept state (``keep_unwritten``) into pybullet, as the step would have at once."""
@@ -299,18 +230,16 @@ class Robot:
         (it stores these numbers as they are, the orientation rebuilt from a matrix; its motors,
         never stepped, applied no torque), so that the sensors and the next step need not ask it;
         and the step's contacts, made when first asked for. Until the next step or a re-pose,
-        ``held`` says pybullet holds this, or will when written (``keep_unwritten``). A robot
-        Bullet steps as well keeps only the contacts: its motors' torques are Bullet's."""
-        self.after_substep()
+        ``held`` says pybullet holds this, or will when written (``keep_unwritten``)."""
+        self._stepped()
         self._contact_maker = contacts
-        if not self._bullet_steps:
-            self._joints = (angles, rates, self._no_torque)
-            self._motion = (velocity, spin)
-            self.held = True
-            if self._unwritten is not None:
-                position, orientation = self._unwritten[0], self._unwritten[1]
-                back = read_back(tuple(orientation))
-                self._pose = (tuple(position), stored_matrix(back), back)
+        self._joints = (angles, rates)
+        self._motion = (velocity, spin)
+        self.held = True
+        if self._unwritten is not None:
+            position, orientation = self._unwritten[0], self._unwritten[1]
+            back = read_back(tuple(orientation))
+            self._pose = (tuple(position), stored_matrix(back), back)
 
     # ----- placing -----
     def beam(self, x: float, y: float, heading_deg: float) -> None:
@@ -333,7 +262,7 @@ class Robot:
     def _reset(self, x: float, y: float, z: float, orientation) -> None:
         """Re-pose the body at rest (the accelerometer sees the stop at its next reading)."""
         client = self._client
-        angles = self._joint_state()[0]
+        angles = self.joint_state()[0]
         self.sync()
         pb.resetBasePositionAndOrientation(self._body, (x, y, z), orientation, physicsClientId=client)
         pb.resetBaseVelocity(self._body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=client)
@@ -342,23 +271,45 @@ class Robot:
         )
         self._invalidate()
         self._velocity = (0.0, 0.0, 0.0)
+        if self._on_move is not None:
+            self._on_move(self)
 
     # ----- sensors -----
-    def _joint_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(angles, rates, motor torques of the last step), cached until the next step."""
+    def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """(angles, rates) of the hinges in radians, cached until the next step."""
         if self._joints is None:
             self.sync()
             states = pb.getJointStates(self._body, self._indices, physicsClientId=self._client)
-            self._joints = (
-                np.array([s[0] for s in states]),
-                np.array([s[1] for s in states]),
-                np.array([s[3] for s in states]),
-            )
+            self._joints = (np.array([s[0] for s in states]), np.array([s[1] for s in states]))
         return self._joints
+
+    def stored_pose(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """The torso's (position, quaternion) as pybullet holds them."""
+        position, _, orientation = self._base_pose()
+        return position, orientation
+
+    def stored_motion(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """The torso's (velocity, spin) as pybullet holds them."""
+        return self._base_motion()
+
+    def link_frames(self) -> list[tuple]:
+        """pybullet's frame of every link (centre, orientation, ..., hinge anchor at index 4), from
+        its exact joints: where the step places the bodies before their first step."""
+        self.sync()
+        return pb.getLinkStates(self._body, self._indices, computeForwardKinematics=1, physicsClientId=self._client)
+
+    def link_frame(self, link: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """(centre, quaternion) of one link (-1: the torso) as pybullet holds it: where a contact
+        Bullet found on it lies in the link's frame."""
+        self.sync()
+        if link < 0:
+            return pb.getBasePositionAndOrientation(self._body, physicsClientId=self._client)
+        state = pb.getLinkState(self._body, link, computeForwardKinematics=1, physicsClientId=self._client)
+        return state[0], state[1]
 
     def _link_states(self) -> list[tuple]:
         """pybullet's state of every link (pose and velocity), cached until the next step: the
-        cameras, the monitor and the next step's slip model all read the same state."""
+        cameras and the monitor read the same state."""
         if self._links is None:
             self.sync()
             self._links = pb.getLinkStates(
@@ -372,14 +323,13 @@ class Robot:
 
     def _link_table(self) -> np.ndarray:
         """``_link_states`` as one array, a row per link: centre (3), orientation (4), frame origin
-        = hinge anchor (3), velocity (3), spin (3); built once per step for the slip model and the
-        monitor's poses."""
+        = hinge anchor (3), velocity (3), spin (3); built once per step for the monitor's poses."""
         if self._table is None:
             self._table = np.array([st[0] + st[1] + st[4] + st[6] + st[7] for st in self._link_states()])
         return self._table
 
     def _contacts(self) -> tuple:
-        """Every contact point of this robot after the last sub-step (pybullet's tuples)."""
+        """Every contact point of this robot after the last step (pybullet's tuples)."""
         if self._contact_points is None:
             if self._contact_maker is not None:
                 self._contact_points = self._contact_maker()
@@ -392,7 +342,7 @@ class Robot:
 
     def contact_points(self) -> tuple:
         """Every contact point of this robot after the last step, in pybullet's tuple layout
-        (fields named in ``server_stub.physics.contact``), whichever backend made them."""
+        (fields named in ``server_stub.physics.contact``), with the forces the step solved."""
         return self._contacts()
 
     def _base_pose(self) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
@@ -405,7 +355,7 @@ class Robot:
 
     def _base_motion(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
         """(velocity, angular velocity) of the torso in the world, cached until the next step:
-        the accelerometer, the gyro and the next step's slip model read the same state."""
+        the accelerometer and the gyro read the same state."""
         if self._motion is None:
             self.sync()
             self._motion = pb.getBaseVelocity(self._body, physicsClientId=self._client)
@@ -417,7 +367,7 @@ class Robot:
 
     def joint_degrees(self) -> list[float]:
         """``joint_angles``' values alone: what a reader that knows the order needs."""
-        return np.degrees(self._joint_state()[0]).tolist()
+        return np.degrees(self.joint_state()[0]).tolist()
 
     def x_extent(self) -> tuple[float, float]:
         """The lowest and highest field x the referee counts the robot as reaching: its torso box
@@ -452,7 +402,7 @@ class Robot:
         """FRP per foot that touches: (centre of pressure, total contact force), both in the
         foot's frame (origin at the foot centre, so the sole is z = -0.01), as
         ``contact.link_pressure`` sums them; a foot that does not touch is absent."""
-        touching = contact.link_pressure(self._contacts(), self._foot_keys, self._slip_force)
+        touching = contact.link_pressure(self._contacts(), self._foot_keys)
         if not touching:
             return {}
         states = self._link_states()

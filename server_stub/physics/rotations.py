@@ -1,5 +1,6 @@
-"""Quaternions to rotation matrices, compiled: the stub turns every body part's orientation into a
-matrix every cycle (the slip model) and every other cycle (the monitor's body-part poses)."""
+"""Quaternions to rotation matrices, compiled: the step turns every body's orientation into a matrix
+every cycle, and the monitor every body part's every other cycle; and the orientation pybullet
+gives back once handed a quaternion (``read_back``, ``stored_matrix``)."""
 
 from __future__ import annotations
 

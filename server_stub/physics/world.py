@@ -1,6 +1,10 @@
-"""The simulated world: a pybullet DIRECT client holding the field, the ball and the robots.
+"""The simulated world: the field, the ball and the robots, stepped one server cycle at a time.
 
-One ``step`` is one 0.02 s server cycle for everything in it (docs/robot_and_server.md sections 4).
+One ``step`` is one 0.02 s server cycle for everything in it (docs/robot_and_server.md section 4):
+the stand-in's own ODE step (``driver.Stepper``, which owns the physics state). A pybullet DIRECT
+client holds the bodies' shapes: it finds the contacts between robots, the ball and the field's
+boxes, gives the links' poses to the cameras and the monitor, and mirrors each robot's state, which
+the step writes into it only when pybullet is asked about the robot.
 The server built on top of this reads sensors from each ``Robot`` and forwards effector commands
 to ``Robot.command``; nothing here knows about sockets or message text.
 """
@@ -15,19 +19,14 @@ import pybullet as pb
 
 from server_stub import field
 from server_stub.config import PhysicsConfig
-from server_stub.physics import motors, nao_model, ode_contacts, ode_step, rotations, slip
+from server_stub.physics import bodies as kinematics
+from server_stub.physics import collision, driver, motors, nao_model, robot_step, rotations
 from server_stub.physics.robot import Robot
 
 #: docs/robot_and_server.md section 6: a new robot appears with its torso here, in the air.
 SPAWN_POSITION = (0.0, -1.0, 1.5)
-#: Thickness of the goal's posts, bar and net boxes (not given by the real server's files; thin).
-_GOAL_THICKNESS = 0.02
-#: Border walls: 1 m boxes about 10 m beyond the goal lines and 15 m beyond the side lines.
-_WALL_GAP_X = 10.0
-_WALL_GAP_Y = 15.0
-_WALL_SIZE = 1.0
-#: Half side of the ground box (m): the field, the gap to the walls and the walls themselves.
-_GROUND_HALF = field.LENGTH / 2 + _WALL_GAP_Y + _WALL_SIZE + 4.0
+#: Half side of the ground box (m): well beyond the border walls.
+_GROUND_HALF = field.LENGTH / 2 + 20.0
 #: Where removed robots wait, asleep, for the next robot of their type (``World.remove_robot``):
 #: far beyond the walls and the ground, one spot each.
 _PARKING = (500.0, 500.0, 50.0)
@@ -36,29 +35,6 @@ _PARKING_GAP = 5.0
 #: leaves a body (awake, never sleeping, wakeable).
 _PARK = pb.ACTIVATION_STATE_ENABLE_SLEEPING | pb.ACTIVATION_STATE_SLEEP | pb.ACTIVATION_STATE_DISABLE_WAKEUP
 _REVIVE = pb.ACTIVATION_STATE_WAKE_UP | pb.ACTIVATION_STATE_DISABLE_SLEEPING | pb.ACTIVATION_STATE_ENABLE_WAKEUP
-_SOLVERS = {"dantzig": pb.CONSTRAINT_SOLVER_LCP_DANTZIG, "pgs": pb.CONSTRAINT_SOLVER_LCP_SI}
-
-
-def _static_boxes() -> list[tuple[tuple[float, float, float], tuple[float, float, float]]]:
-    """(half extents, centre) of every static box: both goals (posts, bar, sides, back) and walls."""
-    t = _GOAL_THICKNESS / 2
-    half_w = field.GOAL_WIDTH / 2
-    h = field.GOAL_HEIGHT / 2
-    boxes = []
-    for side in (-1.0, 1.0):
-        line = side * field.LENGTH / 2
-        for y in (-half_w - t, half_w + t):
-            boxes.append(((t, t, h), (line + side * t, y, h)))  # post on the goal line
-            boxes.append(((field.GOAL_DEPTH / 2, t, h), (line + side * field.GOAL_DEPTH / 2, y, h)))  # side net
-        boxes.append(((t, half_w, t), (line + side * t, 0.0, field.GOAL_HEIGHT + t)))  # crossbar
-        boxes.append(((t, half_w, h), (line + side * (field.GOAL_DEPTH + t), 0.0, h)))  # back net
-    wall_x = field.LENGTH / 2 + _WALL_GAP_X
-    wall_y = field.WIDTH / 2 + _WALL_GAP_Y
-    half = _WALL_SIZE / 2
-    for side in (-1.0, 1.0):
-        boxes.append(((half, wall_y, half), (side * (wall_x + half), 0.0, half)))
-        boxes.append(((wall_x, half, half), (0.0, side * (wall_y + half), half)))
-    return boxes
 
 
 class World:
@@ -81,40 +57,29 @@ class World:
         self._robots: list[Robot] = []
         #: removed robots' bodies by robot type, kept for the next robot of that type
         self._parked: dict[int, list[int]] = {}
-        self._configure_engine()
+        self._configure_collision()
         self._build_field()
-        slip.warm_up()
-        if config.backend == "ode":
-            ode_step.warm_up()
+        robot_step.warm_up()
         rotations.warm_up()
         motors.warm_up()
 
-    def _configure_engine(self) -> None:
-        cfg = self.config
-        c = self._client
-        pb.setGravity(0.0, 0.0, cfg.gravity, physicsClientId=c)
+    def _configure_collision(self) -> None:
+        """pybullet never steps this world; it finds the contacts between robots, the ball and the
+        field's boxes (``driver``). Its pairs in a fixed order, so equal runs find equal points."""
         pb.setPhysicsEngineParameter(
-            fixedTimeStep=cfg.cycle / cfg.sub_steps,
-            numSubSteps=1,
-            numSolverIterations=cfg.solver_iterations,
-            globalCFM=cfg.global_cfm,
-            contactBreakingThreshold=cfg.contact_breaking_threshold,
-            contactSlop=cfg.contact_slop,
+            contactBreakingThreshold=self.config.contact_breaking_threshold,
             deterministicOverlappingPairs=1,
-            constraintSolverType=_SOLVERS[cfg.solver],
-            physicsClientId=c,
+            physicsClientId=self._client,
         )
 
     def _build_field(self) -> None:
         c = self._client
-        # The ground is a thick box, not a plane: Bullet's box-box collider gives all 4 corners
-        # of a flat foot at once, as ODE's box-plane collider does, while its convex-plane one
-        # adds one point per step, so with one step per cycle a standing robot rocked on 2.
+        # The ground collides with nothing in Bullet (the step makes ground contacts itself,
+        # ``collision.ground_contacts``); it is the body a ground contact names.
         ground = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[_GROUND_HALF, _GROUND_HALF, 1.0], physicsClientId=c)
         self._ground = pb.createMultiBody(0.0, ground, basePosition=(0.0, 0.0, -1.0), physicsClientId=c)
-        maximal = self.config.backend == "ode" and self.config.ode_maximal and self.config.ode_contacts
-        # the maximal step collides robots and ball with the boxes SimSpark's field has
-        boxes = ode_contacts.static_boxes() if maximal else _static_boxes()
+        # robots and ball collide with the boxes SimSpark's field has
+        boxes = collision.static_boxes()
         shapes = pb.createCollisionShapeArray(
             [pb.GEOM_BOX] * len(boxes),
             halfExtents=[b[0] for b in boxes],
@@ -126,16 +91,7 @@ class World:
         self._ball = pb.createMultiBody(
             field.BALL_MASS, ball_shape, basePosition=(0.0, 0.0, field.BALL_RADIUS), physicsClientId=c
         )
-        pb.changeDynamics(
-            self._ball,
-            -1,
-            linearDamping=self.config.linear_damping,
-            angularDamping=self.config.angular_damping,
-            physicsClientId=c,
-        )
-        self._ode_stepper = (
-            ode_contacts.Stepper(self.config, c, self._ground, self._ball, self._static) if maximal else None
-        )
+        self._stepper = driver.Stepper(self.config, c, self._ground, self._ball, self._static)
 
     # ----- robots -----
     def add_robot(self, robot_type: int = 0) -> Robot:
@@ -151,36 +107,18 @@ class World:
             self._revive(body)
         else:
             body = self._load(robot_type)
-        bullet_steps = self._ode_stepper is None
-        robot = Robot(self._client, body, robot_type, self.config, self.command_delay_steps, bullet_steps)
+        robot = Robot(self._client, body, robot_type, self.config, self.command_delay_steps, self._stepper.moved)
+        self._stepper.add(robot)
         self._robots.append(robot)
         return robot
 
     def _load(self, robot_type: int) -> int:
-        cfg = self.config
-        c = self._client
-        body = pb.loadURDF(
+        return pb.loadURDF(
             self._urdf_file(robot_type),
             basePosition=SPAWN_POSITION,
             flags=pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_MAINTAIN_LINK_ORDER,
-            physicsClientId=c,
+            physicsClientId=self._client,
         )
-        for link in range(-1, pb.getNumJoints(body, physicsClientId=c)):
-            pb.changeDynamics(
-                body,
-                link,
-                lateralFriction=cfg.lateral_friction,
-                rollingFriction=cfg.rolling_friction,
-                spinningFriction=cfg.spinning_friction,
-                restitution=cfg.restitution,
-                contactStiffness=cfg.contact_stiffness,
-                contactDamping=cfg.contact_damping,
-                linearDamping=cfg.linear_damping,
-                angularDamping=cfg.angular_damping,
-                jointDamping=0.0,
-                physicsClientId=c,
-            )
-        return body
 
     def _revive(self, body: int) -> None:
         """A parked body as ``loadURDF`` leaves one: torso at the spawn point, upright, every joint
@@ -198,7 +136,7 @@ class World:
     def _urdf_file(self, robot_type: int) -> str:
         if robot_type not in self._urdf:
             path = Path(self._tmp.name) / f"nao{robot_type}.urdf"
-            path.write_text(nao_model.urdf(robot_type, self.config.inertia_floor))
+            path.write_text(nao_model.urdf(robot_type))
             self._urdf[robot_type] = str(path)
         return self._urdf[robot_type]
 
@@ -206,6 +144,7 @@ class World:
         """Take ``robot`` off the field: its body is parked asleep far away, out of every step's
         work and every other body's reach, until ``add_robot`` reuses it."""
         self._robots.remove(robot)
+        self._stepper.forget(robot)
         robot.sync()  # a state kept from pybullet must not land on the parked body later
         c = self._client
         x, y, z = _PARKING
@@ -219,40 +158,30 @@ class World:
     def robots(self) -> tuple[Robot, ...]:
         return tuple(self._robots)
 
+    def physics_of(self, robot: Robot) -> robot_step.RobotPhysics:
+        """What the step keeps of ``robot``: its model and its bodies in maximal coordinates (the
+        diagnostics of tests and probes; the step owns them)."""
+        return self._stepper.physics_of(robot)
+
+    def anchor_gaps(self, robot: Robot) -> np.ndarray:
+        """How far apart each hinge's two anchor copies are (m), in ``JOINTS`` order: the joint
+        drift of ODE's maximal coordinates (the real server's knees part by 3-6 mm walking); zeros
+        before the robot's first step."""
+        physics = self.physics_of(robot)
+        model, bodies = physics.model, physics.bodies
+        if model is None or bodies is None:
+            return np.zeros(len(robot.joint_degrees()))
+        return kinematics.anchor_gaps(
+            model.parents, model.joint_of, bodies.pos, bodies.quat, bodies.anchor_child, bodies.anchor_parent
+        )
+
     # ----- time -----
     def step(self) -> None:
-        """One server cycle: motors from the commands of two cycles ago, then the physics
-        sub-steps, each after the contact slip forces of its start (``Robot.before_substep``)."""
+        """One server cycle: motors from the commands of two cycles ago (``Robot.begin_step``),
+        then one ODE step of every robot and the ball (``driver.Stepper``)."""
         for robot in self._robots:
             robot.begin_step()
-        if self.config.backend == "ode":
-            self._step_ode()
-            return
-        for _ in range(self.config.sub_steps):
-            for robot in self._robots:
-                robot.before_substep()
-            pb.stepSimulation(physicsClientId=self._client)
-            for robot in self._robots:
-                robot.after_substep()
-        self.time += self.config.cycle
-        for robot in self._robots:
-            robot.end_step()
-
-    def _step_ode(self) -> None:
-        """The "ode" backend's cycle (``server_stub.physics.ode_step``): each robot solved by the stub,
-        then Bullet steps the rest (the ball), and the robots get their solved state back. The
-        maximal step with ``ode_contacts`` solves the ball and every contact itself
-        (``server_stub.physics.ode_contacts``): Bullet only finds the contacts."""
-        if self._ode_stepper is not None:
-            self._ode_stepper.step(self._robots)
-            self.time += self.config.cycle
-            for robot in self._robots:
-                robot.end_step()
-            return
-        solved = [ode_step.solve(robot, self._ground, self.config) for robot in self._robots]
-        pb.stepSimulation(physicsClientId=self._client)
-        for robot, state in zip(self._robots, solved):
-            ode_step.apply(robot, state)
+        self._stepper.step(self._robots)
         self.time += self.config.cycle
         for robot in self._robots:
             robot.end_step()
@@ -262,8 +191,7 @@ class World:
         c = self._client
         pb.resetBasePositionAndOrientation(self._ball, pos, (0.0, 0.0, 0.0, 1.0), physicsClientId=c)
         pb.resetBaseVelocity(self._ball, vel, (0.0, 0.0, 0.0), physicsClientId=c)
-        if self._ode_stepper is not None:
-            self._ode_stepper.ball_moved()
+        self._stepper.ball_moved()
 
     def ball_position(self) -> tuple[float, float, float]:
         return tuple(pb.getBasePositionAndOrientation(self._ball, physicsClientId=self._client)[0])

@@ -1,9 +1,9 @@
-"""One ODE island of the maximal step (``PhysicsConfig.ode_maximal``, ``ode_contacts``): several
-robots and the ball that touch each other, solved together in one LCP, as ODE's dWorldStep solves
-every island of bodies connected by joints or contacts.
+"""One ODE island: several robots and the ball that touch each other, solved together in one LCP,
+as ODE's dWorldStep solves every island of bodies connected by joints or contacts (``driver``
+makes the islands).
 
-The kernel is ``ode_maximal.step_tree`` generalised (same facts, same Baraff 1996 tree solve, the
-same helpers of ``ode_maximal`` for the pieces they have in common):
+The kernel is ``tree_step.step_tree`` generalised (same facts, same Baraff 1996 tree solve, the
+same stages: ``rows``, ``solver``, ``integrate``):
 
 - the bodies form a forest (one tree per robot, torso at its root; the ball a tree of one body);
   ``parents`` is -1 at a root, and every parent's index is below its children's;
@@ -25,102 +25,30 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from server_stub.physics.ode_kernels import _cross, _plane_space, box_qp, free_system
-from server_stub.physics.ode_maximal import (
-    _advance,
-    _body_terms,
-    _bounded_rows,
-    _contact_c,
-    _contact_forces,
-    _contact_nodes,
-    _factor,
-    _free_velocities,
-    _hinge_nodes,
-    _schur,
-    _tree_solve,
-    _unbounded_rhs,
+from server_stub.physics.integrate import advance, body_terms, free_velocities
+from server_stub.physics.linalg import cross, plane_space
+from server_stub.physics.rows import (
+    BOUNCE,
+    BOUNCE_VEL,
+    CFM,
+    ERP,
+    SLIP,
+    bounded_rows,
+    contact_c,
+    contact_nodes,
+    hinge_nodes,
+    rows_sub,
 )
-
-#: columns of a surface row: soft ERP, soft CFM, slip, bounce, minimum bounce velocity (inf: none)
-ERP, CFM, SLIP, BOUNCE, BOUNCE_VEL = range(5)
-
-
-#: Islands with more bounded rows than this are solved by block principal pivoting first
-#: (``_block_pivot``), the active-set ``box_qp`` only finishing; smaller ones by ``box_qp`` alone.
-BLOCK_PIVOT_ROWS = 100
-#: Most block-pivoting passes before ``box_qp`` takes over from the last guess.
-BLOCK_PIVOT_PASSES = 40
-
-
-@njit(cache=True)
-def _block_pivot(a, b, lo, hi, state):
-    """The boxed LCP of ``box_qp`` (A symmetric positive definite) by block principal pivoting
-    (Judice and Pires): solve the free rows with the others at their bounds, then move every row
-    that breaks its bound or its sign condition at once; a few passes of LAPACK solves where the
-    active-set method changes one row per pass (hundreds in a pile of robots); when the count of
-    wrong rows stops falling, one row a pass (Murty's rule). ``state`` (in/out)
-    as ``box_qp``'s. Returns (x, converged, passes); not converged: ``state`` is the last guess."""
-    n = b.shape[0]
-    x = np.zeros(n)
-    passes = 0
-    best = n + 1
-    stalled = 0
-    for passes in range(1, BLOCK_PIVOT_PASSES + 1):
-        for i in range(n):
-            if state[i] < 0 and np.isfinite(lo[i]):
-                x[i] = lo[i]
-            elif state[i] > 0 and np.isfinite(hi[i]):
-                x[i] = hi[i]
-            else:
-                state[i] = 0
-        free = np.nonzero(state == 0)[0]
-        nf = free.size
-        if nf > 0:
-            sub, rhs = free_system(a, b, x, state, free)
-            sol = np.linalg.solve(sub, rhs)
-            for ii in range(nf):
-                x[free[ii]] = sol[ii]
-        w = a @ x - b
-        wrong = np.zeros(n, dtype=np.bool_)
-        for i in range(n):
-            if state[i] == 0:
-                wrong[i] = x[i] < lo[i] or x[i] > hi[i]
-            elif state[i] < 0:
-                wrong[i] = w[i] < 0.0
-            else:
-                wrong[i] = w[i] > 0.0
-        count = int(np.sum(wrong))
-        if count == 0:
-            return x, True, passes
-        if count < best:
-            best = count
-            stalled = 0
-        else:
-            stalled += 1
-        last = n - 1
-        while not wrong[last]:
-            last -= 1
-        for i in range(n):
-            # all at once; after 3 passes without fewer wrong rows, only the last wrong one
-            # (Murty's rule, finite for positive definite A)
-            if not wrong[i] or (stalled >= 3 and i != last):
-                continue
-            if state[i] == 0:
-                state[i] = -1 if x[i] < lo[i] else 1
-            else:
-                state[i] = 0
-    return x, False, passes
-
-
-@njit(cache=True)
-def _rows_sub(gb, gj, vel, out):
-    """out -= J v for the bounded rows (each on up to two bodies: gb, gj) and body velocities v."""
-    for r in range(out.shape[0]):
-        for x in range(2):
-            k = gb[r, x]
-            if k >= 0:
-                for a in range(6):
-                    out[r] -= gj[r, x, a] * vel[k, a]
+from server_stub.physics.solver import (
+    BLOCK_PIVOT_ROWS,
+    block_pivot,
+    box_qp,
+    contact_forces,
+    factor,
+    schur_complement,
+    tree_solve,
+    unbounded_rhs,
+)
 
 
 @njit(cache=True)
@@ -175,14 +103,14 @@ def step_island(
     nj = local_axes.shape[0]
     nc = c_point.shape[0]
     npc = p_point.shape[0]
-    rot, inv_inertia, force, dbody = _body_terms(
+    rot, inv_inertia, force, dbody = body_terms(
         masses, principal, quat, spin, gravity, drag_linear, drag_angular, drag_vel, drag_spin, h, implicit_gyro
     )
-    jc, jp, cj, motor_dir, child_of = _hinge_nodes(
+    jc, jp, cj, motor_dir, child_of = hinge_nodes(
         parents, joint_of, nj, rot, pos, anchor_child, anchor_parent, local_axes, push, force, h, joint_erp
     )
     # one-body contacts: friction nodes of the tree, normal rows bounded
-    jn, jf, tangents, contact_first, contact_next = _contact_nodes(nb, c_body, c_point, c_normal, pos)
+    jn, jf, tangents, contact_first, contact_next = contact_nodes(nb, c_body, c_point, c_normal, pos)
     cn = np.zeros(nc)
     for i in range(nc):
         k = c_body[i]
@@ -190,13 +118,13 @@ def step_island(
         for a in range(3):
             outgoing += jn[i, a] * vel[k, a] + jn[i, 3 + a] * spin[k, a]
         sf = c_surface[i]
-        cn[i] = _contact_c(sf[ERP], c_depth[i], surface_layer, h, sf[BOUNCE], sf[BOUNCE_VEL], outgoing)
+        cn[i] = contact_c(sf[ERP], c_depth[i], surface_layer, h, sf[BOUNCE], sf[BOUNCE_VEL], outgoing)
     # bounded rows: motors, one-body normals, then 3 rows per two-body contact; each acts on up
     # to two bodies (gb: body, -1 none; gj: its 6 Jacobian entries)
     nbd = nj + nc + 3 * npc
     gb = np.full((nbd, 2), -1, dtype=np.int64)
     gj = np.zeros((nbd, 2, 6))
-    bb, lo, hi, cfm_b = _bounded_rows(nbd, motor_target, motor_lo, motor_hi, motor_cfm)
+    bb, lo, hi, cfm_b = bounded_rows(nbd, motor_target, motor_lo, motor_hi, motor_cfm)
     for j in range(nj):
         k = child_of[j]
         gb[j, 0] = k
@@ -218,7 +146,7 @@ def step_island(
         k1 = p_body1[i]
         k2 = p_body2[i]
         normal = p_normal[i].copy()
-        t1, t2 = _plane_space(normal)
+        t1, t2 = plane_space(normal)
         p_tangents[i, 0] = t1
         p_tangents[i, 1] = t2
         arm1 = p_point[i] - pos[k1]
@@ -227,8 +155,8 @@ def step_island(
         for x in range(3):
             r = nj + nc + 3 * i + x
             d = normal if x == 0 else (t1 if x == 1 else t2)
-            g1 = _cross(arm1, d)
-            g2 = _cross(arm2, d)
+            g1 = cross(arm1, d)
+            g2 = cross(arm2, d)
             gb[r, 0] = k1
             gb[r, 1] = k2
             for a in range(3):
@@ -241,7 +169,7 @@ def step_island(
                 for a in range(3):
                     outgoing += gj[r, 0, a] * vel[k1, a] + gj[r, 0, 3 + a] * spin[k1, a]
                     outgoing += gj[r, 1, a] * vel[k2, a] + gj[r, 1, 3 + a] * spin[k2, a]
-                bb[r] = _contact_c(sf[ERP], p_depth[i], surface_layer, h, sf[BOUNCE], sf[BOUNCE_VEL], outgoing)
+                bb[r] = contact_c(sf[ERP], p_depth[i], surface_layer, h, sf[BOUNCE], sf[BOUNCE_VEL], outgoing)
                 lo[r] = 0.0
                 cfm_b[r] = sf[CFM]
             else:
@@ -249,17 +177,17 @@ def step_island(
                 lo[r] = -np.inf
                 cfm_b[r] = sf[SLIP]
             hi[r] = np.inf
-    free = _free_velocities(vel, spin, force, masses, inv_inertia, h)
+    free = free_velocities(vel, spin, force, masses, inv_inertia, h)
     # factor H from the leaves to the roots
-    dinv_body, dinv_joint, dinv_contact = _factor(
+    dinv_body, dinv_joint, dinv_contact = factor(
         parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, c_surface[:, SLIP].copy(), joint_cfm
     )
-    bj, bf = _unbounded_rhs(parents, joint_of, c_body, jc, jp, jf, cj, free)
-    _rows_sub(gb, gj, free, bb)
+    bj, bf = unbounded_rhs(parents, joint_of, c_body, jc, jp, jf, cj, free)
+    rows_sub(gb, gj, free, bb)
     yb = np.zeros((nb, 6))
     yj = bj.copy()
     yf = bf.copy()
-    _tree_solve(
+    tree_solve(
         nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, yb, yj, yf
     )
     # the bounded rows' Jacobians on their bodies and the union of their paths to the roots
@@ -285,14 +213,14 @@ def step_island(
             if mark[k]:
                 path_b[r, len_b[r]] = k
                 len_b[r] += 1
-    schur = _schur(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b)
-    _rows_sub(gb, gj, yb, bb)
+    schur = schur_complement(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b)
+    rows_sub(gb, gj, yb, bb)
     state = np.zeros(nbd, dtype=np.int64)
     for j in range(nj):
         state[j] = motor_state[j]
     converged = False
     if nbd > BLOCK_PIVOT_ROWS:
-        lam_b, converged, iterations = _block_pivot(schur, bb, lo, hi, state)
+        lam_b, converged, iterations = block_pivot(schur, bb, lo, hi, state)
     if not converged:
         lam_b, iterations = box_qp(schur, bb, lo, hi, state)
     for j in range(nj):
@@ -304,11 +232,11 @@ def step_island(
             if k >= 0:
                 for a in range(6):
                     rb[k, a] += gj[r, x, a] * lam_b[r]
-    _tree_solve(
+    tree_solve(
         nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, bj, bf
     )
-    out_pos, out_quat, out_vel, out_spin = _advance(pos, quat, free + rb, h)
-    forces = _contact_forces(lam_b, nj, bf)
+    out_pos, out_quat, out_vel, out_spin = advance(pos, quat, free + rb, h)
+    forces = contact_forces(lam_b, nj, bf)
     p_forces = np.empty((npc, 3))
     for i in range(npc):
         for x in range(3):

@@ -1,6 +1,7 @@
-"""Contacts besides the ground for the maximal step (``PhysicsConfig.ode_maximal`` with
-``ode_contacts``): robot-robot, robot-ball, robot-goal/border and ball-goal/border, made and
-solved as SimSpark and ODE make and solve them, and the ball as a body of the stub's own solve.
+"""The per-cycle driver of the step (``Stepper``): it keeps what the step knows of every robot and
+the ball, finds the contacts besides the ground (robot-robot, robot-ball, robot-goal/border and
+ball-goal/border) as SimSpark and ODE make them, groups touching bodies into islands and solves
+each: a robot alone on the ground by ``robot_step``, an island by ``island_step``.
 
 Facts (SimSpark's odecontactjointhandler.cpp, contactjointhandler.cpp, collider.cpp, space.cpp,
 odespace.cpp; rsg/agent/nao/contactjointhandler.rsg, nao_hetero.rsg, ball.rsg, soccer.rsg,
@@ -21,10 +22,13 @@ colliders make no others). A robot's point is carried from its pybullet link int
 maximal body (which may have drifted off the exact joints by millimetres) by the link's pose.
 Two robots beamed into each other make hundreds of points: at most ``MAX_PAIR_POINTS`` a pair of
 robots are kept, the deepest (a departure from ODE for such pile-ups only).
-Robots (and the ball) joined by contacts are one island, solved by ``ode_island.step_island``;
-a robot that touches nothing but the ground takes ``ode_step``'s per-robot path unchanged.
-Robot-ground contacts are the per-robot path's own (``ode_kernels.ground_contacts``); the ball's
+Robots (and the ball) joined by contacts are one island, solved by ``island_step.step_island``;
+a robot that touches nothing but the ground takes ``robot_step``'s per-robot path unchanged.
+Robot-ground contacts are the per-robot path's own (``collision.ground_contacts``); the ball's
 ground contact is ODE's sphere-plane one (the lowest point, depth radius - height).
+
+A beam or a trainer's move is told to the stepper (``moved``, by ``Robot.on_move``) and the
+robot's bodies follow it rigidly; the ball's placement likewise (``ball_moved``).
 """
 
 from __future__ import annotations
@@ -36,7 +40,9 @@ import numpy as np
 import pybullet as pb
 
 from server_stub import field
-from server_stub.physics import ode_island, ode_kernels, ode_step
+from server_stub.physics import collision, island_step, robot_step
+from server_stub.physics.robot import Robot
+from server_stub.physics.rows import MOTOR_CFM, Surfaces
 
 #: Most contact points between two robots (or a robot and the ball) in one step, the deepest
 #: kept. ODE has no such limit (4 a pair of shapes, 529 pairs of shapes between two NAOs), but two
@@ -54,85 +60,6 @@ BALL_IDLE_SPEED = 0.01
 #: some: a NAO part's shape reaches 0.12 m from its centre at most (the torso box's corners), and
 #: Bullet's collision margins add a few centimetres. Things farther apart cannot touch.
 _REACH = 0.25
-#: No bounce: a minimum bounce velocity no contact reaches.
-_NO_BOUNCE = np.inf
-#: SimSpark's goal and field geometry (goal.rsg, soccer.rsg, naosoccersim.rb): the goals' bar
-#: diameter, the border walls' size and distance.
-_BAR = 0.04
-_SIDE_EXT = 1.0
-_BORDER_LENGTH = field.LENGTH * 0.333
-_BORDER_WIDTH = field.WIDTH * 0.75
-
-
-def static_boxes() -> list[tuple[tuple[float, float, float], tuple[float, float, float]]]:
-    """(half extents, centre) of the static boxes that make contacts on the real server: per goal
-    the two side boxes ("posts", goal depth x bar x goal height), the back wall and the top plate
-    (goal.rsg, the goal box centred at the goal line + half its depth), and the four border walls
-    (soccer.rsg, 1 m thick, centred on the ground)."""
-    depth, width, height = field.GOAL_DEPTH, field.GOAL_WIDTH, field.GOAL_HEIGHT
-    boxes = []
-    for side in (-1.0, 1.0):
-        cx = side * (field.LENGTH / 2 + depth / 2)
-        for y in (-1.0, 1.0):
-            boxes.append(((depth / 2, _BAR / 2, height / 2), (cx, y * (width / 2 + _BAR / 2), height / 2)))
-        boxes.append(((_BAR / 2, width / 2, height / 2), (cx + side * (depth / 2 - _BAR / 2), 0.0, height / 2)))
-        boxes.append(((depth / 2, width / 2 + _BAR, _BAR / 2), (cx, 0.0, height + _BAR / 2)))
-    side_width = _SIDE_EXT + field.WIDTH + 2 * _BORDER_WIDTH
-    side_length = _SIDE_EXT + field.LENGTH + 2 * _BORDER_LENGTH
-    for side in (-1.0, 1.0):
-        boxes.append(
-            ((_SIDE_EXT / 2, side_width / 2, _SIDE_EXT / 2), (side * (field.LENGTH / 2 + _BORDER_LENGTH), 0.0, 0.0))
-        )
-        boxes.append(
-            ((side_length / 2, _SIDE_EXT / 2, _SIDE_EXT / 2), (0.0, side * (field.WIDTH / 2 + _BORDER_WIDTH), 0.0))
-        )
-    return boxes
-
-
-def surface(a: tuple, b: tuple, config) -> np.ndarray:
-    """Two colliders' surfaces combined as SimSpark does (``PhysicsConfig.ode_surface_robot``):
-    (ERP, CFM, slip, bounce, minimum bounce velocity) of their contact joint."""
-
-    def mix(x, y):
-        if x is None:
-            return y
-        if y is None:
-            return x
-        return (x + y) / 2.0
-
-    erp = mix(a[0], b[0])
-    cfm = mix(a[1], b[1])
-    slip = mix(a[2], b[2])
-    bounce = mix(a[3], b[3])
-    bounce_vel = mix(a[4], b[4])
-    return np.array(
-        [
-            config.ode_joint_erp if erp is None else erp,
-            config.global_cfm if cfm is None else cfm,
-            config.global_cfm if slip is None else slip,
-            0.0 if bounce is None else bounce,
-            _NO_BOUNCE if bounce_vel is None else bounce_vel,
-        ]
-    )
-
-
-class _Surfaces:
-    """Every pair's combined surface, per config (robot, ball, static, ground)."""
-
-    def __init__(self, config) -> None:
-        r, b, s, g = (
-            config.ode_surface_robot,
-            config.ode_surface_ball,
-            config.ode_surface_static,
-            config.ode_surface_ground,
-        )
-        self.robot_robot = surface(r, r, config)
-        self.robot_ball = surface(r, b, config)
-        self.robot_static = surface(r, s, config)
-        self.ball_static = surface(b, s, config)
-        self.ball_ground = surface(b, g, config)
-        # the per-robot path's own ground values (the same mix, kept bit for bit)
-        self.robot_ground = np.array([config.contact_erp, config.contact_cfm, config.slip, 0.0, _NO_BOUNCE])
 
 
 def _joined(ground_contacts: Callable[[], tuple], others: tuple) -> tuple:
@@ -174,11 +101,7 @@ class _Entity:
         if link not in self.frames:
             robot = self.robot
             robot.sync()
-            if link < 0:
-                c, q = pb.getBasePositionAndOrientation(robot._body, physicsClientId=robot._client)
-            else:
-                st = pb.getLinkState(robot._body, link, computeForwardKinematics=1, physicsClientId=robot._client)
-                c, q = st[0], st[1]
+            c, q = robot.link_frame(link)
             self.frames[link] = (np.asarray(c, dtype=float), _rotation(q))
         return self.frames[link]
 
@@ -192,21 +115,48 @@ class Stepper:
         self.ground = ground
         self.ball = ball
         self.static = static
-        self.surfaces = _Surfaces(config)
+        self.surfaces = Surfaces(config)
         r = field.BALL_RADIUS
         self.ball_mass = field.BALL_MASS
         self.ball_inertia = 0.4 * field.BALL_MASS * r * r
         self.gravity = np.array([0.0, 0.0, config.gravity])
         pb.setCollisionFilterPair(ground, ball, -1, -1, 0, physicsClientId=client)
-        ode_island.warm_up()
+        island_step.warm_up()
         self._ball_written: tuple | None = None
         self._ball_moved = False
         self._ball_asleep = False
         self._ball_steps_left = BALL_IDLE_STEPS
-        boxes = static_boxes()
+        boxes = collision.static_boxes()
         self._static_lo = np.array([np.subtract(centre, half) for half, centre in boxes])
         self._static_hi = np.array([np.add(centre, half) for half, centre in boxes])
         self._far_apart([np.zeros((1, 3))], (0.0, 0.0, 5.0))  # compile (or load) the check now
+        #: what the step keeps of each robot on the field
+        self._robots: dict[Robot, robot_step.RobotPhysics] = {}
+
+    def add(self, robot: Robot) -> None:
+        """A new robot on the field (its model is read at its first step)."""
+        self._robots[robot] = robot_step.RobotPhysics()
+
+    def forget(self, robot: Robot) -> None:
+        """``robot`` has left the field."""
+        del self._robots[robot]
+
+    def moved(self, robot: Robot) -> None:
+        """A beam or a trainer's move has put ``robot`` elsewhere (``Robot.on_move``): its bodies
+        follow rigidly at the next step."""
+        self._robots[robot].moved = True
+
+    def physics_of(self, robot: Robot) -> robot_step.RobotPhysics:
+        """What this step keeps of ``robot``."""
+        return self._robots[robot]
+
+    def _model(self, robot: Robot) -> robot_step.RobotModel:
+        """``robot``'s model, read at its first step, not when it was added: reading it sets the
+        robot's ground filter in Bullet, whose later contacts depend on when that happens."""
+        physics = self._robots[robot]
+        if physics.model is None:
+            physics.model = robot_step.RobotModel(self.client, robot.body_id, self.ground, robot.robot_type)
+        return physics.model
 
     def step(self, robots) -> None:
         """One cycle of every robot and the ball. The ball's new state goes into pybullet at once,
@@ -214,11 +164,11 @@ class Stepper:
         cfg = self.config
         c = self.client
         ground = self.ground
-        statics = [ode_step.static_of(robot, ground, cfg) for robot in robots]
-        preps = [ode_step.prepare_maximal(robot, st, cfg) for robot, st in zip(robots, statics)]
+        statics = [self._model(robot) for robot in robots]
+        preps = [robot_step.prepare(robot, self._robots[robot], model, cfg) for robot, model in zip(robots, statics)]
         entities = [_Entity(i, robot) for i, robot in enumerate(robots)]
         entities.append(_Entity(len(robots)))  # the ball
-        by_body = {robot._body: i for i, robot in enumerate(robots)}
+        by_body = {robot.body_id: i for i, robot in enumerate(robots)}
         by_body[self.ball] = len(robots)
         # the ball's state and its ground contact (ODE's sphere-plane)
         ball_now = self._ball_now()
@@ -243,15 +193,15 @@ class Stepper:
             if len(group) == 1 and group[0] < len(robots) and not entities[group[0]].static:
                 i = group[0]
                 robot = robots[i]
-                solved = ode_step.solve_prepared(robot, statics[i], preps[i], ground, cfg)
-                ode_step.apply(robot, solved)
+                solved = robot_step.solve_prepared(robot, statics[i], preps[i], ground, cfg)
+                robot_step.apply(robot, solved)
                 continue
             self._solve_island(group, robots, statics, preps, entities, pairs, ball_now, by_body)
 
     def _far_apart(self, robot_bodies: list[np.ndarray], ball: tuple) -> bool:
         """Whether no two of the robots, the ball and the goals and walls can touch: their boxes
         (every body's centre, grown by ``_REACH``; the ball's, by its radius and as much) do not
-        overlap (``ode_kernels.far_apart``). Then Bullet would find no touching point, so it is not
+        overlap (``collision.far_apart``). Then Bullet would find no touching point, so it is not
         asked (nor told where the robots are): the usual cycle of a lone walker."""
         if len(robot_bodies) == 1:
             pos = robot_bodies[0]
@@ -260,7 +210,7 @@ class Stepper:
             pos = np.concatenate(robot_bodies) if robot_bodies else np.zeros((0, 3))
             owner = np.repeat(np.arange(len(robot_bodies)), [p.shape[0] for p in robot_bodies]).astype(np.int64)
         return bool(
-            ode_kernels.far_apart(
+            collision.far_apart(
                 pos,
                 owner,
                 len(robot_bodies),
@@ -416,7 +366,7 @@ class Stepper:
             if i < nrob:
                 st = statics[i]
                 b = preps[i].bodies
-                gp, gpt, gd = ode_kernels.ground_contacts(
+                gp, gpt, gd = collision.ground_contacts(
                     st.shape_body, st.shape_kind, st.shape_size, b.pos, b.quat, cfg.ode_box_points
                 )
                 ground_ranges[i] = (len(c_body), gp, gpt, gd)
@@ -499,10 +449,10 @@ class Stepper:
             cfg.cycle,
             cfg.ode_joint_erp,
             cfg.global_cfm,
-            ode_step.MOTOR_CFM,
+            MOTOR_CFM,
             cfg.contact_slop,
         )
-        out = ode_island.step_island(*island_args)
+        out = island_step.step_island(*island_args)
         npos, nquat, nvel, nspin, forces, tangents, p_forces, p_tangents, torques, iterations = out
         # motor states back into each robot, then each robot's and the ball's new state
         for i in group:
@@ -527,7 +477,7 @@ class Stepper:
                 f, t = forces[ci], tangents[ci]
                 p = c_point_arr[ci]
                 extra[i].append(
-                    (0, robot._body, self.static, k - 1, -1, tuple(p), tuple(p), tuple(c_normal[ci]), -c_depth[ci])
+                    (0, robot.body_id, self.static, k - 1, -1, tuple(p), tuple(p), tuple(c_normal[ci]), -c_depth[ci])
                     + (float(f[0]), float(f[1]), tuple(t[0]), float(f[2]), tuple(t[1]))
                 )
         for m, (a, b, la, lb) in enumerate(p_info):
@@ -536,13 +486,13 @@ class Stepper:
             nrm = tuple(p_normal[m])
             if a < nrob:
                 extra[a].append(
-                    (0, robots[a]._body, bodies[b], la, lb, p, p, nrm, -p_depth[m])
+                    (0, robots[a].body_id, bodies[b], la, lb, p, p, nrm, -p_depth[m])
                     + (float(f[0]), float(f[1]), tuple(t[0]), float(f[2]), tuple(t[1]))
                 )
             if b < nrob:
                 neg = tuple(-x for x in nrm)
                 extra[b].append(
-                    (0, robots[b]._body, bodies[a], lb, la, p, p, neg, -p_depth[m])
+                    (0, robots[b].body_id, bodies[a], lb, la, p, p, neg, -p_depth[m])
                     + (float(f[0]), float(-f[1]), tuple(t[0]), float(-f[2]), tuple(t[1]))
                 )
         for i in group:
@@ -554,8 +504,8 @@ class Stepper:
                 first, gp, gpt, gd = ground_ranges[i]
                 ng = gp.shape[0]
                 ground_contacts = partial(
-                    ode_step.ground_tuples,
-                    robot._body,
+                    robot_step.ground_tuples,
+                    robot.body_id,
                     self.ground,
                     gp,
                     gpt,
@@ -564,7 +514,7 @@ class Stepper:
                     tangents[first : first + ng],
                 )
                 contacts = partial(_joined, ground_contacts, tuple(extra[i]))
-                solved = ode_step.finish_maximal(
+                solved = robot_step.finish_maximal(
                     robot,
                     st,
                     preps[i].bodies,
@@ -576,7 +526,7 @@ class Stepper:
                     torques[joint_offsets[i] : joint_offsets[i] + st.local_axes.shape[0]].copy(),
                     iterations,
                 )
-                ode_step.apply(robot, solved)
+                robot_step.apply(robot, solved)
             else:
                 self._write_ball(npos[off], nquat[off], nvel[off], nspin[off])
 

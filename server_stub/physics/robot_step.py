@@ -1,0 +1,364 @@
+"""One robot's part of the stand-in's ODE step: what the step keeps of it, its motor rows, and its
+step against the ground alone.
+
+The real server (ODE 0.16, one exact ``dWorldStep`` of 0.02 s per cycle; facts in
+docs/robot_and_server.md sections 3-4) solves contacts, friction with force-dependent slip and no
+Coulomb limit, and the hinge motors in one linear complementarity problem. The stand-in does the
+same in maximal coordinates (``tree_step``): every body integrated on its own, the hinges held by
+ODE's joint rows with the world ERP 0.2 and CFM 1e-5, so their anchor copies drift apart by
+millimetres as on the real server.
+
+Kept per robot (``RobotPhysics``, owned by ``driver.Stepper``): what never changes (``RobotModel``:
+masses, inertias, tree, hinge axes, shapes), and the bodies (``Bodies``: placed from pybullet's
+exact joints before the first step, moved rigidly by a beam or a trainer's move). Each cycle
+``prepare`` makes the motor rows, and a robot touching nothing but the ground is stepped by
+``solve_prepared``; robots touching each other, the ball or the field's boxes are solved as one
+island (``driver``, ``island_step``). ``ground_tuples`` gives a robot's contacts in pybullet's
+tuple layout, with their solved forces, for the foot sensors.
+
+Every body has SimSpark's drag (docs/robot_and_server.md section 2): a force -0.01 v at its centre
+and a torque -0.01 w, added before the step as its DragController does.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from functools import partial
+from typing import NamedTuple
+
+import numpy as np
+import pybullet as pb
+
+from server_stub.physics import bodies as kinematics
+from server_stub.physics import nao_model
+from server_stub.physics.collision import BOX, CAPSULE, SPHERE, ground_contacts
+from server_stub.physics.rows import FUDGE_FACTOR, MOTOR_CFM, motor_rows
+from server_stub.physics.tree_step import step_tree
+
+#: Most contact points per shape and the ground in ``warm_up``.
+MAX_POINTS = 4
+
+
+class RobotModel:
+    """What does not change about one robot body: masses, inertias, tree, hinge axes, shapes, and
+    its motors' state (which row each hinge's motor holds)."""
+
+    def __init__(self, client: int, body: int, ground: int, robot_type: int) -> None:
+        """Each part's principal moments come from the model (``nao_model``), as the real
+        server's bodies have them."""
+        n = pb.getNumJoints(body, physicsClientId=client)
+        self.indices = list(range(n))
+        dyn = [pb.getDynamicsInfo(body, k, physicsClientId=client) for k in range(-1, n)]
+        infos = [pb.getJointInfo(body, j, physicsClientId=client) for j in range(n)]
+        self.masses = np.array([d[0] for d in dyn], dtype=float)
+        parts = {part.name: part for part in nao_model.body_parts(robot_type)}
+        names = ["torso"] + [i[12].decode() for i in infos]
+        self.principal = np.array([nao_model.inertia_diagonal(parts[name]) for name in names], dtype=float)
+        self.parents = np.zeros(n + 1, dtype=np.int64)
+        self.joint_of = np.zeros(n + 1, dtype=np.int64)
+        self.local_axes = np.array([i[13] for i in infos], dtype=float)
+        chains = np.zeros((n + 1, n), dtype=np.bool_)
+        for j, info in enumerate(infos):
+            k = j + 1
+            parent = info[16] + 1
+            if parent >= k:
+                raise ValueError("links must follow their parents")
+            self.parents[k] = parent
+            self.joint_of[k] = j
+            chains[k] = chains[parent]
+            chains[k, j] = True
+        self.chains = chains
+        self.motor_state = np.zeros(n, dtype=np.int64)
+        shapes = [d for k in range(-1, n) for d in pb.getCollisionShapeData(body, k, physicsClientId=client)]
+        self.shape_body = np.array([d[1] + 1 for d in shapes], dtype=np.int64)
+        self.shape_kind = np.array([d[2] for d in shapes], dtype=np.int64)
+        self.shape_size = np.array([d[3] for d in shapes], dtype=float)
+        if any(abs(x) > 1e-12 for d in shapes for x in d[5]) or set(self.shape_kind) - {BOX, SPHERE, CAPSULE}:
+            raise ValueError("shapes must be boxes, spheres or capsules at their body's centre")
+        # the stub finds the robot's ground contacts itself: Bullet need not
+        for k in range(-1, n):
+            pb.setCollisionFilterPair(ground, body, -1, k, 0, physicsClientId=client)
+
+
+class Solved(NamedTuple):
+    """A robot's state after its step, and the step's contacts (pybullet's tuple layout, with the
+    solved forces; made when a sensor first asks, as most steps' are never read) and motor
+    torques."""
+
+    position: list
+    orientation: list
+    velocity: list
+    spin: list
+    angles: np.ndarray
+    rates: np.ndarray
+    contacts: Callable[[], tuple]
+    torques: np.ndarray
+    iterations: int
+
+
+class Bodies:
+    """The maximal-coordinate state of one robot: every body's centre, quaternion, velocity and
+    spin, kept between steps (pybullet's exact joints cannot hold the joints' drift), and the
+    reduced state (torso pose and motion, hinge angles and rates) last measured from them."""
+
+    def __init__(self, pos, quat, vel, spin, anchor_child, anchor_parent) -> None:
+        self.pos, self.quat, self.vel, self.spin = pos, quat, vel, spin
+        self.anchor_child, self.anchor_parent = anchor_child, anchor_parent
+        self.written: np.ndarray | None = None
+
+
+class RobotPhysics:
+    """All the step keeps of one robot: its model (None until its first step), its bodies (None
+    until then too), and whether a beam or a trainer's move has put it elsewhere since its last
+    step (``moved``)."""
+
+    def __init__(self) -> None:
+        self.model: RobotModel | None = None
+        self.bodies: Bodies | None = None
+        self.moved = False
+
+
+class Prepared(NamedTuple):
+    """A robot ready for its maximal step: its bodies (synchronised with pybullet), the
+    velocities its drag acts on, and its motor rows."""
+
+    bodies: Bodies
+    drag_vel: np.ndarray
+    drag_spin: np.ndarray
+    target: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    push: np.ndarray
+
+
+def solve_prepared(robot, static: RobotModel, prep: Prepared, ground: int, config) -> Solved:
+    """The maximal step of a prepared robot against the ground alone."""
+    bodies = prep.bodies
+    parts, points, depths = ground_contacts(
+        static.shape_body, static.shape_kind, static.shape_size, bodies.pos, bodies.quat, config.ode_box_points
+    )
+    pos, quat, vel, spin, forces, tangents, torques, iterations = step_tree(
+        static.masses,
+        static.principal,
+        static.parents,
+        static.joint_of,
+        static.local_axes,
+        bodies.anchor_child,
+        bodies.anchor_parent,
+        bodies.pos,
+        bodies.quat,
+        bodies.vel,
+        bodies.spin,
+        np.array([0.0, 0.0, config.gravity]),
+        config.linear_damping,
+        config.angular_damping,
+        prep.drag_vel,
+        prep.drag_spin,
+        config.ode_gyroscopic == "implicit",
+        parts,
+        points,
+        depths,
+        prep.target,
+        prep.lo,
+        prep.hi,
+        prep.push,
+        static.motor_state,
+        config.cycle,
+        config.ode_joint_erp,
+        config.global_cfm,
+        MOTOR_CFM,
+        config.contact_erp,
+        config.contact_cfm,
+        config.slip,
+        config.contact_slop,
+    )
+    contacts = partial(ground_tuples, robot.body_id, ground, parts, points, depths, forces, tangents)
+    return finish_maximal(robot, static, bodies, pos, quat, vel, spin, contacts, torques, iterations)
+
+
+def ground_tuples(body: int, ground: int, parts, points, depths, forces, tangents) -> tuple:
+    """A robot's ground contacts in pybullet's tuple layout, with their solved forces."""
+    return tuple(
+        (
+            0,
+            body,
+            ground,
+            k - 1,
+            -1,
+            p,
+            (p[0], p[1], 0.0),
+            (0.0, 0.0, 1.0),
+            -d,
+            f[0],
+            f[1],
+            tuple(t[0]),
+            f[2],
+            tuple(t[1]),
+        )
+        for k, p, d, f, t in zip(parts.tolist(), points.tolist(), depths.tolist(), forces.tolist(), tangents.tolist())
+    )
+
+
+def prepare(robot, physics: RobotPhysics, model: RobotModel, config) -> Prepared:
+    """Make ``robot``'s bodies ready for this step and its motor rows: placed from pybullet before
+    its first step, moved rigidly with the torso after a beam or a trainer's move (``moved``)."""
+    bodies = physics.bodies
+    moved, physics.moved = physics.moved, False
+    if bodies is not None and not moved and not _stored_with_other_sign(robot, bodies):
+        # nothing but the step has moved the robot: the bodies go on from their own state
+        return _prepared(robot, bodies, bodies.vel, bodies.spin, robot.joint_state()[0], config)
+    robot.sync()
+    angles, rates = robot.joint_state()
+    position, orientation = robot.stored_pose()
+    if bodies is not None and moved:
+        # a beam or a trainer's move: SimSpark moves every body rigidly with the torso (keeping
+        # the joints' drift) and stops them all (SoccerBase::MoveAndRotateAgent). The torso's
+        # DragController ran before the BeamEffector in that cycle's PrePhysicsUpdate (children
+        # first, the torso's body before the effectors in nao_hetero.rsg), so its drag in the
+        # next step is the one of its velocity before the beam; every other body's comes after.
+        written = bodies.written
+        assert written is not None  # set by every step
+        kinematics.move_rigidly(
+            bodies.pos, bodies.quat, written[0:3], written[3:7], np.array(position), np.array(orientation)
+        )
+        drag_vel = np.zeros_like(bodies.vel)
+        drag_spin = np.zeros_like(bodies.spin)
+        drag_vel[0] = bodies.vel[0]
+        drag_spin[0] = bodies.spin[0]
+        bodies.vel[:] = 0.0
+        bodies.spin[:] = 0.0
+        return _prepared(robot, bodies, drag_vel, drag_spin, angles, config)
+    # every body where pybullet's exact joints put it
+    links = robot.link_frames()
+    coms = np.array([position] + [link[0] for link in links], dtype=float)
+    quats = np.array([orientation] + [link[1] for link in links], dtype=float)
+    anchors = np.array([link[4] for link in links], dtype=float)
+    velocity, spin = robot.stored_motion()
+    vel, spin = kinematics.body_velocities(
+        model.parents,
+        model.joint_of,
+        model.local_axes,
+        coms,
+        quats,
+        anchors,
+        np.array(velocity, dtype=float),
+        np.array(spin, dtype=float),
+        rates,
+    )
+    if bodies is None:
+        child, parent = kinematics.local_anchors(model.parents, model.joint_of, coms, quats, anchors)
+    else:
+        child, parent = bodies.anchor_child, bodies.anchor_parent
+    bodies = physics.bodies = Bodies(coms, quats, vel, spin, child, parent)
+    return _prepared(robot, bodies, bodies.vel, bodies.spin, angles, config)
+
+
+def _stored_with_other_sign(robot, bodies: Bodies) -> bool:
+    """Whether pybullet's torso quaternion, rebuilt from a matrix, is no longer the one the last
+    step wrote (the rebuild chose the other sign; or the state is not finite). The bodies are then
+    placed anew from pybullet's exact joints, losing the joints' drift: what the stand-in has
+    done since the maximal step came, kept so that this redesign changes no result."""
+    written = bodies.written
+    if written is None or not math.isfinite(written.sum()):
+        return True
+    q, w = robot.stored_pose()[1], written[3:7].tolist()
+    return max(abs(q[0] - w[0]), abs(q[1] - w[1]), abs(q[2] - w[2]), abs(q[3] - w[3])) > 1e-7
+
+
+def _prepared(robot, bodies: Bodies, drag_vel, drag_spin, angles: np.ndarray, config) -> Prepared:
+    """A robot's prepared step: its bodies, the velocities the drag acts on, its motor rows."""
+    target, force, sticky = robot.motor_commands()
+    nj = angles.shape[0]
+    if target.shape[0] != nj:
+        target = np.zeros(nj)
+        force = np.full(nj, config.motor_torque)
+    lo, hi, push = motor_rows(angles, np.asarray(force, dtype=float), sticky, config.motor_torque, FUDGE_FACTOR)
+    return Prepared(bodies, drag_vel, drag_spin, np.asarray(target, dtype=float), lo, hi, push)
+
+
+def finish_maximal(
+    robot, static: RobotModel, bodies: Bodies, pos, quat, vel, spin, contacts, torques, iterations
+) -> Solved:
+    """Keep a robot's solved bodies and measure what pybullet gets: torso state, hinge angles and
+    rates as the real server reads them."""
+    bodies.pos, bodies.quat, bodies.vel, bodies.spin = pos, quat, vel, spin
+    written = kinematics.measured_state(pos, quat, vel, spin, static.parents, static.joint_of, static.local_axes)
+    bodies.written = written
+    nj = static.local_axes.shape[0]
+    return Solved(
+        written[0:3].tolist(),
+        written[3:7].tolist(),
+        written[7:10].tolist(),
+        written[10:13].tolist(),
+        written[13 : 13 + nj],
+        written[13 + nj :],
+        contacts,
+        torques,
+        iterations,
+    )
+
+
+def apply(robot, solved: Solved) -> None:
+    """Hand a solved step to the robot (``Robot.hold``); it goes into pybullet when pybullet is
+    next asked about the robot (``Robot.keep_unwritten``)."""
+    robot.keep_unwritten(
+        tuple(solved.position), tuple(solved.orientation), solved.velocity, solved.spin, solved.angles, solved.rates
+    )
+    robot.hold(solved.angles, solved.rates, tuple(solved.velocity), tuple(solved.spin), solved.contacts)
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's disk cache) the step's kernels on a two-body problem with one
+    contact."""
+    motor_rows(np.zeros(22), np.full(22, 10.0), np.zeros(22), 10.0, FUDGE_FACTOR)
+    ground_contacts(
+        np.array([0, 0, 0], dtype=np.int64),
+        np.array([BOX, SPHERE, CAPSULE], dtype=np.int64),
+        np.array([[0.1, 0.1, 0.1], [0.1, 0.1, 0.1], [0.1, 0.02, 0.0]]),
+        np.array([[0.0, 0.0, 0.05]]),
+        np.array([[0.0, 0.0, 0.0, 1.0]]),
+        MAX_POINTS,
+    )
+    two = (np.array([0, 0], dtype=np.int64), np.array([0, 0], dtype=np.int64))
+    axes = np.array([[1.0, 0.0, 0.0]])
+    centres = np.array([[0.0, 0.0, 0.3], [0.0, 0.0, 0.05]])
+    quats = np.tile([0.0, 0.0, 0.0, 1.0], (2, 1))
+    anchors = np.array([[0.0, 0.0, 0.1]])
+    vel, spin = kinematics.body_velocities(*two, axes, centres, quats, anchors, np.zeros(3), np.zeros(3), np.ones(1))
+    child, parent = kinematics.local_anchors(*two, centres, quats, anchors)
+    kinematics.measured_state(centres, quats, vel, spin, *two, axes)
+    step_tree(
+        np.ones(2),
+        np.full((2, 3), 0.01),
+        *two,
+        axes,
+        child,
+        parent,
+        centres,
+        quats,
+        vel,
+        spin,
+        np.array([0.0, 0.0, -9.81]),
+        0.01,
+        0.01,
+        vel,
+        spin,
+        True,
+        np.array([1], dtype=np.int64),
+        np.array([[0.0, 0.0, 0.0]]),
+        np.array([0.002]),
+        np.zeros(1),
+        np.full(1, -10.0),
+        np.full(1, 10.0),
+        np.zeros(1),
+        np.zeros(1, dtype=np.int64),
+        0.02,
+        0.2,
+        1e-5,
+        MOTOR_CFM,
+        0.4,
+        1e-4,
+        0.005,
+        0.001,
+    )
