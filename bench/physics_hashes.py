@@ -2,9 +2,9 @@
 
 Each scenario drives the physics through its public interfaces (``World``, ``Robot``, the
 optimizer's embedded episodes) and folds the state after every step into a SHA-256: every robot's
-torso position and rotation, joint angles, gyro and accelerometer, the ball's position, and each
-episode's score. Equal hashes before and after a redesign mean the same numbers, bit for bit, at
-every step.
+torso position and rotation, joint angles, gyro, accelerometer, foot pressure and contact points
+(with their solved forces), the ball's position, and each episode's score. Equal hashes before
+and after a redesign mean the same numbers, bit for bit, at every step.
 
     python bench/physics_hashes.py --write bench/physics_hashes.json   # record (before a change)
     python bench/physics_hashes.py --check bench/physics_hashes.json   # compare (after it)
@@ -65,6 +65,13 @@ class Digest:
             self.floats(robot.joint_degrees())
             self.floats(robot.gyro())
             self.floats(robot.accelerometer())
+            for foot, (centre, force) in sorted(robot.foot_pressure().items()):
+                self._hash.update(foot.encode())
+                self.floats(centre)
+                self.floats(force)
+            for point in robot.contact_points():
+                self.floats([point[2], point[3], point[4], *point[5], *point[6], *point[7], *point[8:11], *point[11]])
+                self.floats([point[12], *point[13]])
         self.floats(world.ball_position())
 
     def hexdigest(self) -> str:

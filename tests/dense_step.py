@@ -14,46 +14,18 @@ from server_stub.physics.solver import box_qp
 
 
 @njit(cache=True)
-def dense_step(
-    masses,
-    principal,
-    parents,
-    joint_of,
-    local_axes,
-    anchor_child,
-    anchor_parent,
-    pos,
-    quat,
-    vel,
-    spin,
-    gravity,
-    drag_linear,
-    drag_angular,
-    drag_vel,
-    drag_spin,
-    implicit_gyro,
-    contact_body,
-    contact_point,
-    contact_depth,
-    motor_target,
-    motor_lo,
-    motor_hi,
-    push,
-    motor_state,
-    h,
-    joint_erp,
-    joint_cfm,
-    motor_cfm,
-    contact_erp,
-    contact_cfm,
-    slip,
-    surface_layer,
-):
+def dense_step(model, state, forces, ground, motors, params):
     """One dWorldStep of one robot's bodies. Returns (positions, quaternions, velocities, spins,
     contact forces (points x 3: normal, t1, t2), tangents (points x 2 x 3), motor/stop torques,
     solver passes). ``motor_state`` (hinges): the bounded rows' active-set guess, updated. The
     drag acts on ``drag_vel`` / ``drag_spin`` (the velocities SimSpark's DragControllers read: the
     bodies' own, except in the step after a beam)."""
+    masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
+    pos, quat, vel, spin = state
+    gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
+    contact_body, contact_point, contact_depth = ground
+    motor_target, motor_lo, motor_hi, push, motor_state = motors
+    h, joint_erp, joint_cfm, motor_cfm, surface_layer, implicit_gyro, contact_erp, contact_cfm, slip = params
     nb = masses.shape[0]
     nj = local_axes.shape[0]
     nc = contact_point.shape[0]

@@ -11,6 +11,7 @@ import pytest
 from protocol.nao import JOINTS
 from server_stub.config import PhysicsConfig
 from server_stub.physics import bodies, calibration_walk, collision, contact, island_step, robot_step, rows
+from server_stub.physics.bundles import Contacts, Forces, GroundContacts, Model, Motors, PairContacts, Params, State
 from server_stub.physics.integrate import gyroscopic_torque
 from server_stub.physics.solver import box_qp
 from server_stub.physics.world import World
@@ -179,41 +180,14 @@ def _free_robot(seed):
 
 
 def _free_step(static, coms, quats, vel, spin, child, parent, gravity=0.0, erp=0.2, implicit=True):
-    none = np.zeros(0)
+    m = static
     return dense_step(
-        static.masses,
-        static.principal,
-        static.parents,
-        static.joint_of,
-        static.local_axes,
-        child,
-        parent,
-        coms,
-        quats,
-        vel,
-        spin,
-        np.array([0.0, 0.0, gravity]),
-        0.0,
-        0.0,
-        vel,
-        spin,
-        implicit,
-        np.zeros(0, dtype=np.int64),
-        np.zeros((0, 3)),
-        none,
-        np.zeros(22),
-        np.zeros(22),
-        np.zeros(22),
-        np.zeros(22),
-        np.zeros(22, dtype=np.int64),
-        0.02,
-        erp,
-        1e-5,
-        1e-8,
-        0.4,
-        1e-4,
-        0.005,
-        0.001,
+        Model(m.masses, m.principal, m.parents, m.joint_of, m.local_axes, child, parent),
+        State(coms, quats, vel, spin),
+        Forces(np.array([0.0, 0.0, gravity]), 0.0, 0.0, vel, spin),
+        GroundContacts(np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros(0)),
+        Motors(np.zeros(22), np.zeros(22), np.zeros(22), np.zeros(22), np.zeros(22, dtype=np.int64)),
+        Params(0.02, erp, 1e-5, 1e-8, 0.001, implicit, 0.4, 1e-4, 0.005),
     )
 
 
@@ -344,12 +318,9 @@ def test_the_tree_solve_equals_the_dense_solve(monkeypatch):
     worst = [0.0, 0.0]
     limits = [0]
 
-    def both(*args):
-        args = list(args)
-        state = args[24].copy()
-        dense = dense_step(*args)
-        args[24] = state
-        out = tree(*args)
+    def both(model, state, forces, ground, motors, params):
+        dense = dense_step(model, state, forces, ground, motors._replace(state=motors.state.copy()), params)
+        out = tree(model, state, forces, ground, motors, params)
         worst[0] = max(worst[0], np.abs(out[2] - dense[2]).max(), np.abs(out[3] - dense[3]).max())
         if out[4].size:
             worst[1] = max(worst[1], np.abs(out[4] - dense[4]).max())
@@ -436,34 +407,25 @@ def test_the_island_solve_equals_the_tree_solve_for_one_robot(monkeypatch):
     tree = robot_step.step_tree
     worst = [0.0, 0.0]
 
-    def both(*args):
-        args = list(args)
-        state = args[24].copy()
-        (masses, principal, parents, joint_of, axes, ac, ap, pos, quat, vel, spin, g, dl, da, dv, ds, gyro) = args[:17]
-        cb, cp, cd, target, lo, hi, push, _, h, jerp, jcfm, mcfm, cerp, ccfm, slip, layer = args[17:]
-        nb, nc = masses.shape[0], cb.shape[0]
-        roots = parents.copy()
+    def both(model, state, forces, ground, motors, params):
+        nb, nc = model.masses.shape[0], ground.body.shape[0]
+        roots = model.parents.copy()
         roots[0] = -1
+        gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
+        surface = [params.contact_erp, params.contact_cfm, params.slip, 0.0, np.inf]
         none = np.zeros(0, dtype=np.int64)
         island = island_step.step_island(
-            *(masses, principal, roots, joint_of, axes, ac, ap, pos, quat, vel, spin, g),
-            *(np.full(nb, dl), np.full(nb, da), dv, ds, gyro, target, lo, hi, push, state),
-            *(cb, cp, np.tile([0.0, 0.0, 1.0], (nc, 1)), cd, np.tile([cerp, ccfm, slip, 0.0, np.inf], (nc, 1))),
-            *(
-                none,
-                none,
-                np.zeros((0, 3)),
-                np.zeros((0, 3)),
-                np.zeros(0),
-                np.zeros((0, 5)),
-                h,
-                jerp,
-                jcfm,
-                mcfm,
-                layer,
+            model._replace(parents=roots),
+            state,
+            Forces(gravity, np.full(nb, drag_linear), np.full(nb, drag_angular), drag_vel, drag_spin),
+            motors._replace(state=motors.state.copy()),
+            Contacts(
+                ground.body, ground.point, np.tile([0.0, 0.0, 1.0], (nc, 1)), ground.depth, np.tile(surface, (nc, 1))
             ),
+            PairContacts(none, none, np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 5))),
+            params,
         )
-        out = tree(*args)
+        out = tree(model, state, forces, ground, motors, params)
         worst[0] = max(worst[0], np.abs(out[2] - island[2]).max(), np.abs(out[3] - island[3]).max())
         if out[4].size:
             worst[1] = max(worst[1], np.abs(out[4] - island[4]).max())
@@ -665,9 +627,9 @@ def test_a_robot_touching_only_the_ground_takes_the_per_robot_path(monkeypatch):
     calls = []
     island = island_step.step_island
 
-    def counted(*args):
-        calls.append(args[0].shape[0])
-        return island(*args)
+    def counted(model, *args):
+        calls.append(model.masses.shape[0])
+        return island(model, *args)
 
     with World(MAX) as world:
         monkeypatch.setattr(island_step, "step_island", counted)  # after the warm-up

@@ -19,8 +19,12 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping, Sequence
 
 #: Fields of a pybullet contact point tuple.
+BODY_A = 1  # the robot's body
+BODY_B = 2  # the other body
 LINK_A = 3  # link of the robot (-1: the torso)
+LINK_B = 4  # link of the other body
 POSITION_ON_A = 5  # world position of the point on the robot
+POSITION_ON_B = 6  # world position of the point on the other body
 NORMAL_ON_B = 7  # world unit normal, from the other body towards the robot
 DISTANCE = 8  # negative when the shapes overlap
 NORMAL_FORCE = 9  # N, >= 0
@@ -30,6 +34,21 @@ FRICTION_2 = 12  # N, along FRICTION_DIR_2
 FRICTION_DIR_2 = 13
 
 Vec3 = tuple[float, float, float]
+
+
+def point(body_a, body_b, link_a, link_b, on_a, on_b, normal_on_b, distance, force, tangents, sign=1.0) -> tuple:
+    """One solved contact point in pybullet's layout: ``force`` the solved (normal, first friction,
+    second friction) forces along the normal and ``tangents``; ``sign`` -1 for the second body of
+    a two-body contact, whose friction is the first body's turned round."""
+    normal, first, second = float(force[0]), force[1], force[2]
+    if sign < 0.0:
+        first, second = -first, -second
+    return (0, body_a, body_b, link_a, link_b, on_a, on_b, normal_on_b, distance, normal) + (
+        float(first),
+        tuple(tangents[0]),
+        float(second),
+        tuple(tangents[1]),
+    )
 
 
 def link_pressure(points: Iterable[Sequence], links: Mapping[int, str]) -> dict[int, tuple[Vec3, Vec3]]:

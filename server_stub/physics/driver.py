@@ -40,9 +40,10 @@ import numpy as np
 import pybullet as pb
 
 from server_stub import field
-from server_stub.physics import collision, island_step, robot_step
+from server_stub.physics import collision, contact, island_step, robot_step
+from server_stub.physics.bundles import Contacts, Forces, Model, Motors, PairContacts, State
 from server_stub.physics.robot import Robot
-from server_stub.physics.rows import MOTOR_CFM, Surfaces
+from server_stub.physics.rows import Surfaces
 
 #: Most contact points between two robots (or a robot and the ball) in one step, the deepest
 #: kept. ODE has no such limit (4 a pair of shapes, 529 pairs of shapes between two NAOs), but two
@@ -106,6 +107,30 @@ class _Entity:
         return self.frames[link]
 
 
+class _Island:
+    """One island being solved: its members (robot indices, the ball's is the number of robots),
+    where each member's bodies and hinges start in the island's arrays, where its ground contacts
+    start among the one-body contacts and how many goal/wall contacts follow them, and the members
+    and links of each two-body contact."""
+
+    def __init__(self, group: list[int], robots: int) -> None:
+        self.group = group
+        self._robots = robots
+        self.offsets: dict[int, int] = {}
+        self.joint_offsets: dict[int, int] = {}
+        self.ground: dict[int, tuple[int, np.ndarray, np.ndarray, np.ndarray]] = {}
+        self.static_count: dict[int, int] = {}
+        self.pairs: list[tuple[int, int, int, int]] = []
+
+    def is_robot(self, member: int) -> bool:
+        return member < self._robots
+
+
+def _rows(values: list, width: int) -> np.ndarray:
+    """A list of points, normals or surfaces as an (n, width) array (n may be 0)."""
+    return np.array(values, dtype=float).reshape(-1, width)
+
+
 class Stepper:
     """The maximal step of a whole world, contacts between its robots, ball and field included."""
 
@@ -116,6 +141,7 @@ class Stepper:
         self.ball = ball
         self.static = static
         self.surfaces = Surfaces(config)
+        self.params = robot_step.params_of(config)
         r = field.BALL_RADIUS
         self.ball_mass = field.BALL_MASS
         self.ball_inertia = 0.4 * field.BALL_MASS * r * r
@@ -273,18 +299,27 @@ class Stepper:
         return (position, orientation, velocity, spin)
 
     def _solve_island(self, group, robots, statics, preps, entities, pairs, ball_now, by_body) -> None:
+        """Robots and the ball touching each other (``group``), solved as one LCP: their bodies and
+        contacts gathered into the island's arrays, stepped, and the results handed back."""
+        island = _Island(group, len(robots))
+        model, state, forces, motors = self._gather_bodies(island, statics, preps, ball_now)
+        contacts = self._gather_contacts(island, statics, preps, entities, ball_now, state, by_body)
+        pair_contacts = self._gather_pairs(island, entities, pairs, state, by_body)
+        out = island_step.step_island(model, state, forces, motors, contacts, pair_contacts, self.params)
+        self._scatter(island, out, robots, statics, preps, motors, contacts, pair_contacts, by_body)
+
+    def _gather_bodies(self, island: _Island, statics, preps, ball_now) -> tuple[Model, State, Forces, Motors]:
+        """Every member's bodies in one forest (a robot's tree, its torso a root; the ball a tree of
+        one), their state, their forces and the robots' motor rows."""
         cfg = self.config
-        nrob = len(robots)
         ball_state = tuple(np.array([x]) for x in ball_now)
-        offsets: dict[int, int] = {}
-        parts = []  # per entity: its bodies, hinges, state, drag
+        parts = []  # per member: its bodies, hinges, state, drag
         n = 0
         nj = 0
-        joint_offsets: dict[int, int] = {}
-        for i in group:
-            offsets[i] = n
-            joint_offsets[i] = nj
-            if i < nrob:
+        for i in island.group:
+            island.offsets[i] = n
+            island.joint_offsets[i] = nj
+            if island.is_robot(i):
                 st, pr = statics[i], preps[i]
                 b = pr.bodies
                 nb = st.masses.shape[0]
@@ -333,202 +368,203 @@ class Stepper:
                     )
                 )
                 n += 1
-        cols = list(zip(*parts))
-        # masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent, pos, quat,
-        # vel, spin: ``step_island``'s first arguments
-        body_cols = [np.concatenate(x) for x in cols[:11]]
-        body_cols[2] = body_cols[2].astype(np.int64)
-        body_cols[3] = body_cols[3].astype(np.int64)
-        pos, quat = body_cols[7], body_cols[8]
-        drag_vel, drag_spin, drag_lin, drag_ang = (np.concatenate(x) for x in cols[11:])
-        # motors
-        targets, los, his, pushes, states = [], [], [], [], []
-        for i in group:
-            if i < nrob:
-                pr = preps[i]
-                targets.append(pr.target)
-                los.append(pr.lo)
-                his.append(pr.hi)
-                pushes.append(pr.push)
-                states.append(statics[i].motor_state)
+        cols = [np.concatenate(x) for x in zip(*parts)]
+        masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = cols[:7]
+        model = Model(
+            masses,
+            principal,
+            parents.astype(np.int64),
+            joint_of.astype(np.int64),
+            local_axes,
+            anchor_child,
+            anchor_parent,
+        )
+        state = State(*cols[7:11])
+        drag_vel, drag_spin, drag_linear, drag_angular = cols[11:]
+        forces = Forces(self.gravity, drag_linear, drag_angular, drag_vel, drag_spin)
+        robots = [i for i in island.group if island.is_robot(i)]
         empty = np.zeros(0)
-        motor_state = np.concatenate(states) if states else np.zeros(0, dtype=np.int64)
-        # one-body contacts: ground, goals and walls
-        c_body: list[int] = []
-        c_point: list = []
-        c_normal: list = []
-        c_depth: list[float] = []
-        c_surface: list = []
-        ground_ranges: dict[int, tuple[int, np.ndarray, np.ndarray, np.ndarray]] = {}
+
+        def joined(rows: list[np.ndarray]) -> np.ndarray:
+            return np.concatenate(rows) if rows else empty
+
+        motors = Motors(
+            joined([preps[i].target for i in robots]),
+            joined([preps[i].lo for i in robots]),
+            joined([preps[i].hi for i in robots]),
+            joined([preps[i].push for i in robots]),
+            np.concatenate([statics[i].motor_state for i in robots]) if robots else np.zeros(0, dtype=np.int64),
+        )
+        return model, state, forces, motors
+
+    def _gather_contacts(self, island: _Island, statics, preps, entities, ball_now, state: State, by_body) -> Contacts:
+        """Every member's contacts with something static: its ground contacts first (a robot's as
+        ``robot_step`` makes them, the ball's ODE's sphere-plane one), then goals and walls."""
+        cfg = self.config
+        body: list[int] = []
+        point: list = []
+        normal: list = []
+        depth: list[float] = []
+        surface: list = []
         s = self.surfaces
-        for i in group:
-            off = offsets[i]
-            if i < nrob:
+        for i in island.group:
+            off = island.offsets[i]
+            if island.is_robot(i):
                 st = statics[i]
                 b = preps[i].bodies
                 gp, gpt, gd = collision.ground_contacts(
                     st.shape_body, st.shape_kind, st.shape_size, b.pos, b.quat, cfg.ode_box_points
                 )
-                ground_ranges[i] = (len(c_body), gp, gpt, gd)
+                island.ground[i] = (len(body), gp, gpt, gd)
                 for k, p, d in zip(gp.tolist(), gpt, gd.tolist()):
-                    c_body.append(off + k)
-                    c_point.append(p)
-                    c_normal.append((0.0, 0.0, 1.0))
-                    c_depth.append(d)
-                    c_surface.append(s.robot_ground)
+                    body.append(off + k)
+                    point.append(p)
+                    normal.append((0.0, 0.0, 1.0))
+                    depth.append(d)
+                    surface.append(s.robot_ground)
                 surf = s.robot_static
             else:
-                z = ball_state[0][0, 2]
-                depth = field.BALL_RADIUS - z
-                ground_ranges[i] = (len(c_body), np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros(0))
-                if depth >= 0.0:
-                    c_body.append(off)
-                    c_point.append(ball_state[0][0] - np.array([0.0, 0.0, field.BALL_RADIUS]))
-                    c_normal.append((0.0, 0.0, 1.0))
-                    c_depth.append(depth)
-                    c_surface.append(s.ball_ground)
+                centre = np.array(ball_now[0])
+                ball_depth = field.BALL_RADIUS - centre[2]
+                island.ground[i] = (len(body), np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros(0))
+                if ball_depth >= 0.0:
+                    body.append(off)
+                    point.append(centre - np.array([0.0, 0.0, field.BALL_RADIUS]))
+                    normal.append((0.0, 0.0, 1.0))
+                    depth.append(ball_depth)
+                    surface.append(s.ball_ground)
                 surf = s.ball_static
-            ent = entities[i]
-            for pt in ent.static:
-                mine_a = by_body.get(pt[1]) == i
-                link = pt[3] if mine_a else pt[4]
-                k = off + link + 1 if i < nrob else off
-                mid = 0.5 * (np.asarray(pt[5]) + np.asarray(pt[6]))
-                normal = np.asarray(pt[7]) if mine_a else -np.asarray(pt[7])
-                c_body.append(k)
-                c_point.append(ent.map_point(link, mid, pos[k], quat[k]))
-                c_normal.append(ent.map_dir(link, normal, quat[k]))
-                c_depth.append(-pt[8])
-                c_surface.append(surf)
-        # two-body contacts
-        members = set(group)
-        p_b1, p_b2, p_point, p_normal, p_depth, p_surface, p_info = [], [], [], [], [], [], []
+            entity = entities[i]
+            island.static_count[i] = len(entity.static)
+            for pt in entity.static:
+                mine_a = by_body.get(pt[contact.BODY_A]) == i
+                link = pt[contact.LINK_A] if mine_a else pt[contact.LINK_B]
+                k = off + link + 1 if island.is_robot(i) else off
+                mid = 0.5 * (np.asarray(pt[contact.POSITION_ON_A]) + np.asarray(pt[contact.POSITION_ON_B]))
+                towards = np.asarray(pt[contact.NORMAL_ON_B])
+                body.append(k)
+                point.append(entity.map_point(link, mid, state.pos[k], state.quat[k]))
+                normal.append(entity.map_dir(link, towards if mine_a else -towards, state.quat[k]))
+                depth.append(-pt[contact.DISTANCE])
+                surface.append(surf)
+        return Contacts(
+            np.array(body, dtype=np.int64),
+            _rows(point, 3),
+            _rows(normal, 3),
+            np.array(depth, dtype=float).reshape(-1),
+            _rows(surface, 5),
+        )
+
+    def _gather_pairs(self, island: _Island, entities, pairs, state: State, by_body) -> PairContacts:
+        """The contacts between two members: each point carried from Bullet's links into the
+        bodies, the normal from body 2 into body 1."""
+        members = set(island.group)
+        s = self.surfaces
+        body1, body2, point, normal, depth, surface = [], [], [], [], [], []
         for pt in pairs:
-            a, b = by_body[pt[1]], by_body[pt[2]]
+            a, b = by_body[pt[contact.BODY_A]], by_body[pt[contact.BODY_B]]
             if a not in members:
                 continue
-            ka = offsets[a] + (pt[3] + 1 if a < nrob else 0)
-            kb = offsets[b] + (pt[4] + 1 if b < nrob else 0)
-            pa = entities[a].map_point(pt[3], pt[5], pos[ka], quat[ka])
-            pbb = entities[b].map_point(pt[4], pt[6], pos[kb], quat[kb])
-            p_b1.append(ka)
-            p_b2.append(kb)
-            p_point.append(0.5 * (pa + pbb))
-            p_normal.append(entities[b].map_dir(pt[4], pt[7], quat[kb]))
-            p_depth.append(-pt[8])
-            p_surface.append(s.robot_robot if (a < nrob and b < nrob) else s.robot_ball)
-            p_info.append((a, b, pt[3], pt[4]))
-
-        def arr(x, shape):
-            return np.array(x, dtype=float).reshape(shape)
-
-        island_args = (
-            *body_cols,
-            self.gravity,
-            drag_lin,
-            drag_ang,
-            drag_vel,
-            drag_spin,
-            cfg.ode_gyroscopic == "implicit",
-            np.concatenate(targets) if targets else empty,
-            np.concatenate(los) if los else empty,
-            np.concatenate(his) if his else empty,
-            np.concatenate(pushes) if pushes else empty,
-            motor_state,
-            np.array(c_body, dtype=np.int64),
-            arr(c_point, (-1, 3)),
-            arr(c_normal, (-1, 3)),
-            arr(c_depth, (-1,)),
-            arr(c_surface, (-1, 5)),
-            np.array(p_b1, dtype=np.int64),
-            np.array(p_b2, dtype=np.int64),
-            arr(p_point, (-1, 3)),
-            arr(p_normal, (-1, 3)),
-            arr(p_depth, (-1,)),
-            arr(p_surface, (-1, 5)),
-            cfg.cycle,
-            cfg.ode_joint_erp,
-            cfg.global_cfm,
-            MOTOR_CFM,
-            cfg.contact_slop,
+            la, lb = pt[contact.LINK_A], pt[contact.LINK_B]
+            ka = island.offsets[a] + (la + 1 if island.is_robot(a) else 0)
+            kb = island.offsets[b] + (lb + 1 if island.is_robot(b) else 0)
+            pa = entities[a].map_point(la, pt[contact.POSITION_ON_A], state.pos[ka], state.quat[ka])
+            pbb = entities[b].map_point(lb, pt[contact.POSITION_ON_B], state.pos[kb], state.quat[kb])
+            body1.append(ka)
+            body2.append(kb)
+            point.append(0.5 * (pa + pbb))
+            normal.append(entities[b].map_dir(lb, pt[contact.NORMAL_ON_B], state.quat[kb]))
+            depth.append(-pt[contact.DISTANCE])
+            surface.append(s.robot_robot if (island.is_robot(a) and island.is_robot(b)) else s.robot_ball)
+            island.pairs.append((a, b, la, lb))
+        return PairContacts(
+            np.array(body1, dtype=np.int64),
+            np.array(body2, dtype=np.int64),
+            _rows(point, 3),
+            _rows(normal, 3),
+            np.array(depth, dtype=float).reshape(-1),
+            _rows(surface, 5),
         )
-        out = island_step.step_island(*island_args)
+
+    def _scatter(
+        self, island: _Island, out, robots, statics, preps, motors: Motors, contacts: Contacts, pairs, by_body
+    ) -> None:
+        """The solved island handed back: motor states and each robot's new state and contacts (in
+        pybullet's tuple layout, ``contact.point``), and the ball's new state."""
         npos, nquat, nvel, nspin, forces, tangents, p_forces, p_tangents, torques, iterations = out
-        # motor states back into each robot, then each robot's and the ball's new state
-        for i in group:
-            if i < nrob:
-                jo = joint_offsets[i]
+        for i in island.group:
+            if island.is_robot(i):
+                jo = island.joint_offsets[i]
                 st = statics[i]
-                nji = st.local_axes.shape[0]
-                st.motor_state[:] = motor_state[jo : jo + nji]
-        extra: dict[int, list] = {i: [] for i in group}
+                statics[i].motor_state[:] = motors.state[jo : jo + st.local_axes.shape[0]]
+        extra: dict[int, list] = {i: [] for i in island.group}
         bodies = {i: body for body, i in by_body.items()}
-        c_point_arr = arr(c_point, (-1, 3))
-        for i in group:
-            first, gp, gpt, gd = ground_ranges[i]
+        for i in island.group:
+            if not island.is_robot(i):
+                continue
+            first, gp, _, _ = island.ground[i]
             ng = gp.shape[0]
-            n_static = len(entities[i].static)
-            if i >= nrob:
+            for ci in range(first + ng, first + ng + island.static_count[i]):
+                k = int(contacts.body[ci]) - island.offsets[i]
+                p = tuple(contacts.point[ci])
+                extra[i].append(
+                    contact.point(
+                        robots[i].body_id,
+                        self.static,
+                        k - 1,
+                        -1,
+                        p,
+                        p,
+                        tuple(contacts.normal[ci]),
+                        -contacts.depth[ci],
+                        forces[ci],
+                        tangents[ci],
+                    )
+                )
+        for m, (a, b, la, lb) in enumerate(island.pairs):
+            f, t = p_forces[m], p_tangents[m]
+            p = tuple(pairs.point[m])
+            towards = tuple(pairs.normal[m])
+            depth = -pairs.depth[m]
+            if island.is_robot(a):
+                extra[a].append(contact.point(robots[a].body_id, bodies[b], la, lb, p, p, towards, depth, f, t))
+            if island.is_robot(b):
+                away = tuple(-x for x in towards)
+                extra[b].append(contact.point(robots[b].body_id, bodies[a], lb, la, p, p, away, depth, f, t, sign=-1.0))
+        for i in island.group:
+            off = island.offsets[i]
+            if not island.is_robot(i):
+                self._write_ball(npos[off], nquat[off], nvel[off], nspin[off])
                 continue
             robot = robots[i]
-            for m in range(ng, ng + n_static):
-                ci = first + m
-                k = c_body[ci] - offsets[i]
-                f, t = forces[ci], tangents[ci]
-                p = c_point_arr[ci]
-                extra[i].append(
-                    (0, robot.body_id, self.static, k - 1, -1, tuple(p), tuple(p), tuple(c_normal[ci]), -c_depth[ci])
-                    + (float(f[0]), float(f[1]), tuple(t[0]), float(f[2]), tuple(t[1]))
-                )
-        for m, (a, b, la, lb) in enumerate(p_info):
-            f, t = p_forces[m], p_tangents[m]
-            p = tuple(p_point[m])
-            nrm = tuple(p_normal[m])
-            if a < nrob:
-                extra[a].append(
-                    (0, robots[a].body_id, bodies[b], la, lb, p, p, nrm, -p_depth[m])
-                    + (float(f[0]), float(f[1]), tuple(t[0]), float(f[2]), tuple(t[1]))
-                )
-            if b < nrob:
-                neg = tuple(-x for x in nrm)
-                extra[b].append(
-                    (0, robots[b].body_id, bodies[a], lb, la, p, p, neg, -p_depth[m])
-                    + (float(f[0]), float(-f[1]), tuple(t[0]), float(-f[2]), tuple(t[1]))
-                )
-        for i in group:
-            off = offsets[i]
-            if i < nrob:
-                robot = robots[i]
-                st = statics[i]
-                nb = st.masses.shape[0]
-                first, gp, gpt, gd = ground_ranges[i]
-                ng = gp.shape[0]
-                ground_contacts = partial(
-                    robot_step.ground_tuples,
-                    robot.body_id,
-                    self.ground,
-                    gp,
-                    gpt,
-                    gd,
-                    forces[first : first + ng],
-                    tangents[first : first + ng],
-                )
-                contacts = partial(_joined, ground_contacts, tuple(extra[i]))
-                solved = robot_step.finish_maximal(
-                    robot,
-                    st,
-                    preps[i].bodies,
-                    npos[off : off + nb].copy(),
-                    nquat[off : off + nb].copy(),
-                    nvel[off : off + nb].copy(),
-                    nspin[off : off + nb].copy(),
-                    contacts,
-                    torques[joint_offsets[i] : joint_offsets[i] + st.local_axes.shape[0]].copy(),
-                    iterations,
-                )
-                robot_step.apply(robot, solved)
-            else:
-                self._write_ball(npos[off], nquat[off], nvel[off], nspin[off])
+            st = statics[i]
+            nb = st.masses.shape[0]
+            first, gp, gpt, gd = island.ground[i]
+            ng = gp.shape[0]
+            ground = partial(
+                robot_step.ground_tuples,
+                robot.body_id,
+                self.ground,
+                gp,
+                gpt,
+                gd,
+                forces[first : first + ng],
+                tangents[first : first + ng],
+            )
+            jo = island.joint_offsets[i]
+            solved = robot_step.finish_maximal(
+                robot,
+                st,
+                preps[i].bodies,
+                npos[off : off + nb].copy(),
+                nquat[off : off + nb].copy(),
+                nvel[off : off + nb].copy(),
+                nspin[off : off + nb].copy(),
+                partial(_joined, ground, tuple(extra[i])),
+                torques[jo : jo + st.local_axes.shape[0]].copy(),
+                iterations,
+            )
+            robot_step.apply(robot, solved)
 
     def _wake_ball(self) -> None:
         self._ball_asleep = False

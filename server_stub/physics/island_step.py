@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from server_stub.physics.bundles import Contacts, Forces, Model, Motors, PairContacts, Params, State
 from server_stub.physics.integrate import advance, body_terms, free_velocities
 from server_stub.physics.linalg import cross, plane_space
 from server_stub.physics.rows import (
@@ -52,53 +53,20 @@ from server_stub.physics.solver import (
 
 
 @njit(cache=True)
-def step_island(
-    masses,
-    principal,
-    parents,
-    joint_of,
-    local_axes,
-    anchor_child,
-    anchor_parent,
-    pos,
-    quat,
-    vel,
-    spin,
-    gravity,
-    drag_linear,
-    drag_angular,
-    drag_vel,
-    drag_spin,
-    implicit_gyro,
-    motor_target,
-    motor_lo,
-    motor_hi,
-    push,
-    motor_state,
-    c_body,
-    c_point,
-    c_normal,
-    c_depth,
-    c_surface,
-    p_body1,
-    p_body2,
-    p_point,
-    p_normal,
-    p_depth,
-    p_surface,
-    h,
-    joint_erp,
-    joint_cfm,
-    motor_cfm,
-    surface_layer,
-):
-    """One dWorldStep of an island. Bodies: ``masses`` ... ``spin`` as ``step_tree``'s, with
-    ``parents`` -1 at each root and ``joint_of`` the hinge of each non-root; ``drag_linear`` /
-    ``drag_angular`` per body. Contacts with one body: ``c_*`` (the normal points away from the
-    static object, into the body); between two: ``p_*`` (the normal points from body 2 into body
-    1); surfaces as rows of (ERP, CFM, slip, bounce, minimum bounce velocity). Returns (positions,
+def step_island(model, state, forces, motors, contacts, pairs, params):
+    """One dWorldStep of an island (``server_stub.physics.bundles``): the bodies of a forest, with
+    ``parents`` -1 at each root and ``joint_of`` the hinge of each non-root; the drag per body.
+    Contacts with one body in ``contacts`` (each with its own surface; ``params``' robot-ground
+    surface is not used), between two in ``pairs``. Returns (positions,
     quaternions, velocities, spins, one-body contact forces (normal, t1, t2) and tangents, two-body
     contact forces (on body 1) and tangents, motor/stop torques, solver passes)."""
+    masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
+    pos, quat, vel, spin = state
+    gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
+    motor_target, motor_lo, motor_hi, push, motor_state = motors
+    c_body, c_point, c_normal, c_depth, c_surface = contacts
+    p_body1, p_body2, p_point, p_normal, p_depth, p_surface = pairs
+    h, joint_erp, joint_cfm, motor_cfm, surface_layer, implicit_gyro, _erp, _cfm, _slip = params
     nb = masses.shape[0]
     nj = local_axes.shape[0]
     nc = c_point.shape[0]
@@ -251,12 +219,29 @@ def warm_up() -> None:
     one = np.ones(2)
     none = np.zeros((0, 3))
     step_island(
-        *(np.full(2, 0.026), np.full((2, 3), 1.8e-5), np.array([-1, -1]), np.array([0, 0]), none, none, none),
-        *(np.array([[0.0, 0.0, 0.042], [0.08, 0.0, 0.042]]), np.tile([0.0, 0.0, 0.0, 1.0], (2, 1))),
-        *(np.zeros((2, 3)), np.zeros((2, 3)), np.array([0.0, 0.0, -9.81]), 0.01 * one, 5e-5 * one),
-        *(np.zeros((2, 3)), np.zeros((2, 3)), True, np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)),
-        *(np.zeros(0, dtype=np.int64), np.array([0]), np.array([[0.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 1.0]])),
-        *(np.array([0.001]), np.array([[0.35, 0.05, 0.3, 0.8, 0.8]]), np.array([1]), np.array([0])),
-        *(np.array([[0.04, 0.0, 0.042]]), np.array([[1.0, 0.0, 0.0]]), np.array([0.004])),
-        *(np.array([[0.5, 0.05, 0.6, 0.8, 1.0]]), 0.02, 0.2, 1e-5, 1e-8, 0.001),
+        Model(np.full(2, 0.026), np.full((2, 3), 1.8e-5), np.array([-1, -1]), np.array([0, 0]), none, none, none),
+        State(
+            np.array([[0.0, 0.0, 0.042], [0.08, 0.0, 0.042]]),
+            np.tile([0.0, 0.0, 0.0, 1.0], (2, 1)),
+            np.zeros((2, 3)),
+            np.zeros((2, 3)),
+        ),
+        Forces(np.array([0.0, 0.0, -9.81]), 0.01 * one, 5e-5 * one, np.zeros((2, 3)), np.zeros((2, 3))),
+        Motors(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0, dtype=np.int64)),
+        Contacts(
+            np.array([0]),
+            np.array([[0.0, 0.0, 0.0]]),
+            np.array([[0.0, 0.0, 1.0]]),
+            np.array([0.001]),
+            np.array([[0.35, 0.05, 0.3, 0.8, 0.8]]),
+        ),
+        PairContacts(
+            np.array([1]),
+            np.array([0]),
+            np.array([[0.04, 0.0, 0.042]]),
+            np.array([[1.0, 0.0, 0.0]]),
+            np.array([0.004]),
+            np.array([[0.5, 0.05, 0.6, 0.8, 1.0]]),
+        ),
+        Params(0.02, 0.2, 1e-5, 1e-8, 0.001, True, 0.4, 1e-4, 0.005),
     )

@@ -32,6 +32,7 @@ import pybullet as pb
 
 from server_stub.physics import bodies as kinematics
 from server_stub.physics import nao_model
+from server_stub.physics.bundles import Forces, GroundContacts, Model, Motors, Params, State
 from server_stub.physics.collision import BOX, CAPSULE, SPHERE, ground_contacts
 from server_stub.physics.rows import FUDGE_FACTOR, MOTOR_CFM, motor_rows
 from server_stub.physics.tree_step import step_tree
@@ -132,6 +133,21 @@ class Prepared(NamedTuple):
     push: np.ndarray
 
 
+def params_of(config) -> Params:
+    """The step's numbers from the physics settings, as the kernels take them."""
+    return Params(
+        config.cycle,
+        config.ode_joint_erp,
+        config.global_cfm,
+        MOTOR_CFM,
+        config.contact_slop,
+        config.ode_gyroscopic == "implicit",
+        config.contact_erp,
+        config.contact_cfm,
+        config.slip,
+    )
+
+
 def solve_prepared(robot, static: RobotModel, prep: Prepared, ground: int, config) -> Solved:
     """The maximal step of a prepared robot against the ground alone."""
     bodies = prep.bodies
@@ -139,39 +155,26 @@ def solve_prepared(robot, static: RobotModel, prep: Prepared, ground: int, confi
         static.shape_body, static.shape_kind, static.shape_size, bodies.pos, bodies.quat, config.ode_box_points
     )
     pos, quat, vel, spin, forces, tangents, torques, iterations = step_tree(
-        static.masses,
-        static.principal,
-        static.parents,
-        static.joint_of,
-        static.local_axes,
-        bodies.anchor_child,
-        bodies.anchor_parent,
-        bodies.pos,
-        bodies.quat,
-        bodies.vel,
-        bodies.spin,
-        np.array([0.0, 0.0, config.gravity]),
-        config.linear_damping,
-        config.angular_damping,
-        prep.drag_vel,
-        prep.drag_spin,
-        config.ode_gyroscopic == "implicit",
-        parts,
-        points,
-        depths,
-        prep.target,
-        prep.lo,
-        prep.hi,
-        prep.push,
-        static.motor_state,
-        config.cycle,
-        config.ode_joint_erp,
-        config.global_cfm,
-        MOTOR_CFM,
-        config.contact_erp,
-        config.contact_cfm,
-        config.slip,
-        config.contact_slop,
+        Model(
+            static.masses,
+            static.principal,
+            static.parents,
+            static.joint_of,
+            static.local_axes,
+            bodies.anchor_child,
+            bodies.anchor_parent,
+        ),
+        State(bodies.pos, bodies.quat, bodies.vel, bodies.spin),
+        Forces(
+            np.array([0.0, 0.0, config.gravity]),
+            config.linear_damping,
+            config.angular_damping,
+            prep.drag_vel,
+            prep.drag_spin,
+        ),
+        GroundContacts(parts, points, depths),
+        Motors(prep.target, prep.lo, prep.hi, prep.push, static.motor_state),
+        params_of(config),
     )
     contacts = partial(ground_tuples, robot.body_id, ground, parts, points, depths, forces, tangents)
     return finish_maximal(robot, static, bodies, pos, quat, vel, spin, contacts, torques, iterations)
@@ -329,36 +332,10 @@ def warm_up() -> None:
     child, parent = kinematics.local_anchors(*two, centres, quats, anchors)
     kinematics.measured_state(centres, quats, vel, spin, *two, axes)
     step_tree(
-        np.ones(2),
-        np.full((2, 3), 0.01),
-        *two,
-        axes,
-        child,
-        parent,
-        centres,
-        quats,
-        vel,
-        spin,
-        np.array([0.0, 0.0, -9.81]),
-        0.01,
-        0.01,
-        vel,
-        spin,
-        True,
-        np.array([1], dtype=np.int64),
-        np.array([[0.0, 0.0, 0.0]]),
-        np.array([0.002]),
-        np.zeros(1),
-        np.full(1, -10.0),
-        np.full(1, 10.0),
-        np.zeros(1),
-        np.zeros(1, dtype=np.int64),
-        0.02,
-        0.2,
-        1e-5,
-        MOTOR_CFM,
-        0.4,
-        1e-4,
-        0.005,
-        0.001,
+        Model(np.ones(2), np.full((2, 3), 0.01), *two, axes, child, parent),
+        State(centres, quats, vel, spin),
+        Forces(np.array([0.0, 0.0, -9.81]), 0.01, 0.01, vel, spin),
+        GroundContacts(np.array([1], dtype=np.int64), np.array([[0.0, 0.0, 0.0]]), np.array([0.002])),
+        Motors(np.zeros(1), np.full(1, -10.0), np.full(1, 10.0), np.zeros(1), np.zeros(1, dtype=np.int64)),
+        Params(0.02, 0.2, 1e-5, MOTOR_CFM, 0.001, True, 0.4, 1e-4, 0.005),
     )

@@ -44,48 +44,21 @@ from server_stub.physics.solver import box_qp, contact_forces, factor, schur_com
 
 
 @njit(cache=True)
-def step_tree(
-    masses,
-    principal,
-    parents,
-    joint_of,
-    local_axes,
-    anchor_child,
-    anchor_parent,
-    pos,
-    quat,
-    vel,
-    spin,
-    gravity,
-    drag_linear,
-    drag_angular,
-    drag_vel,
-    drag_spin,
-    implicit_gyro,
-    contact_body,
-    contact_point,
-    contact_depth,
-    motor_target,
-    motor_lo,
-    motor_hi,
-    push,
-    motor_state,
-    h,
-    joint_erp,
-    joint_cfm,
-    motor_cfm,
-    contact_erp,
-    contact_cfm,
-    slip,
-    surface_layer,
-):
+def step_tree(model, state, forces, ground, motors, params):
     """``step`` solved in O(bodies) (Baraff 1996, "Linear-time dynamics using Lagrange
     multipliers"): the unbounded rows (5 per hinge, 2 friction rows per contact) and the bodies form
     a tree, so H = [[M/h, J_U'], [J_U, -cfm_U]] is factored block by block from the leaves to the
     torso; the bounded rows (motor or stop per hinge, normal per contact) get their Schur
     complement S = cfm_B + G' H^-1 G (G their Jacobians on the bodies) from one forward pass each
-    along their path to the torso, and ``box_qp`` solves their LCP on S. Same arguments and
-    results as ``step`` (equal to rounding). Requires every parent index below its child's."""
+    along their path to the torso, and ``box_qp`` solves their LCP on S. Arguments in bundles
+    (``server_stub.physics.bundles``); the same results as one dense LCP (``tests/dense_step.py``,
+    to rounding). Requires every parent index below its child's."""
+    masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
+    pos, quat, vel, spin = state
+    gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
+    contact_body, contact_point, contact_depth = ground
+    motor_target, motor_lo, motor_hi, push, motor_state = motors
+    h, joint_erp, joint_cfm, motor_cfm, surface_layer, implicit_gyro, contact_erp, contact_cfm, slip = params
     nb = masses.shape[0]
     nj = local_axes.shape[0]
     nc = contact_point.shape[0]
