@@ -30,6 +30,7 @@ from collections.abc import Callable
 from protocol.errors import ProtocolError, excerpt
 from protocol.nao import CYCLE
 from protocol.sexp import parse_sexp
+from server_stub import kernels
 from server_stub.config import PhysicsConfig, ServerConfig
 from server_stub.game import Game, GameError
 from server_stub.net.agent_commands import has_syn
@@ -47,6 +48,7 @@ class StubServer:
 
     def __init__(self, config: ServerConfig = ServerConfig(), physics: PhysicsConfig = PhysicsConfig()) -> None:
         self.config = config
+        kernels.warm_up()  # compile now, not in an agent's first cycle
         self.sim = Simulation(config, physics)
         self.running = False
         self._selector = selectors.DefaultSelector()

@@ -13,7 +13,7 @@ from server_stub.physics.linalg import conj, cross, mat_vec, mv3, qmul, qmul4
 from server_stub.physics.rotations import rotation_into, rotation_matrix
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def hinge_angle(q_child, q_parent, local_axis):
     """dJointGetHingeAngle for bodies whose frames agree at angle 0: from the child's orientation
     relative to the parent's, the rotation's size signed by its part along the axis (so a turn off

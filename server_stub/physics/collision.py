@@ -165,7 +165,7 @@ def far_apart(pos, owner, count, ball, reach, ball_reach, static_lo, static_hi):
     return True
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def boxes_overlap(lo_a, hi_a, lo_b, hi_b):
     return (
         lo_a[0] <= hi_b[0]

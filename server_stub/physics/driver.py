@@ -147,7 +147,6 @@ class Stepper:
         self.ball_inertia = 0.4 * field.BALL_MASS * r * r
         self.gravity = np.array([0.0, 0.0, config.gravity])
         pb.setCollisionFilterPair(ground, ball, -1, -1, 0, physicsClientId=client)
-        island_step.warm_up()
         self._ball_written: tuple | None = None
         self._ball_moved = False
         self._ball_asleep = False
@@ -155,7 +154,6 @@ class Stepper:
         boxes = collision.static_boxes()
         self._static_lo = np.array([np.subtract(centre, half) for half, centre in boxes])
         self._static_hi = np.array([np.add(centre, half) for half, centre in boxes])
-        self._far_apart([np.zeros((1, 3))], (0.0, 0.0, 5.0))  # compile (or load) the check now
         #: what the step keeps of each robot on the field
         self._robots: dict[Robot, robot_step.RobotPhysics] = {}
 

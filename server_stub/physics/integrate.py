@@ -12,7 +12,7 @@ from server_stub.physics.linalg import cross3, invert3, mat_mul3, mat_vec, mv3, 
 from server_stub.physics.rotations import rotation_into
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def gyroscopic_torque(inertia, w, h, implicit):
     """ODE 0.16's gyroscopic torque of one body: implicit (its default), (I I~^-1 - 1) L / h with
     L = I w and I~ = I - h [L]x; explicit, -w x I w. A tuple."""

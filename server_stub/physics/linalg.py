@@ -3,9 +3,11 @@
 equal numba's ``@`` to the last bit, a Cholesky factor, and the block operations of the tree solve.
 
 The step's per-body and per-hinge loops work on tuples (``qmul4``, ``mv3``, ``cross3``) and on
-scratch arrays made once per call, and these helpers are inlined (``inline="always"``): a small
-array made, or a helper called with array views, in such a loop costs more than its arithmetic.
-Every sum is taken in the same order either way, so the results are the same bits.
+scratch arrays made once per call: a small array made, or a helper called with array views, in
+such a loop costs more than its arithmetic. LLVM inlines these helpers itself; asking numba to
+inline them too (``inline="always"``) made no measurable difference to a step and cost 9 s of a
+cold start's compile (``bench/bench_cold_start.py``). Every sum is taken in the same order either
+way, so the results are the same bits.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from numba import njit, types
 from numba.extending import intrinsic
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def cross3(a, b):
     """a x b as a tuple: no array is made (the step's per-body loops would make thousands)."""
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
@@ -66,7 +68,7 @@ def cho_solve(lower, b):
     return x
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def plane_space3(n):
     """Two unit tangents completing the unit normal n to a right-handed basis, as tuples."""
     if abs(n[2]) > 0.7071:
@@ -85,7 +87,7 @@ def plane_space(n):
     return np.array([x1, y1, z1]), np.array([x2, y2, z2])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def qmul4(a, b):
     """Hamilton product of (x, y, z, w) quaternions, as a tuple."""
     return (
@@ -120,7 +122,7 @@ def fused_multiply_add(typingctx, a, b, c):
     return types.float64(types.float64, types.float64, types.float64), codegen
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def mat_mul3(a, b):
     """a b for 3x3 matrices as numba's ``@`` computes it, without the library call (which costs
     more than the product): ``@`` calls OpenBLAS's dgemm, whose x86-64 kernels accumulate each
@@ -133,7 +135,7 @@ def mat_mul3(a, b):
     return out
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def mv3(m, v):
     """m v for a 3x3 m, as a tuple."""
     return (
@@ -149,7 +151,7 @@ def mat_vec(m, v):
     return np.array([x, y, z])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def invert3(m):
     """Inverse of a 3x3 matrix (ok False when singular)."""
     c00 = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
@@ -172,7 +174,7 @@ def invert3(m):
     return out, True
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def inverse_definite(a, sign, out, low):
     """``out`` = the inverse of a small symmetric matrix that is positive (sign 1) or negative
     (sign -1) definite: Cholesky factor of sign * a, inverted (``low``: scratch, n x n or more;
@@ -206,7 +208,7 @@ def inverse_definite(a, sign, out, low):
             out[j, i] = sign * t
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def mv_sub(m, v, out):
     """out -= m v."""
     for i in range(m.shape[0]):
@@ -216,7 +218,7 @@ def mv_sub(m, v, out):
         out[i] -= t
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def mtv_sub(m, v, out):
     """out -= m' v."""
     for j in range(m.shape[1]):
@@ -226,7 +228,7 @@ def mtv_sub(m, v, out):
         out[j] -= t
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def mv(m, v, out):
     """out = m v."""
     for i in range(m.shape[0]):
@@ -236,7 +238,7 @@ def mv(m, v, out):
         out[i] = t
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def mtdm_sub(m, dinv, out, tmp):
     """out -= m' dinv m (m: rows x 6, dinv: rows x rows, out 6 x 6; ``tmp``: scratch, rows x 6 or more)."""
     r = m.shape[0]
@@ -256,7 +258,7 @@ def mtdm_sub(m, dinv, out, tmp):
                 out[b, a] -= t
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def mdmt(m, dinv, out, tmp):
     """out -= m dinv m' (m: rows x 6, dinv 6 x 6, out rows x rows; ``tmp``: scratch, rows x 6 or more)."""
     r = m.shape[0]

@@ -10,7 +10,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def rotation_into(q: np.ndarray, out: np.ndarray) -> None:
     """``out`` (3x3) = the rotation of a unit quaternion (x, y, z, w), pybullet's order: columns
     are the turned x, y and z axes. Into a given array: the step's per-body loops need no new one."""

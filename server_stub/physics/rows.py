@@ -217,7 +217,7 @@ def contact_nodes(nb, c_body, c_point, c_normal, pos):
     return jn, jf, tangents, contact_first, contact_next
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def contact_c(erp, depth, surface_layer, h, bounce, bounce_vel, outgoing):
     """ODE 0.16's right-hand side of a contact's normal row (``bounce_vel`` inf: no bounce)."""
     d = depth - surface_layer

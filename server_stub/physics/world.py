@@ -20,7 +20,7 @@ import pybullet as pb
 from server_stub import field
 from server_stub.config import PhysicsConfig
 from server_stub.physics import bodies as kinematics
-from server_stub.physics import collision, driver, motors, nao_model, robot_step, rotations
+from server_stub.physics import collision, driver, nao_model, robot_step
 from server_stub.physics.robot import Robot
 
 #: docs/robot_and_server.md section 6: a new robot appears with its torso here, in the air.
@@ -59,9 +59,6 @@ class World:
         self._parked: dict[int, list[int]] = {}
         self._configure_collision()
         self._build_field()
-        robot_step.warm_up()
-        rotations.warm_up()
-        motors.warm_up()
 
     def _configure_collision(self) -> None:
         """pybullet never steps this world; it finds the contacts between robots, the ball and the

@@ -13,7 +13,6 @@ from server_stub.agent_state import AgentState
 from server_stub.config import ServerConfig
 from server_stub.game import Game
 from server_stub.physics.world import World
-from server_stub.sensors import number_text, vision
 from server_stub.sensors.monitor_scene import GameHeader, MonitorScene, RobotView
 from server_stub.sensors.perception_text import GameStateText, format_hear, format_perception
 from server_stub.sensors.vision import PLAYER_PARTS, SeenRobot, VisionSensor
@@ -28,8 +27,6 @@ class Sensing:
         self._said: list[tuple[AgentState, str]] = []
         self._audible: list[tuple[AgentState, str]] = []
         self._seen: list[SeenRobot] | None = None
-        vision.warm_up()
-        number_text.warm_up()
 
     # ----- agents -----
     def add_robot(self, state: AgentState) -> None:
