@@ -22,7 +22,6 @@ and a torque -0.01 w, added before the step as its DragController does.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from functools import partial
 from typing import NamedTuple
@@ -208,7 +207,7 @@ def prepare(robot, physics: RobotPhysics, model: RobotModel, config) -> Prepared
     its first step, moved rigidly with the torso after a beam or a trainer's move (``moved``)."""
     bodies = physics.bodies
     moved, physics.moved = physics.moved, False
-    if bodies is not None and not moved and not _stored_with_other_sign(robot, bodies):
+    if bodies is not None and not moved:
         # nothing but the step has moved the robot: the bodies go on from their own state
         return _prepared(robot, bodies, bodies.vel, bodies.spin, robot.joint_state()[0], config)
     robot.sync()
@@ -255,18 +254,6 @@ def prepare(robot, physics: RobotPhysics, model: RobotModel, config) -> Prepared
         child, parent = bodies.anchor_child, bodies.anchor_parent
     bodies = physics.bodies = Bodies(coms, quats, vel, spin, child, parent)
     return _prepared(robot, bodies, bodies.vel, bodies.spin, angles, config)
-
-
-def _stored_with_other_sign(robot, bodies: Bodies) -> bool:
-    """Whether pybullet's torso quaternion, rebuilt from a matrix, is no longer the one the last
-    step wrote (the rebuild chose the other sign; or the state is not finite). The bodies are then
-    placed anew from pybullet's exact joints, losing the joints' drift: what the stand-in has
-    done since the maximal step came, kept so that this redesign changes no result."""
-    written = bodies.written
-    if written is None or not math.isfinite(written.sum()):
-        return True
-    q, w = robot.stored_pose()[1], written[3:7].tolist()
-    return max(abs(q[0] - w[0]), abs(q[1] - w[1]), abs(q[2] - w[2]), abs(q[3] - w[3])) > 1e-7
 
 
 def _prepared(robot, bodies: Bodies, drag_vel, drag_spin, angles: np.ndarray, config) -> Prepared:
