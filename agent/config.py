@@ -31,7 +31,7 @@ class AgentConfig:
     #: shifts the robot, and beam only works before kick-off, so it is done again once the pose
     #: is nearly reached (cycle 12, as in the calibration walk). None: no repeated beam. Measured on
     #: the real server with the shipped gait from (-5, 0, 0): repeated at cycle 8 or 10, or not at
-    #: all, the robot falls within 1.5 s; at 11-16 it walks 2.7-3.2 m (bench/RESULTS.md).
+    #: all, the robot falls within 1.5 s; at 11-16 it walks 2.7-3.2 m (bench/notebook-2026.md).
     rebeam_cycle: int | None = 12
     #: Proportional gain of the joint controller, 1/s (calibration walk: 15/s).
     gain: float = 15.0

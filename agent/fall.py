@@ -4,7 +4,7 @@ A fall is the torso's up axis tipping: the community's walk benchmark calls a ro
 the up axis's z component is below 0.6. The accelerometer alone cannot tell that while walking:
 it reads gravity plus the torso's own acceleration, and a fast gait's steps tip its reading past
 0.6 for many cycles while the torso stays upright (over the 50 fidelity gaits on the stand-in it
-reported a fall in 17 of the 26 walks that stood; bench/RESULTS.md). So the up axis is tracked
+reported a fall in 17 of the 26 walks that stood; bench/notebook-2026.md). So the up axis is tracked
 the way an attitude filter does: the gyro (exact in the server) turns it every cycle, and where
 the accelerometer reads about 1 g (the torso not accelerating much) it pulls the estimate slowly
 towards the gravity it reads.

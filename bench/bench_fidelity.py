@@ -1,4 +1,4 @@
-"""How faithfully the stand-in walks, against a real rcssserver3d (issue 15).
+"""How faithfully the stand-in walks, against a real rcssserver3d.
 
 Walks a stored gait set (``bench/fidelity_gaits/``) ``--stand-in-repeats`` times each on the
 embedded stand-in and ``--real-repeats`` times each on a real server started here (found through

@@ -1,4 +1,4 @@
-"""Speed of the stand-in against a real rcssserver3d, side by side in one sitting (issue 19).
+"""Speed of the stand-in against a real rcssserver3d, side by side in one sitting.
 
 Three ways to run one optimizer episode (``EpisodeRunner``, 15-s walks from (-5, 0, 0)):
 

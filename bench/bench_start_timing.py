@@ -1,5 +1,5 @@
 """Does a walk survive how it starts? The shipped gait with the agent's repeated beam at several
-settle cycles, on the stand-in or on a real rcssserver3d (issue 15).
+settle cycles, on the stand-in or on a real rcssserver3d.
 
 On the real server the shipped gait from (-5, 0, 0) falls within 1.5 s when the beam is repeated at
 settle cycle 8 or 10, or not at all, and walks about 3 m otherwise; a stand-in should do the same

@@ -1,6 +1,6 @@
 """Cost of the stub's wire text: perception, vision (See) and monitor messages.
 
-Run: ``cd /work/main && python bench/bench_stub_formats.py``. Prints microseconds per call.
+Run: ``python bench/bench_stub_formats.py`` from the repository. Prints microseconds per call.
 """
 
 from __future__ import annotations

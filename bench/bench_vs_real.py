@@ -1,4 +1,4 @@
-"""Speed, stand-in against a real rcssserver3d, side by side in one sitting (issue 15, item 6).
+"""Speed, stand-in against a real rcssserver3d, side by side in one sitting.
 
 The stand-in exists to be a faster, easier judge than the real server; this says whether it is.
 The same ``EpisodeRunner`` walks the shipped gait and the fast real walk (``FAST_REAL``) from

@@ -36,10 +36,10 @@ stand-in rounds alike), so a dither below 1e-4 rad/s moves a command only where 
 a rounding boundary, about amplitude / 2e-4 of the commands: a sparse set of 1e-4 rad/s kicks
 (1e-8 rad/s: about one in a 15-s walk of 22 joints) rather than a smaller perturbation.
 
-    python bench/calibrate_dither.py --out /work/scratch_calib/calib.json
+    python bench/calibrate_dither.py --out runs/calib/calib.json
     python bench/calibrate_dither.py --gaits 4 --repeats 4 --amplitudes 0 1e-3 --out /tmp/calib.json
-    python bench/calibrate_dither.py --real-from /work/scratch_calib/calib.json --amplitudes 1e-8 --out /tmp/more.json
-    python bench/calibrate_dither.py --from-json /work/scratch_calib/calib.json   # figures again, no walking
+    python bench/calibrate_dither.py --real-from runs/calib/calib.json --amplitudes 1e-8 --out /tmp/more.json
+    python bench/calibrate_dither.py --from-json runs/calib/calib.json   # figures again, no walking
 
 Exit status 0 whatever the figures (they are a measurement), 1 when no real server is found.
 """

@@ -1,5 +1,5 @@
 """What each tfs-plus addition buys: a found tfs-plus walk, and the same walk with one addition
-taken out at a time, on the stand-in and on a real rcssserver3d (issue 26, item 2).
+taken out at a time, on the stand-in and on a real rcssserver3d.
 
 Cases: the walk as found; without the ankle pitch (``c_a = P = 0``); without the sway (``S = 0``);
 without the arm swing (``R = 0``); without all three (the TFS walk underneath). Each case walks

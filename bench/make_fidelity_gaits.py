@@ -1,6 +1,6 @@
 """Make the fidelity benchmark's gait sets (``bench/fidelity_gaits/training.json``, ``held_aside.json``).
 
-The sets must hold what a search meets and what the stand-in gets wrong (issue 15), so they are
+The sets must hold what a search meets and what the stand-in gets wrong, so they are
 drawn from five families and screened on a real rcssserver3d (one walk each, recorded with the gait):
 
 - ``line``: the straight line in gene space from the shipped gait to the fast real walk
@@ -20,7 +20,7 @@ within each family, so each family is in both. Everything is seeded (``--seed``)
 the same seed and run folders draws the same candidates (the real server's screen walks vary a
 few per cent, so a gait near a threshold can go either way).
 
-    python bench/make_fidelity_gaits.py --real-run /work/demo/real-pc0.8 --stub-run /work/demo/stub-pc0.8
+    python bench/make_fidelity_gaits.py --real-run runs/real-pc0.8 --stub-run runs/stub-pc0.8
 """
 
 from __future__ import annotations
@@ -157,7 +157,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
         )
 
-    centres = [("fast", FAST_REAL, "FAST_REAL (issue 15: 13.26 m on the real server)")]
+    centres = [("fast", FAST_REAL, "FAST_REAL (13.26 m on the real server)")]
     for j, (genes, distance, key) in enumerate(_fastest_distinct(args.real_run, args.fast_centres, 0.15)):
         centres.append((f"realrun{j}", genes, f"{args.real_run.name} {key}: {distance:.2f} m on the real server"))
     for name, genes, what in centres:

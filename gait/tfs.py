@@ -1,4 +1,4 @@
-"""The TFS generator (paper eq. 3-4 with one harmonic), as SPEC.md reads it.
+"""The TFS generator (paper eq. 3-4 with one harmonic), as docs/gait_families.md reads it.
 
 Hip: ``c_h + A sin(w t)`` while the phase is in the first half period (the "upper portion"),
 ``c_h + B sin(w t)`` in the second half (the "lower portion"); both portions are zero at the

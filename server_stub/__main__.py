@@ -1,4 +1,4 @@
-"""``python -m server_stub``: a pybullet stand-in for rcssserver3d on the agent and monitor ports."""
+"""``python -m server_stub``: the stand-in for rcssserver3d on the agent and monitor ports."""
 
 from __future__ import annotations
 

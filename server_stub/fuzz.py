@@ -1,7 +1,7 @@
 """A seeded fuzzer for the stand-in server: mutated real messages on both ports, framing abuse and
 connect/reset storms, against a stub running as its own process.
 
-Why a process and sockets: the crashes this hunts (issue 16) ended the whole server, and some lay
+Why a process and sockets: the crashes this hunts (docs/fidelity.md, robustness) ended the whole server, and some lay
 in the socket code itself (a connection reset before it was accepted), which an in-process call of
 a handler never reaches. A crash is the stub exiting or no longer serving a well-behaved agent
 (the canary, checked every ``canary_every`` sessions); the stub is then restarted and the run

@@ -1,6 +1,7 @@
 """libode's own plane colliders through ctypes: the reference the stand-in's ground contacts are
 checked against (``tests/test_ode_colliders.py``). libode 0.16.2 is the library the real
-rcssserver3d links; ``../shared/rcssserver3d/build.sh`` installs it (Debian's libode8).
+rcssserver3d links (Debian's libode8; ``docker/rcssserver3d/build-from-upstream.sh`` installs it
+with the real server).
 
 ``python tests/libode_colliders.py`` rewrites ``tests/data/libode/plane_contacts.json``: random
 shape poses with libode's contacts, so that a clone without libode still checks against them.

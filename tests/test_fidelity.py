@@ -1,4 +1,4 @@
-"""The fidelity benchmark (issue 15): its statistics on data with known answers, the stored gait
+"""The fidelity benchmark (``bench/bench_fidelity.py``): its statistics on data with known answers, the stored gait
 sets, its output files, the episode trace it reads, and a small end-to-end gate on a real server."""
 
 from __future__ import annotations
@@ -415,7 +415,7 @@ def test_the_gate_meets_the_issue_targets_for_distance_and_falls(gate: Path) -> 
     assert summary["median_ratio_error"] is not None and summary["median_ratio_error"] <= targets.median_ratio_error
     assert summary["worst_ratio_error"] <= targets.worst_ratio_error
     by_name = {item["name"]: item for item in json.loads((gate / "fidelity.json").read_text())["gaits"]}
-    fast = by_name["line-10"]["stand_in"]  # the 13.4 m real walk (issue 15)
+    fast = by_name["line-10"]["stand_in"]  # the 13.4 m real walk of the fidelity sets
     assert not any(walk["fell"] for walk in fast)
     assert float(np.median([walk["distance"] for walk in fast])) >= 11.0
 

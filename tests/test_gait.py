@@ -1,4 +1,4 @@
-"""The TFS gait: eq. 3-5 as SPEC.md reads them, the NAO mapping and the gait files."""
+"""The TFS gait: eq. 3-5 as docs/gait_families.md reads them, the NAO mapping and the gait files."""
 
 from __future__ import annotations
 

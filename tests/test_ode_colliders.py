@@ -99,7 +99,7 @@ def _libode() -> LibOde:
     try:
         return LibOde()
     except OSError as exc:
-        missing_real_server_part(f"libode, which ../shared/rcssserver3d/build.sh installs: {exc}")
+        missing_real_server_part(f"libode, which the real server's build installs (libode8): {exc}")
 
 
 @pytest.mark.real_server

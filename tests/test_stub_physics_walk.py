@@ -121,7 +121,7 @@ def test_calibration_walk_falls_or_walks_from_moved_starts_as_the_real_server_di
     too: it fell from 31, always in the first 1.5 s and by the start's timing, and walked the
     others 2.7-3.3 m. A stand-in that walks them all (as the Bullet-solved one did) tells the
     optimizer a start is safe where the real server punishes it. Target: fall agreement >= 90%
-    (issue 15); where both walk, the stand-in's distance within 25% of the real one."""
+    (``tests/data/rcssserver3d``); where both walk, the stand-in's distance within 25% of the real one."""
     agree, ratios = 0, []
     for case in _real_probe():
         start = {**case["start"], "beam": tuple(case["start"]["beam"])}

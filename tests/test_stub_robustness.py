@@ -1,4 +1,4 @@
-"""One client must never take the stand-in down (issue 16): each input that once ended the whole
+"""One client must never take the stand-in down: each input that once ended the whole
 server is sent over a real socket, and a well-behaved agent is served afterwards; the error
 boundary, the log limits and the parser's depth cap are checked where they live."""
 

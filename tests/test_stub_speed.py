@@ -1,4 +1,4 @@
-"""What the maximal step's shortcuts (issue 19, speed) take for granted, checked on this machine:
+"""What the step's speed shortcuts take for granted, checked on this machine:
 they may change how fast a step is, never a bit of what it computes.
 
 - ``Robot.hold``: pybullet gives back exactly what the step wrote into it (centre, velocities,

@@ -102,7 +102,7 @@ PAPER: dict[str, Any] = {
 #: A first look on a 2-core machine: one row (the paper's best crossover rate), population 20,
 #: 20 iterations (19 feedbacks to the automaton), a 6-generation final GA (515 gaits), then 1600
 #: gaits of refinement, each gait raced as the default scoring says, plus the checks (10 walks for
-#: the row's best and for each of the 10 best-scored gaits). Measured in bench/RESULTS.md.
+#: the row's best and for each of the 10 best-scored gaits). Measured in bench/notebook-2026.md.
 BUDGETS: dict[str, dict[str, Any]] = {
     "paper": {},
     "quick": {"crossover": [0.8], "population": 20, "iterations": 20, "generations": 6, "refine": 1600},

@@ -1,4 +1,4 @@
-"""How faithfully the stand-in walks, against a real rcssserver3d (issue 15): the measuring part.
+"""How faithfully the stand-in walks, against a real rcssserver3d: the measuring part.
 
 A search on the stand-in is only as good as the stand-in's agreement with the real server at
 walking speed, so this module walks a named set of gaits on both with the *same* agent and episode
@@ -8,7 +8,7 @@ distance, fall, the time of the fall, sideways drift, heading change and the tor
 A 15-s walk is a chaotic process. The real server is not deterministic (a few per cent run to
 run; some gaits fall sometimes, and one gait's walks may turn +21, -20 and -10 deg), and a dither of
 its velocity commands far below anything physical (``EpisodeConfig.command_noise``, 0.001 rad/s)
-moves where a walk ends and how far it turns as much on either server (bench/RESULTS.md). So each
+moves where a walk ends and how far it turns as much on either server (bench/notebook-2026.md). So each
 server's figures for a gait are over its walks (``Draws``), never one walk: ``real_repeats`` walks
 on the real server, ``stand_in_repeats`` on the stand-in (deterministic without a dither, so one
 walk then). Walk k gets seed k of the dither on both servers: paired draws from each one's spread.
@@ -55,7 +55,7 @@ GAIT_SET_DIR = Path(__file__).resolve().parents[2] / "bench" / "fidelity_gaits"
 #: The stored sets; ``all`` is their union.
 SET_NAMES: tuple[str, ...] = ("training", "held_aside")
 GAIT_SET_FORMAT = "fidelity-gaits/1"
-#: The fast real walk of issue 15: 13.26 m in 15 s on rcssserver3d 0.7.3 (no fall in 10 walks);
+#: The fast real walk of the fidelity sets (``line-10``): 13.26 m in 15 s on rcssserver3d 0.7.3 (no fall in 10 walks);
 #: the stand-in should walk it >= 11 m without a fall.
 FAST_REAL: tuple[float, ...] = (14.95, 16.83, 37.56, 24.10, 69.99, 0.2346, 22.44)
 

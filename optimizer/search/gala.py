@@ -1,6 +1,6 @@
 """GALA: a learning automaton picks the GA's mutation rate (paper section V), for one crossover rate.
 
-Reading of the paper (SPEC.md, "Reading the paper"), decided where it is silent:
+Reading of the paper (docs/optimizer.md), decided where it is silent:
 
 - Continuing population (default): the random initial population is evaluated once before the
   first iteration (keys ``pc0.8/init/g00/iNNN``), so that every iteration's rate shapes what it

@@ -1,6 +1,6 @@
 """The real-server calibration walk, replayed in-process against a ``World``.
 
-``fixtures/rcssserver3d/walk_calibration/README.md`` describes a slow TFS gait and its controller,
+``tests/data/rcssserver3d/walk_calibration/README.md`` describes a slow TFS gait and its controller,
 walked three times for 15 s on a real rcssserver3d (2.91-3.14 m forward). Running the very same
 gait and controller here, with the agent seeing joint angles as the wire shows them (2 decimals)
 and its commands taking effect with the server's latency, is how the stub's physics settings are
