@@ -28,6 +28,7 @@ class AgentState:
     sent_at: float = 0.0
     #: perception computed after the last step, sent at the next cycle boundary
     next_perception: str | None = None
-    #: frames received since the last step, applied after the next perception goes out
+    #: frames received since the last step, applied after the next perception goes out, and their bytes
     inbox: list[bytes] = field(default_factory=list)
+    inbox_bytes: int = 0
     vision: VisionSensor | None = None

@@ -132,6 +132,11 @@ class ServerConfig:
     agent_timeout: float = 10.0
     #: Largest frame accepted from a client; a longer length prefix disconnects it.
     max_frame: int = 1 << 20
+    #: Messages (and their bytes) an agent may send before the next cycle applies them; an agent
+    #: that sends more, not waiting for its perceptions, is disconnected, so that its flood cannot
+    #: grow the server's memory (a well-behaved agent sends one message a cycle, 300 B).
+    agent_inbox_frames: int = 1000
+    agent_inbox_bytes: int = 4 << 20
     #: Bytes a client may leave unread before it is disconnected (agent) or skipped (monitor).
     agent_out_cap: int = 8 << 20
     monitor_out_cap: int = 1 << 20

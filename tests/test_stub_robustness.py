@@ -276,3 +276,23 @@ def test_robots_created_and_removed_do_not_grow_memory() -> None:
 def _rss_mib() -> float:
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def test_an_agent_that_floods_messages_without_waiting_is_cut_and_others_are_served(threaded_server, caplog) -> None:
+    """In sync mode an agent's messages wait in the server until the next cycle; one that sends
+    thousands without waiting for its perception is disconnected once it passes the cap, with
+    one clear line, and the server keeps serving others."""
+    server = threaded_server
+    cap = server.config.agent_inbox_frames
+    with caplog.at_level(logging.WARNING, logger="server_stub"):
+        flood = _with_robot(server.agent_port)
+        flood.sock.settimeout(10)
+        try:
+            for _ in range(3 * cap):  # valid commands, never a (syn)
+                flood.send("(he1 0.5)")
+        except OSError:  # cut while sending: the server has closed the connection
+            pass
+        assert closed_by_server(flood, within=30.0)
+        _served(server.agent_port)
+    lines = [r.getMessage() for r in caplog.records if "does not wait for its perceptions" in r.getMessage()]
+    assert len(lines) == 1 and f"over the cap of {cap}" in lines[0] and lines[0].endswith("; disconnected")

@@ -142,10 +142,24 @@ class StubServer:
                 return  # dropped by one of its own messages (refused too often, or killed)
             if state is not None:
                 state.inbox.append(frame)
+                state.inbox_bytes += len(frame)
+                if (
+                    len(state.inbox) > self.config.agent_inbox_frames
+                    or state.inbox_bytes > self.config.agent_inbox_bytes
+                ):
+                    self._drop(client, self._flooded(state))
+                    return
                 if has_syn(frame):
                     state.awaiting_syn = False
             else:
                 self._on_trainer_frame(client, frame)
+
+    def _flooded(self, state: AgentState) -> str:
+        cfg = self.config
+        return (
+            f"sent {len(state.inbox)} messages ({state.inbox_bytes} B) in one cycle, over the cap of "
+            f"{cfg.agent_inbox_frames} or {cfg.agent_inbox_bytes} B: it does not wait for its perceptions"
+        )
 
     def _guarded(self, client: Client, handle: Callable[..., object], *args: object) -> None:
         """Run one client's handler behind an error boundary: whatever its input makes the
@@ -273,7 +287,7 @@ class StubServer:
                 state.awaiting_syn = True
                 state.sent_at = now
         for client, state in list(self._agents.items()):
-            inbox, state.inbox = state.inbox, []
+            inbox, state.inbox, state.inbox_bytes = state.inbox, [], 0
             self._guarded(client, self._on_agent_frames, client, state, inbox)
         self.sim.step()
         with_vision = self.sim.vision_due
