@@ -194,7 +194,9 @@ class Stepper:
         entities.append(_Entity(len(robots)))  # the ball
         by_body = {robot.body_id: i for i, robot in enumerate(robots)}
         by_body[self.ball] = len(robots)
-        # the ball's state and its ground contact (ODE's sphere-plane)
+        # the ball's state; placed by the trainer or the referee since the last step, SimSpark
+        # enables its body (trainercommandparser.cpp, soccerruleaspect.cpp: Enable())
+        placed = self._ball_moved or self._ball_written is None
         ball_now = self._ball_now()
         touching = []
         if not self._far_apart([prep.bodies.pos for prep in preps], ball_now[0]):
@@ -206,8 +208,8 @@ class Stepper:
             groups, pairs = self._islands(touching, entities, by_body)
         else:  # every robot and the ball on its own (the usual cycle of a lone walker)
             groups, pairs = [[i] for i in range(len(entities))], []
-        if ball_now != self._ball_written:
-            self._wake_ball()  # the trainer or the referee moved it: SimSpark enables its body
+        if placed:
+            self._wake_ball()
         ball_index = len(robots)
         for group in groups:
             if group == [ball_index] and self._ball_asleep:
