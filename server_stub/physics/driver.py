@@ -389,11 +389,11 @@ class Stepper:
             return np.concatenate(rows) if rows else empty
 
         motors = Motors(
-            joined([preps[i].target for i in robots]),
-            joined([preps[i].lo for i in robots]),
-            joined([preps[i].hi for i in robots]),
-            joined([preps[i].push for i in robots]),
-            np.concatenate([statics[i].motor_state for i in robots]) if robots else np.zeros(0, dtype=np.int64),
+            joined([preps[i].motors.target for i in robots]),
+            joined([preps[i].motors.lo for i in robots]),
+            joined([preps[i].motors.hi for i in robots]),
+            joined([preps[i].motors.push for i in robots]),
+            np.concatenate([preps[i].motors.state for i in robots]) if robots else np.zeros(0, dtype=np.int64),
         )
         return model, state, forces, motors
 
@@ -496,7 +496,7 @@ class Stepper:
             if island.is_robot(i):
                 jo = island.joint_offsets[i]
                 st = statics[i]
-                statics[i].motor_state[:] = motors.state[jo : jo + st.local_axes.shape[0]]
+                preps[i].motors.state[:] = motors.state[jo : jo + st.local_axes.shape[0]]
         extra: dict[int, list] = {i: [] for i in island.group}
         bodies = {i: body for body, i in by_body.items()}
         for i in island.group:

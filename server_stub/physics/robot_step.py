@@ -41,8 +41,7 @@ MAX_POINTS = 4
 
 
 class RobotModel:
-    """What does not change about one robot body: masses, inertias, tree, hinge axes, shapes, and
-    its motors' state (which row each hinge's motor holds)."""
+    """What does not change about one robot body: masses, inertias, tree, hinge axes, shapes."""
 
     def __init__(self, client: int, body: int, ground: int, robot_type: int) -> None:
         """Each part's principal moments come from the model (``nao_model``), as the real
@@ -69,7 +68,6 @@ class RobotModel:
             chains[k] = chains[parent]
             chains[k, j] = True
         self.chains = chains
-        self.motor_state = np.zeros(n, dtype=np.int64)
         shapes = [d for k in range(-1, n) for d in pb.getCollisionShapeData(body, k, physicsClientId=client)]
         self.shape_body = np.array([d[1] + 1 for d in shapes], dtype=np.int64)
         self.shape_kind = np.array([d[2] for d in shapes], dtype=np.int64)
@@ -109,27 +107,24 @@ class Bodies:
 
 
 class RobotPhysics:
-    """All the step keeps of one robot: its model (None until its first step), its bodies (None
-    until then too), and whether a beam or a trainer's move has put it elsewhere since its last
-    step (``moved``)."""
+    """All the step keeps of one robot: its model and its bodies (None until its first step),
+    which row each hinge's motor held in the last step, and whether a beam or a trainer's move has
+    put it elsewhere since (``moved``)."""
 
     def __init__(self) -> None:
         self.model: RobotModel | None = None
         self.bodies: Bodies | None = None
+        self.motor_state: np.ndarray | None = None
         self.moved = False
 
 
 class Prepared(NamedTuple):
-    """A robot ready for its maximal step: its bodies (synchronised with pybullet), the
-    velocities its drag acts on, and its motor rows."""
+    """A robot ready for its step: its bodies, the velocities its drag acts on, its motor rows."""
 
     bodies: Bodies
     drag_vel: np.ndarray
     drag_spin: np.ndarray
-    target: np.ndarray
-    lo: np.ndarray
-    hi: np.ndarray
-    push: np.ndarray
+    motors: Motors
 
 
 def params_of(config) -> Params:
@@ -172,7 +167,7 @@ def solve_prepared(robot, static: RobotModel, prep: Prepared, ground: int, confi
             prep.drag_spin,
         ),
         GroundContacts(parts, points, depths),
-        Motors(prep.target, prep.lo, prep.hi, prep.push, static.motor_state),
+        prep.motors,
         params_of(config),
     )
     contacts = partial(ground_tuples, robot.body_id, ground, parts, points, depths, forces, tangents)
@@ -209,7 +204,7 @@ def prepare(robot, physics: RobotPhysics, model: RobotModel, config) -> Prepared
     moved, physics.moved = physics.moved, False
     if bodies is not None and not moved:
         # nothing but the step has moved the robot: the bodies go on from their own state
-        return _prepared(robot, bodies, bodies.vel, bodies.spin, robot.joint_state()[0], config)
+        return _prepared(robot, physics, bodies, bodies.vel, bodies.spin, robot.joint_state()[0], config)
     robot.sync()
     angles, rates = robot.joint_state()
     position, orientation = robot.stored_pose()
@@ -230,7 +225,7 @@ def prepare(robot, physics: RobotPhysics, model: RobotModel, config) -> Prepared
         drag_spin[0] = bodies.spin[0]
         bodies.vel[:] = 0.0
         bodies.spin[:] = 0.0
-        return _prepared(robot, bodies, drag_vel, drag_spin, angles, config)
+        return _prepared(robot, physics, bodies, drag_vel, drag_spin, angles, config)
     # every body where pybullet's exact joints put it
     links = robot.link_frames()
     coms = np.array([position] + [link[0] for link in links], dtype=float)
@@ -253,18 +248,24 @@ def prepare(robot, physics: RobotPhysics, model: RobotModel, config) -> Prepared
     else:
         child, parent = bodies.anchor_child, bodies.anchor_parent
     bodies = physics.bodies = Bodies(coms, quats, vel, spin, child, parent)
-    return _prepared(robot, bodies, bodies.vel, bodies.spin, angles, config)
+    return _prepared(robot, physics, bodies, bodies.vel, bodies.spin, angles, config)
 
 
-def _prepared(robot, bodies: Bodies, drag_vel, drag_spin, angles: np.ndarray, config) -> Prepared:
+def _prepared(
+    robot, physics: RobotPhysics, bodies: Bodies, drag_vel, drag_spin, angles: np.ndarray, config
+) -> Prepared:
     """A robot's prepared step: its bodies, the velocities the drag acts on, its motor rows."""
     target, force, sticky = robot.motor_commands()
     nj = angles.shape[0]
     if target.shape[0] != nj:
         target = np.zeros(nj)
         force = np.full(nj, config.motor_torque)
+    if physics.motor_state is None:
+        physics.motor_state = np.zeros(nj, dtype=np.int64)
     lo, hi, push = motor_rows(angles, np.asarray(force, dtype=float), sticky, config.motor_torque, FUDGE_FACTOR)
-    return Prepared(bodies, drag_vel, drag_spin, np.asarray(target, dtype=float), lo, hi, push)
+    return Prepared(
+        bodies, drag_vel, drag_spin, Motors(np.asarray(target, dtype=float), lo, hi, push, physics.motor_state)
+    )
 
 
 def finish_maximal(
