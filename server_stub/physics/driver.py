@@ -100,9 +100,7 @@ class _Entity:
         if self.frames is None:
             self.frames = {}
         if link not in self.frames:
-            robot = self.robot
-            robot.sync()
-            c, q = robot.link_frame(link)
+            c, q = self.robot.link_frame(link)
             self.frames[link] = (np.asarray(c, dtype=float), _rotation(q))
         return self.frames[link]
 
@@ -219,7 +217,7 @@ class Stepper:
             if len(group) == 1 and group[0] < len(robots) and not entities[group[0]].static:
                 i = group[0]
                 robot = robots[i]
-                solved = robot_step.solve_prepared(robot, statics[i], preps[i], ground, cfg)
+                solved = robot_step.solve_prepared(robot, statics[i], preps[i], ground, cfg, self.params)
                 robot_step.apply(robot, solved)
                 continue
             self._solve_island(group, robots, statics, preps, entities, pairs, ball_now, by_body)
@@ -412,9 +410,7 @@ class Stepper:
             if island.is_robot(i):
                 st = statics[i]
                 b = preps[i].bodies
-                gp, gpt, gd = collision.ground_contacts(
-                    st.shape_body, st.shape_kind, st.shape_size, b.pos, b.quat, cfg.ode_box_points
-                )
+                gp, gpt, gd = st.ground_contacts(b, cfg.ode_box_points)
                 island.ground[i] = (len(body), gp, gpt, gd)
                 for k, p, d in zip(gp.tolist(), gpt, gd.tolist()):
                     body.append(off + k)

@@ -30,7 +30,7 @@ import numpy as np
 import pybullet as pb
 
 from server_stub.physics import bodies as kinematics
-from server_stub.physics import nao_model
+from server_stub.physics import contact, nao_model
 from server_stub.physics.bundles import Forces, GroundContacts, Model, Motors, Params, State
 from server_stub.physics.collision import BOX, CAPSULE, SPHERE, ground_contacts
 from server_stub.physics.rows import FUDGE_FACTOR, MOTOR_CFM, motor_rows
@@ -77,6 +77,11 @@ class RobotModel:
         # the stub finds the robot's ground contacts itself: Bullet need not
         for k in range(-1, n):
             pb.setCollisionFilterPair(ground, body, -1, k, 0, physicsClientId=client)
+
+    def ground_contacts(self, bodies: Bodies, max_points: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(body, point, depth) of each contact of the robot's shapes, where ``bodies`` puts them,
+        with the ground (``collision.ground_contacts``)."""
+        return ground_contacts(self.shape_body, self.shape_kind, self.shape_size, bodies.pos, bodies.quat, max_points)
 
 
 class Solved(NamedTuple):
@@ -142,12 +147,10 @@ def params_of(config) -> Params:
     )
 
 
-def solve_prepared(robot, static: RobotModel, prep: Prepared, ground: int, config) -> Solved:
-    """The maximal step of a prepared robot against the ground alone."""
+def solve_prepared(robot, static: RobotModel, prep: Prepared, ground: int, config, params: Params) -> Solved:
+    """The maximal step of a prepared robot against the ground alone (``params``: ``params_of(config)``)."""
     bodies = prep.bodies
-    parts, points, depths = ground_contacts(
-        static.shape_body, static.shape_kind, static.shape_size, bodies.pos, bodies.quat, config.ode_box_points
-    )
+    parts, points, depths = static.ground_contacts(bodies, config.ode_box_points)
     pos, quat, vel, spin, forces, tangents, torques, iterations = step_tree(
         Model(
             static.masses,
@@ -168,31 +171,17 @@ def solve_prepared(robot, static: RobotModel, prep: Prepared, ground: int, confi
         ),
         GroundContacts(parts, points, depths),
         prep.motors,
-        params_of(config),
+        params,
     )
     contacts = partial(ground_tuples, robot.body_id, ground, parts, points, depths, forces, tangents)
     return finish_maximal(robot, static, bodies, pos, quat, vel, spin, contacts, torques, iterations)
 
 
 def ground_tuples(body: int, ground: int, parts, points, depths, forces, tangents) -> tuple:
-    """A robot's ground contacts in pybullet's tuple layout, with their solved forces."""
+    """A robot's ground contacts in pybullet's tuple layout (``contact.point``), with their solved
+    forces."""
     return tuple(
-        (
-            0,
-            body,
-            ground,
-            k - 1,
-            -1,
-            p,
-            (p[0], p[1], 0.0),
-            (0.0, 0.0, 1.0),
-            -d,
-            f[0],
-            f[1],
-            tuple(t[0]),
-            f[2],
-            tuple(t[1]),
-        )
+        contact.point(body, ground, k - 1, -1, p, (p[0], p[1], 0.0), (0.0, 0.0, 1.0), -d, f, t)
         for k, p, d, f, t in zip(parts.tolist(), points.tolist(), depths.tolist(), forces.tolist(), tangents.tolist())
     )
 
