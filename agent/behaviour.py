@@ -26,12 +26,12 @@ from agent.controller import joint_velocities
 from agent.fall import FallDetector
 from gait import Walker
 from protocol import commands
-from protocol.nao import BEAM_PLAY_MODES, CYCLE, JOINTS
+from protocol.nao import BEAM_PLAY_MODES, CYCLE, JOINT_BY_EFFECTOR, joints_of
 from protocol.perception import Perception
 
 log = logging.getLogger("agent")
 
-_LIMITS = {j.effector: (j.min_deg, j.max_deg) for j in JOINTS}
+_LIMITS = {j.effector: (j.min_deg, j.max_deg) for j in JOINT_BY_EFFECTOR.values()}
 
 
 class Phase(enum.Enum):
@@ -45,7 +45,7 @@ class Phase(enum.Enum):
 @dataclass(frozen=True)
 class Action:
     """One cycle's answer before it is printed: hinge velocities (rad/s by effector name, in
-    ``JOINTS`` order; empty when none are sent) and the text of any other command after them
+    ``joints_of`` order; empty when none are sent) and the text of any other command after them
     (``init``, ``beam``). A program that hands the velocities to a server without text (the
     optimizer's direct episodes) reads this; ``reply`` prints it."""
 
@@ -63,7 +63,8 @@ class WalkBehaviour:
         self.fall = FallDetector()
         self.fell_at: float | None = None
         self.play_mode: str | None = None
-        base = {j.effector: 0.0 for j in JOINTS}
+        # every joint of the robot's type, the toes of type 4 too: held at 0 unless told otherwise
+        base = {j.effector: 0.0 for j in joints_of(config.robot_type)}
         base.update(config.posture)
         self._posture = base
         self._dither = np.random.default_rng(config.noise_seed) if config.command_noise > 0 else None
@@ -74,7 +75,7 @@ class WalkBehaviour:
         return self.walk_cycles * CYCLE
 
     def targets(self, gait_time: float) -> dict[str, float]:
-        """Joint targets in degrees for all 22 joints at ``gait_time``."""
+        """Joint targets in degrees for every joint of the robot's type at ``gait_time``."""
         out = dict(self._posture)
         out.update(self.gait.joint_targets(gait_time, _LIMITS))
         return out

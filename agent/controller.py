@@ -11,10 +11,11 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
-from protocol.nao import JOINTS, SPEED_CAP
+from protocol.nao import JOINT_BY_EFFECTOR, SPEED_CAP
 
 _DEG = math.pi / 180.0
-_NAMES = tuple((joint.effector, joint.perceptor) for joint in JOINTS)
+#: Every joint of any robot type (a type with toes adds two), in index order.
+_NAMES = tuple((joint.effector, joint.perceptor) for joint in JOINT_BY_EFFECTOR.values())
 
 
 def joint_velocities(
@@ -22,7 +23,8 @@ def joint_velocities(
     perceived_deg: Mapping[str, float],
     gain: float,
 ) -> dict[str, float]:
-    """rad/s for every joint in ``targets_deg`` (effector names; ``perceived_deg`` by perceptor name).
+    """rad/s for every joint in ``targets_deg`` (effector names; ``perceived_deg`` by perceptor
+    name), in ``protocol.nao.joints_of`` order.
 
     A joint missing from the perception gets 0, which the server treats as "hold".
     """

@@ -49,6 +49,7 @@ from optimizer.episode.fidelity import (  # noqa: E402
 )
 from optimizer.episode.runner import quiet_agent_logs  # noqa: E402
 from protocol.cli_values import non_negative, positive_float, positive_int  # noqa: E402
+from protocol.nao import ROBOT_TYPES  # noqa: E402
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -85,6 +86,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="dither the agent's velocity commands by up to this much on both servers, walk k with seed k (default 0)",
     )
     p.add_argument("--walk-time", type=positive_float, default=FidelityConfig.walk_time, metavar="S")
+    p.add_argument(
+        "--type",
+        dest="robot_type",
+        type=int,
+        choices=ROBOT_TYPES,
+        default=FidelityConfig.robot_type,
+        help="heterogeneous robot type walked on both servers (default 0)",
+    )
     p.add_argument("--gait-dir", type=Path, default=GAIT_SET_DIR, help=argparse.SUPPRESS)
     p.add_argument("--out", type=Path, required=True, metavar="DIR")
     p.add_argument(
@@ -109,6 +118,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             command_noise=stored.get("command_noise", 0.0),
             walk_time=stored["walk_time"],
             start=tuple(stored["start"]),
+            robot_type=stored.get("robot_type", 0),
         )
         about = {k: stored[k] for k in ("set", "real_command", "command_line") if k in stored}
     else:
@@ -129,6 +139,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 stand_in_repeats=args.stand_in_repeats,
                 command_noise=args.command_noise,
                 walk_time=args.walk_time,
+                robot_type=args.robot_type,
             )
         except ValueError as exc:
             print(f"error: {exc}", file=sys.stderr)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
-from protocol.nao import JOINTS, NAO_HETERO_RSG, NAO_RSG, ROBOT_TYPES
+from protocol.nao import JOINT_BY_EFFECTOR, NAO_HETERO_RSG, NAO_RSG, ROBOT_TYPES
 from protocol.numbers import number_text
 
 #: Longest ``say`` message the server relays (rcssserver3d's say effector rule).
@@ -42,8 +42,8 @@ def beam(x: float, y: float, rot: float) -> str:
     return f"(beam {number_text(x)} {number_text(y)} {number_text(rot)})"
 
 
-#: The NAO's effector names: valid atoms, so the every-cycle command needs no check of them.
-_EFFECTORS = frozenset(j.effector for j in JOINTS)
+#: The NAO's effector names (every type's): valid atoms, so the every-cycle command needs no check of them.
+_EFFECTORS = frozenset(JOINT_BY_EFFECTOR)
 
 
 def hinge_velocities(velocities: Mapping[str, float]) -> str:

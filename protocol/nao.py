@@ -47,7 +47,25 @@ JOINTS: tuple[Joint, ...] = (
     Joint("lle6", "llj6", -45.0, 25.0),
 )
 
-JOINT_BY_EFFECTOR: dict[str, Joint] = {j.effector: j for j in JOINTS}
+#: The toe joints of robot type 4 (naolegtoe.rsg: rle7 / rlj7 and lle7 / llj7, foot -> toe, both
+#: -1 to 70 deg, not mirrored; docs/robot_and_server.md section 3, "Robot type 4"). A robot with
+#: toes has them after the 22 joints, so every joint keeps its ``JOINTS`` index on every type.
+TOE_JOINTS: tuple[Joint, ...] = (
+    Joint("rle7", "rlj7", -1.0, 70.0),
+    Joint("lle7", "llj7", -1.0, 70.0),
+)
+#: Heterogeneous types that have toes (nao_hetero.rsg's UseToe; naorobottypes.rb).
+TOE_ROBOT_TYPES: frozenset[int] = frozenset({4})
+
+
+def joints_of(robot_type: int) -> tuple[Joint, ...]:
+    """Every hinge joint of a robot of ``robot_type``, in the index order the server, the agent and
+    the physics share: ``JOINTS``, then ``TOE_JOINTS`` for a type with toes."""
+    return JOINTS + TOE_JOINTS if robot_type in TOE_ROBOT_TYPES else JOINTS
+
+
+#: Every joint of any robot type by effector name.
+JOINT_BY_EFFECTOR: dict[str, Joint] = {j.effector: j for j in JOINTS + TOE_JOINTS}
 
 
 def _perceptors(first: str, last: str) -> tuple[str, ...]:
@@ -63,7 +81,40 @@ HJ_BEFORE_SEE: tuple[str, ...] = _perceptors("hj1", "hj2")
 HJ_BEFORE_FRP_RF: tuple[str, ...] = _perceptors("raj1", "rlj5")
 HJ_BEFORE_FRP_LF: tuple[str, ...] = _perceptors("rlj6", "llj5")
 HJ_LAST: tuple[str, ...] = _perceptors("llj6", "llj6")
-JOINT_BY_PERCEPTOR: dict[str, Joint] = {j.perceptor: j for j in JOINTS}
+#: Every joint of any robot type by perceptor name.
+JOINT_BY_PERCEPTOR: dict[str, Joint] = {j.perceptor: j for j in JOINTS + TOE_JOINTS}
+
+
+@dataclass(frozen=True)
+class PerceptionLayout:
+    """Where a robot type's joint perceptors sit in its perception message: ``blocks`` of ``HJ``
+    names in the order the server prints them; between the first two comes ``See`` (every third
+    cycle), between each later pair one ``FRP`` of ``feet`` in turn (each only while that part
+    touches something). The server walks the robot's body tree (docs/robot_and_server.md section 5)."""
+
+    blocks: tuple[tuple[str, ...], ...]
+    feet: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        if len(self.blocks) != len(self.feet) + 2:
+            raise ValueError(f"{len(self.blocks)} blocks need {len(self.blocks) - 2} FRPs between them")
+
+
+#: Types 0-3: See, FRP rf, FRP lf between the blocks.
+LAYOUT = PerceptionLayout((HJ_BEFORE_SEE, HJ_BEFORE_FRP_RF, HJ_BEFORE_FRP_LF, HJ_LAST), ("rf", "lf"))
+#: A robot with toes: each toe's body follows its foot's in the tree (naolegtoe.rsg), so its
+#: ``FRP`` (rf1, lf1) and its joint (rlj7, llj7) follow the ankle roll: ... FRP rf, rlj6, FRP rf1,
+#: rlj7, llj1 ... llj5, FRP lf, llj6, FRP lf1, llj7.
+TOE_LAYOUT = PerceptionLayout(
+    (HJ_BEFORE_SEE, HJ_BEFORE_FRP_RF, ("rlj6",), ("rlj7", *HJ_BEFORE_FRP_LF[1:]), HJ_LAST, ("llj7",)),
+    ("rf", "rf1", "lf", "lf1"),
+)
+
+
+def perception_layout(robot_type: int) -> PerceptionLayout:
+    """The perception layout of a robot of ``robot_type``."""
+    return TOE_LAYOUT if robot_type in TOE_ROBOT_TYPES else LAYOUT
+
 
 #: Hinge motor speed cap in rad/s (section 3; observed 7.03 deg per 0.02 s cycle).
 SPEED_CAP: float = 6.1395

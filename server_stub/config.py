@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from protocol.nao import CYCLE, TORQUE_LIMIT
+from server_stub import field as soccer_field
 
 
 @dataclass(frozen=True)
@@ -160,3 +161,33 @@ class ServerConfig:
     #: Exit when this process is no longer our parent (0: never). A worker that starts a stub and
     #: is killed (SIGKILL leaves no chance to clean up) must not leave the stub behind.
     parent_pid: int = 0
+
+
+@dataclass(frozen=True)
+class RefereeConfig:
+    """The referee's timeouts and distances: rcssserver3d 0.7.3's naosoccersim.rb values, read by
+    its SoccerRuleAspect (docs/robot_and_server.md section 8). The field's sizes, the ball's radius
+    and the penalty area are ``server_stub.field``'s."""
+
+    #: RuleGoalPauseTime: after a goal, the scorers' celebration before the other side kicks off.
+    goal_pause_time: float = 3.0
+    #: RuleKickInPauseTime: a kick-in, corner or goal kick waits this long before the ball is
+    #: placed and may be played.
+    kick_in_pause_time: float = 1.0
+    #: A touch ends a kick-in, corner or goal kick only if it comes this long after the pause
+    #: (hard-coded in SoccerRuleAspect: the cycle that places the ball does not count).
+    kick_touch_margin: float = 0.03
+    #: RuleHalfTime: the first half ends at this game time, the second at twice it.
+    half_time: float = 300.0
+    #: RuleDropBallTime: a kick-off, kick-in, corner or goal kick nobody takes within this long
+    #: ends in a drop ball (play on).
+    drop_ball_time: float = 15.0
+    #: FreeKickDistance: opponents are kept this far from a kick-in or corner spot, and a drop
+    #: ball clears everybody from this far around it; also the centre circle's radius.
+    free_kick_distance: float = soccer_field.CENTRE_CIRCLE_RADIUS
+    #: FreeKickMoveDist: how far the referee moves a robot it clears.
+    free_kick_move_dist: float = soccer_field.FREE_KICK_MOVE_DIST
+    #: KickRepelDist: players of the kicking side this close to the spot are moved out to it.
+    kick_repel_dist: float = 0.5
+    #: GoalKickDist: a goal kick's spot is this far in front of the goal's centre.
+    goal_kick_dist: float = 1.0

@@ -1,6 +1,7 @@
-"""The referee's state the stub keeps: play mode, game clock, teams, uniform numbers, beam rules.
+"""The game's state: play mode, game clock, halves, score, teams, uniform numbers, beam rules.
 
-Only what a walker, a trainer and a multi-agent test touch; no ball rules, no fouls.
+rcssserver3d's GameStateAspect: what the referee (``server_stub.referee``) reads and changes each
+cycle, what the trainer sets, what perceptions and the monitor report.
 """
 
 from __future__ import annotations
@@ -13,8 +14,11 @@ import numpy as np
 from protocol.nao import BEAM_PLAY_MODES, CYCLE, PLAY_MODES
 from server_stub import field as soccer_field
 
-#: Modes in which the game clock stands still (docs/robot_and_server.md section 5: "stays 0 before kick-off").
+#: Modes in which the game clock stands still (docs/robot_and_server.md section 5: "stays 0 before
+#: kick-off"; section 8: and after the game).
 _CLOCK_STOPPED = frozenset({"BeforeKickOff", "GameOver"})
+#: The real server's clock step: a float32 0.02 added to a float32 sum (GameStateAspect's TTime).
+_CYCLE32 = np.float32(CYCLE)
 #: Own-half clipping of ``beam`` (docs/robot_and_server.md section 6): x in [-15, 0], y in [-10, 10].
 BEAM_X_RANGE = (-soccer_field.HALF_LENGTH, 0.0)
 BEAM_Y_RANGE = (-soccer_field.HALF_WIDTH, soccer_field.HALF_WIDTH)
@@ -28,7 +32,14 @@ class GameError(ValueError):
 @dataclass
 class Game:
     play_mode: str = "BeforeKickOff"
+    #: game time (s) as perceptions and the monitor report it: the exact sum of the cycles
     time: float = 0.0
+    #: the game time as the real server keeps it, a float32 sum of float32 cycles, which lags the
+    #: exact one (299.9937 after 15,000 cycles, so the half ends one cycle later, at 300.01 on a
+    #: real server): the referee's timeouts and the halves run on it
+    clock32: float = 0.0
+    #: ``clock32`` at the last change of play mode (``mode_time``)
+    last_mode_change: float = 0.0
     half: int = 1
     score_left: int = 0
     score_right: int = 0
@@ -44,11 +55,40 @@ class Game:
     def advance(self) -> None:
         if self.play_mode not in _CLOCK_STOPPED:
             self.time += CYCLE
+            self.clock32 = float(np.float32(self.clock32) + _CYCLE32)
+
+    def set_time(self, t: float) -> None:
+        """The trainer's ``(time T)``: the clock only; the mode keeps its start, as on the real
+        server (so ``(time 295)`` in a kick-off makes it time out at once)."""
+        self.time = max(0.0, t)
+        self.clock32 = float(np.float32(self.time))
 
     def set_play_mode(self, name: str) -> None:
+        """A new play mode starts now (its ``mode_time`` from 0); setting the current one again
+        changes nothing, as on the real server."""
         if name not in PLAY_MODES:
             raise GameError(f"unknown play mode {name!r}")
-        self.play_mode = name
+        if name != self.play_mode:
+            self.play_mode = name
+            self.last_mode_change = self.clock32
+
+    @property
+    def mode_time(self) -> float:
+        """Game time since the play mode began, in float32 as the real referee compares it with
+        its timeouts (a kick-off from t = 0 times out at 15.000154 > 15, 750 cycles in)."""
+        return float(np.float32(self.clock32) - np.float32(self.last_mode_change))
+
+    def kick_off(self, side: str) -> None:
+        self.set_play_mode("KickOff_Left" if side == "left" else "KickOff_Right")
+
+    def score_for(self, side: str) -> None:
+        """A goal for ``side``: its score and the Goal_Left / Goal_Right pause."""
+        if side == "left":
+            self.score_left += 1
+            self.set_play_mode("Goal_Left")
+        else:
+            self.score_right += 1
+            self.set_play_mode("Goal_Right")
 
     @property
     def play_mode_index(self) -> int:

@@ -5,8 +5,8 @@ monitor's scene, one cycle at a time.
 what, when a cycle may run, who reads which monitor update). The optimizer's in-process episodes
 (``optimizer.episode.inprocess``) drive it directly, with no sockets and no text in between.
 
-One ``step`` is one server cycle: the referee's before-kick-off rule, the physics step (0.02 s),
-the game clock. A caller gives each agent its perception computed after the previous step before
+One ``step`` is one server cycle: the physics step (0.02 s), the game clock, the referee
+(``server_stub.referee``). A caller gives each agent its perception computed after the previous step before
 applying what the agent sent, which reproduces the real server's two-cycle action latency (a
 reply to perception k first shows in perception k+2).
 """
@@ -19,13 +19,13 @@ import numpy as np
 
 from protocol.errors import ProtocolError
 from protocol.nao import JOINTS, NAO_HETERO_RSG, NAO_RSG, ROBOT_TYPES
-from server_stub import field
 from server_stub.agent_state import AgentState
-from server_stub.config import PhysicsConfig, ServerConfig
+from server_stub.config import PhysicsConfig, RefereeConfig, ServerConfig
 from server_stub.game import Game, GameError, beam_pose
 from server_stub.net.agent_commands import flat_commands, read_commands
 from server_stub.physics.robot import BEAM_HEIGHT, Robot
 from server_stub.physics.world import SPAWN_POSITION, World
+from server_stub.referee import Referee
 from server_stub.sensors.sensing import Sensing
 
 #: Placement after ``repos``: the robot's last beam pose, or its side's default spot.
@@ -42,11 +42,17 @@ Warn = Callable[[str, str], None]
 class Simulation:
     """The world, the game and every agent's record; no sockets, no clocks of wall time."""
 
-    def __init__(self, config: ServerConfig = ServerConfig(), physics: PhysicsConfig = PhysicsConfig()) -> None:
+    def __init__(
+        self,
+        config: ServerConfig = ServerConfig(),
+        physics: PhysicsConfig = PhysicsConfig(),
+        rules: RefereeConfig = RefereeConfig(),
+    ) -> None:
         self.config = config
         # perceptions go out one step late (see the module docstring), so commands act at once
         self.world = World(physics, seed=config.seed, command_delay_steps=0)
         self.game = Game()
+        self.referee = Referee(rules, self.game, self.world)
         self.sensing = Sensing(config, self.world)
         #: cycles since the field was last empty: vision and monitor cadences count from it
         self.cycle = 0
@@ -77,6 +83,7 @@ class Simulation:
             # vision and monitor cadences restart with the next robot on an empty field, so an
             # episode sees the same cycles whatever ran before it (the optimizer relies on it)
             self.cycle = 0
+            self.referee.field_emptied()
         if state.side is not None and state.unum is not None:
             self.game.leave(state.side, state.unum)
         self.scene_changed = True
@@ -208,10 +215,13 @@ class Simulation:
         return any(s.robot is not None or s.inbox for s in self.agents)
 
     def step(self) -> None:
-        """One cycle after the agents' commands: referee, physics, clock."""
-        self._clear_halves_before_kick_off()
+        """One cycle after the agents' commands: physics, clock, referee (as the real server's
+        step runs its game-control aspects after the physics; the referee notes what touches the
+        ball as the step begins, where the real server's collision pass does)."""
+        self.referee.before_step(self.agents)
         self.world.step()
         self.game.advance()
+        self.referee.after_step(self.agents)
         self.cycle += 1
         self.sensing.end_of_cycle()
 
@@ -244,23 +254,6 @@ class Simulation:
         self.scene_changed = False
         return full, delta
 
-    def _clear_halves_before_kick_off(self) -> None:
-        """The real referee's rule before kick-off, every cycle: a robot of a team whose body
-        reaches into the other team's half is moved to FREE_KICK_MOVE_DIST behind the centre line,
-        its y, height and orientation kept (a left-team robot beamed to (0, 0) stands at x -2.5).
-        Trainer tools that start walks near the centre line meet it here as on the real server."""
-        if self.game.play_mode != "BeforeKickOff":
-            return
-        for state in self.agents:
-            robot = state.robot
-            if robot is None or state.side not in ("left", "right"):
-                continue
-            low, high = robot.x_extent()
-            if (high > 0.0) if state.side == "left" else (low < 0.0):
-                _, y, z = robot.torso_position()
-                side = -1.0 if state.side == "left" else 1.0
-                robot.place(side * field.FREE_KICK_MOVE_DIST, y, z)
-
     # ----- what a trainer may do (server_stub.net.trainer) -----
     def agent_by(self, side: str, unum: int) -> AgentState:
         """The agent playing ``unum`` for ``side`` with a robot; ``GameError`` if there is none."""
@@ -273,7 +266,7 @@ class Simulation:
         self.game.set_play_mode(name)
 
     def set_game_time(self, t: float) -> None:
-        self.game.time = max(0.0, t)
+        self.game.set_time(t)
 
     def set_score(self, left: int, right: int) -> None:
         self.game.score_left, self.game.score_right = left, right
@@ -294,9 +287,7 @@ class Simulation:
         self.world.set_ball(pos, vel)
 
     def drop_ball(self) -> None:
-        x, y, _ = self.world.ball_position()
-        self.world.set_ball((x, y, field.BALL_RADIUS), (0.0, 0.0, 0.0))
-        self.game.set_play_mode("PlayOn")
+        self.referee.drop_ball(self.agents)
 
     def close(self) -> None:
         self.world.close()

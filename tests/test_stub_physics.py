@@ -69,7 +69,7 @@ def test_hetero_types_move_the_chain_below_the_changed_offset():
     assert t1["rhip2"] == t0["rhip2"]
     assert nao_model.speed_caps(2)[[j.effector for j in JOINTS].index("lle6")] == 3.47234
     with pytest.raises(ValueError):
-        nao_model.body_parts(4)
+        nao_model.body_parts(5)
 
 
 def test_only_colliding_parts_have_collision_shapes(world):

@@ -8,6 +8,7 @@
     python -m optimizer.episode --repeat 10 --jitter 0.05 0.05 2 --seed 1
                                                          # 10 walks, each start moved by up to 5 cm and 2 deg
     python -m optimizer.episode --embedded-stub socket   # the embedded stub as a process, over TCP
+    python -m optimizer.episode --type 4 --real 1        # robot type 4 (toes) on a real server
 
 The embedded stub runs inside this process (``--embedded-stub direct``, the default: no sockets,
 no text, the same results as over TCP, faster); ``--embedded-stub socket`` runs it as a
@@ -44,6 +45,7 @@ from optimizer.episode.servers import ManagedServer, ServerAddress
 from optimizer.run.robust import jittered_starts
 from optimizer.run.stability import distance_spread
 from protocol.cli_values import non_negative, positive_int
+from protocol.nao import ROBOT_TYPES
 
 
 def gait_file(text: str) -> Gait:
@@ -88,6 +90,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="the embedded stub in this process with no sockets (direct, the default; the same results) "
         "or as a process over TCP (socket); ignored with --server or --real",
     )
+    p.add_argument(
+        "--type",
+        dest="robot_type",
+        type=int,
+        choices=ROBOT_TYPES,
+        default=0,
+        help="heterogeneous robot type to walk (default 0, nao.rsg; 4 has toes)",
+    )
     p.add_argument("--json", action="store_true", help="print JSON (one object per walk) instead of text")
     return p
 
@@ -130,7 +140,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     base = episode_config(
         args.walk_time or EPISODE_DEFAULTS["walk_time"], start, args.agent_mode or EPISODE_DEFAULTS["agent_mode"]
     )
-    base = replace(base, embedded_stub=args.embedded_stub)
+    base = replace(base, embedded_stub=args.embedded_stub, robot_type=args.robot_type)
     points = jittered_starts((*base.start, base.heading), args.jitter, args.repeat, args.seed)
     if isinstance(server, RealServerProcess):
         try:  # started before the first walk, so that a server that cannot start is said once, at once

@@ -7,6 +7,7 @@ from dataclasses import asdict, dataclass, replace
 
 from agent import AgentConfig
 from gait import DEFAULT_FAMILY, family_named
+from protocol.nao import ROBOT_TYPES
 
 #: A start point on the field: x, y (m) and heading (deg, 0 = +x).
 Start = tuple[float, float, float]
@@ -79,6 +80,8 @@ class EpisodeConfig:
     drift_penalty: float = 0.0
     #: The gait family whose genes the runner is given (``gait.FAMILIES``; a ``Gait`` names its own).
     family: str = DEFAULT_FAMILY
+    #: The heterogeneous robot type walked (0: nao.rsg; 1-4: nao_hetero.rsg, 4 with toes).
+    robot_type: int = 0
 
     def starting_at(self, start: Start) -> EpisodeConfig:
         """This config with another start point and heading."""
@@ -102,6 +105,8 @@ class EpisodeConfig:
             raise ValueError(f"rebeam_cycle must be a settle cycle 0-{last} or None, got {self.rebeam_cycle}")
         if not self.command_noise >= 0:
             raise ValueError(f"command_noise must be >= 0 rad/s, got {self.command_noise}")
+        if self.robot_type not in ROBOT_TYPES:
+            raise ValueError(f"robot_type must be one of {ROBOT_TYPES}, got {self.robot_type}")
 
 
 @dataclass(frozen=True)

@@ -36,7 +36,7 @@ from optimizer.episode.monitor_link import EpisodeFailure
 from optimizer.episode.scoring import Judge
 from protocol import commands
 from protocol.monitor import MonitorState, RobotPose
-from protocol.nao import JOINTS
+from protocol.nao import JOINT_BY_EFFECTOR, JOINTS
 from protocol.perception import GameState, Perception
 from server_stub.agent_state import AgentState
 from server_stub.config import PhysicsConfig, ServerConfig
@@ -44,13 +44,12 @@ from server_stub.sensors.monitor_scene import MonitorConfig
 from server_stub.simulation import Simulation
 
 _stub_log = logging.getLogger("server_stub")
-#: Hinge effector name -> its index in ``JOINTS`` (``Robot.command_joint``).
-_HINGE_INDEX = {joint.effector: index for index, joint in enumerate(JOINTS)}
-_EFFECTORS = tuple(_HINGE_INDEX)
-_PERCEPTORS = tuple(joint.perceptor for joint in JOINTS)
-#: ``round``'s second argument for every joint: perceptions print 2 decimals, commands 4
-_TWO_DECIMALS = (2,) * len(JOINTS)
-_FOUR_DECIMALS = (4,) * len(JOINTS)
+#: The 22 joints' effector names, in ``JOINTS`` order: a reply naming them all is one array.
+_EFFECTORS = tuple(joint.effector for joint in JOINTS)
+#: ``round``'s second argument for every joint (a type with toes has 24): perceptions print 2
+#: decimals, commands 4
+_TWO_DECIMALS = (2,) * len(JOINT_BY_EFFECTOR)
+_FOUR_DECIMALS = (4,) * len(JOINT_BY_EFFECTOR)
 #: The monitor resends a transform only when one of its 16 numbers moved by more than this.
 _SLT_THRESHOLD = MonitorConfig().slt_threshold
 
@@ -128,7 +127,7 @@ def _perception(sim: Simulation, state: AgentState) -> Perception:
     )
     ax, ay, az = robot.accelerometer()
     gx, gy, gz = robot.gyro()
-    joints = dict(zip(_PERCEPTORS, map(round, robot.joint_degrees(), _TWO_DECIMALS)))
+    joints = dict(zip(robot.perceptors, map(round, robot.joint_degrees(), _TWO_DECIMALS)))
     return Perception(
         round(sim.world.time, 2),
         gs,
@@ -177,10 +176,11 @@ class DirectStub:
             rebeam_cycle=config.rebeam_cycle,
             command_noise=config.command_noise,
             noise_seed=config.noise_seed,
+            robot_type=config.robot_type,
         )
         behaviour = WalkBehaviour(agent_config, gait.walker())
         state = sim.join()
-        inbox: list[bytes | np.ndarray | dict[str, float]] = [commands.scene().encode()]
+        inbox: list[bytes | np.ndarray | dict[str, float]] = [commands.scene(config.robot_type or None).encode()]
         to_agent: Perception | None = None
         play_on_sent = False
         cycles = 0
@@ -199,7 +199,7 @@ class DirectStub:
                         robot.command_joints(message)
                     else:
                         for name, velocity in message.items():
-                            robot.command_joint(_HINGE_INDEX[name], velocity)
+                            robot.command(name, velocity)
                 inbox = []
                 sim.step()
                 cycles += 1

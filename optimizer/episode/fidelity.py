@@ -456,6 +456,8 @@ class FidelityConfig:
     walk_time: float = 15.0
     start: Start = DEFAULT_START
     targets: FidelityTargets = FidelityTargets()
+    #: ``EpisodeConfig.robot_type`` on both servers.
+    robot_type: int = 0
 
     def __post_init__(self) -> None:
         if self.real_repeats < 1 or self.stand_in_repeats < 1:
@@ -469,7 +471,9 @@ class FidelityConfig:
             )
 
     def episode_config(self) -> EpisodeConfig:
-        return EpisodeConfig(walk_time=self.walk_time, command_noise=self.command_noise).starting_at(self.start)
+        return EpisodeConfig(
+            walk_time=self.walk_time, command_noise=self.command_noise, robot_type=self.robot_type
+        ).starting_at(self.start)
 
 
 #: Called after each walk: (server label, gait, repeat number, the walk).
@@ -557,6 +561,7 @@ def write_tracks(
             "command_noise": config.command_noise,
             "walk_time": config.walk_time,
             "start": list(config.start),
+            "robot_type": config.robot_type,
             "targets": config.targets.__dict__,
             "summary": summary.to_dict(),
             "track_columns": ["game_time", "x", "y", "z", "up_z", "heading"],

@@ -202,6 +202,7 @@ class EpisodeRunner:
             syn_nudge_interval=nudge,
             command_noise=config.command_noise,
             noise_seed=config.noise_seed,
+            robot_type=config.robot_type,
         )
 
     def _episode(self, gait: Gait, config: EpisodeConfig, traced: bool) -> EpisodeResult:

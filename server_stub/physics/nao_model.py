@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from protocol.nao import JOINTS, SPEED_CAP
+from protocol.nao import JOINTS, SPEED_CAP, joints_of
 
 #: Every hinge's range in radians, in ``JOINTS`` order (docs/robot_and_server.md section 3).
 JOINT_MIN = np.radians([j.min_deg for j in JOINTS])
@@ -91,8 +91,23 @@ _LEFT_AXIS: dict[str, Vec3] = {"lle1": (-0.7071, 0.0, -0.7071)}
 
 
 @dataclass(frozen=True)
+class Toes:
+    """A type's foot split into a foot and a toe in front of it (docs/robot_and_server.md section
+    3, "Robot type 4"; naolegtoe.rsg). Lengths along the foot (y), masses, and how far the shorter
+    foot's centre and the toe hinge's anchor sit behind the type-0 foot's centre and the toe's."""
+
+    foot_length: float
+    foot_mass: float
+    foot_back: float
+    toe_length: float
+    toe_mass: float
+    anchor_back: float
+
+
+@dataclass(frozen=True)
 class RobotType:
-    """One heterogeneous type (docs/robot_and_server.md section 3, "Heterogeneous types")."""
+    """One heterogeneous type (docs/robot_and_server.md section 3, "Heterogeneous types");
+    ``toes`` None for a type without toes."""
 
     hip_x: float
     thigh_below_hip: float
@@ -100,16 +115,44 @@ class RobotType:
     elbow_ahead: float
     ankle_pitch_speed: float
     ankle_roll_speed: float
+    toes: Toes | None = None
 
 
-#: docs/robot_and_server.md section 3, heterogeneous types table. Type 4 (toe joint) is not modelled.
+#: docs/robot_and_server.md section 3, heterogeneous types table.
 ROBOT_TYPES: dict[int, RobotType] = {
     0: RobotType(0.055, 0.04, 0.055, 0.07, SPEED_CAP, SPEED_CAP),
     1: RobotType(0.055, 0.05832, 0.07332, 0.10664, SPEED_CAP, SPEED_CAP),
     2: RobotType(0.055, 0.04, 0.055, 0.07, 8.80667, 3.47234),
     3: RobotType(0.072954, 0.067868, 0.082868, 0.125737, SPEED_CAP, SPEED_CAP),
+    #: SimSpark evaluates each ``(eval ...)`` of a scene file into a float printed with 6
+    #: significant digits, so type 4's bodies have the ToeLength 0.035517656 of naorobottypes.rb
+    #: as 0.0355177, and every length and mass made from it rounded likewise (the real server's
+    #: monitor shows the toe's mesh scaled by 0.0228259, which only these values give).
+    4: RobotType(
+        0.055,
+        0.04,
+        0.055,
+        0.07,
+        SPEED_CAP,
+        SPEED_CAP,
+        Toes(
+            foot_length=0.124482,
+            foot_mass=0.177801,
+            foot_back=0.03 - 0.012241,
+            toe_length=0.0355177,
+            toe_mass=0.0221986,
+            anchor_back=0.0177589,
+        ),
+    ),
 }
 _TYPE0 = ROBOT_TYPES[0]
+
+#: A toe's centre from its foot's centre (half the type-0 foot's 0.16 m ahead, 5 mm lower), its
+#: hinge's anchor below its centre, its thickness (naolegtoe.rsg): its underside is flush with
+#: the sole, its hinge on the sole where foot and toe meet.
+_TOE_FROM_FOOT: Vec3 = (0.0, 0.08, -0.005)
+_TOE_ANCHOR_DROP = -0.005
+_TOE_THICKNESS = 0.01
 
 #: Right-side parts moved by each type dimension (the chain below the changed offset).
 _LEG = ("rhip1", "rhip2", "rthigh", "rshank", "rankle", "rfoot")
@@ -150,15 +193,31 @@ def body_parts(robot_type: int = 0) -> tuple[Part, ...]:
     right = tuple(
         Part(p.name, p.shape, p.size, p.mass, _add(p.centre, _shift(p.name, rtype)), p.collides) for p in _RIGHT_PARTS
     )
+    if rtype.toes is not None:
+        right = right[:-1] + _foot_and_toe(right[-1], rtype.toes)
     left = tuple(Part(_mirror_name(p.name), p.shape, p.size, p.mass, _mirror(p.centre), p.collides) for p in right)
     return _CENTRE_PARTS + right + left
 
 
+def _foot_and_toe(foot: Part, toes: Toes) -> tuple[Part, Part]:
+    """A type-0 ``foot`` split into a shorter foot (its heel where it was) and a toe in front of it."""
+    width, _, height = foot.size
+    centre = _add(foot.centre, (0.0, -toes.foot_back, 0.0))
+    short = Part(foot.name, foot.shape, (width, toes.foot_length, height), toes.foot_mass, centre, foot.collides)
+    toe_centre = _add(centre, _TOE_FROM_FOOT)
+    toe = Part(_toe_name(foot.name), "box", (width, toes.toe_length, _TOE_THICKNESS), toes.toe_mass, toe_centre, True)
+    return short, toe
+
+
+def _toe_name(foot: str) -> str:
+    return foot[0] + "toe"
+
+
 def hinges(robot_type: int = 0) -> tuple[Hinge, ...]:
-    """Every hinge of the robot of ``robot_type``, in ``protocol.nao.JOINTS`` order."""
+    """Every hinge of the robot of ``robot_type``, in ``protocol.nao.joints_of`` order."""
     rtype = _robot_type(robot_type)
     by_effector: dict[str, Hinge] = {h.effector: h for h in _CENTRE_HINGES}
-    for h in _RIGHT_HINGES:
+    for h in _right_hinges(rtype):
         anchor = _add(h.anchor, _shift(h.anchor_moves_with, rtype))
         right = Hinge(h.effector, h.parent, h.child, h.axis, anchor, h.anchor_moves_with)
         left_effector = _mirror_name(h.effector)
@@ -171,13 +230,40 @@ def hinges(robot_type: int = 0) -> tuple[Hinge, ...]:
             _mirror(anchor),
             _mirror_name(h.anchor_moves_with),
         )
-    return tuple(by_effector[j.effector] for j in JOINTS)
+    return tuple(by_effector[j.effector] for j in joints_of(robot_type))
 
 
-def part_names() -> tuple[str, ...]:
-    """Every part, torso first, then each hinge's child in ``protocol.nao.JOINTS`` order: the
-    order of ``Robot.part_names`` and of a robot's parts in the monitor's scene (all types)."""
-    return ("torso", *(h.child for h in hinges(0)))
+def _right_hinges(rtype: RobotType) -> tuple[Hinge, ...]:
+    """The right side's hinges of ``rtype``: the ankle roll moves with the foot (naolegtoe.rsg
+    anchors it in the foot's frame, so it follows the shorter foot's centre back), and the toe
+    hinge (rle7) joins the toe to the foot along the foot's front edge at the sole."""
+    toes = rtype.toes
+    if toes is None:
+        return _RIGHT_HINGES
+    back = (0.0, -toes.foot_back, 0.0)
+    roll = _RIGHT_HINGES[-1]
+    roll_anchor = _add(roll.anchor, back)
+    toe_centre = _add(_add(_part("rfoot").centre, back), _TOE_FROM_FOOT)
+    toe_anchor = _add(toe_centre, (0.0, -toes.anchor_back, _TOE_ANCHOR_DROP))
+    return _RIGHT_HINGES[:-1] + (
+        Hinge(roll.effector, roll.parent, roll.child, roll.axis, roll_anchor, roll.anchor_moves_with),
+        Hinge("rle7", "rfoot", "rtoe", (1.0, 0.0, 0.0), toe_anchor, roll.anchor_moves_with),
+    )
+
+
+def _part(name: str) -> Part:
+    return next(p for p in _RIGHT_PARTS if p.name == name)
+
+
+def part_names(robot_type: int = 0) -> tuple[str, ...]:
+    """Every part in the monitor scene's order (the server's body tree): torso first, then each
+    hinge's child in ``protocol.nao.JOINTS`` order, a toe right after its foot."""
+    children = [h.child for h in hinges(robot_type)]
+    for toe in ("rtoe", "ltoe"):
+        if toe in children:
+            children.remove(toe)
+            children.insert(children.index(toe[0] + "foot") + 1, toe)
+    return ("torso", *children)
 
 
 def speed_caps(robot_type: int = 0) -> tuple[float, ...]:
@@ -189,7 +275,23 @@ def speed_caps(robot_type: int = 0) -> tuple[float, ...]:
         "rle6": rtype.ankle_roll_speed,
         "lle6": rtype.ankle_roll_speed,
     }
-    return tuple(special.get(j.effector, SPEED_CAP) for j in JOINTS)
+    return tuple(special.get(j.effector, SPEED_CAP) for j in joints_of(robot_type))
+
+
+def joint_limits(robot_type: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Every hinge's range in radians (min, max), in ``protocol.nao.joints_of`` order."""
+    joints = joints_of(robot_type)
+    if joints is JOINTS:
+        return JOINT_MIN, JOINT_MAX
+    return np.radians([j.min_deg for j in joints]), np.radians([j.max_deg for j in joints])
+
+
+def pressure_parts(robot_type: int = 0) -> dict[str, str]:
+    """Every ``FRP`` name of the robot and the part whose contacts it sums: each foot (lf, rf),
+    and each toe (lf1, rf1) on a type with toes (naolegtoe.rsg)."""
+    if _robot_type(robot_type).toes is None:
+        return dict(FOOT_PARTS)
+    return {**FOOT_PARTS, "lf1": "ltoe", "rf1": "rtoe"}
 
 
 def _robot_type(robot_type: int) -> RobotType:
@@ -287,7 +389,8 @@ def urdf(robot_type: int = 0, inertia_floor: float = 0.0) -> str:
             f'<axis xyz="{_xyz(_unit(h.axis))}"/></joint>'
         )
     text.append("</robot>")
-    return "".join(text)
+    # a line each: pybullet's URDF reader fails on a line much longer than a 22-joint robot's
+    return "\n".join(text)
 
 
 def total_mass(robot_type: int = 0) -> float:

@@ -16,24 +16,18 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import pybullet as pb
 
-from protocol.nao import JOINTS
+from protocol.nao import PerceptionLayout, joints_of, perception_layout
 from server_stub import field
 from server_stub.config import PhysicsConfig
 from server_stub.physics import contact, motors, nao_model
-from server_stub.physics.nao_model import JOINT_MAX, JOINT_MIN
 from server_stub.physics.rotations import body_poses, read_back, stored_matrix
 
-_N = len(JOINTS)
 #: Half sizes of the torso box along its own axes (docs/robot_and_server.md section 2).
 _TORSO_HALF_SIZE = np.array([0.05, 0.05, 0.09])
-_EFFECTOR_INDEX: dict[str, int] = {j.effector: i for i, j in enumerate(JOINTS)}
-_PERCEPTORS = [j.perceptor for j in JOINTS]
 #: Torso height of a beamed robot (docs/robot_and_server.md section 6): the referee's agent radius.
 BEAM_HEIGHT = field.AGENT_RADIUS
 #: Force large enough to make the stop's velocity win against anything in one step.
 _STOP_FORCE = 1e4
-#: No command for any joint (``Robot._requested``).
-_NO_COMMANDS = np.full(_N, np.nan)
 
 
 def _yaw_quaternion(heading_deg: float) -> tuple[float, float, float, float]:
@@ -66,19 +60,32 @@ class Robot:
         self._client = client
         self._body = body
         self._config = config
-        self._indices = list(range(_N))
+        joints = joints_of(robot_type)
+        n = len(joints)
+        #: the joints in index order (``protocol.nao.joints_of``): the 22, then a type's toes
+        self._effector_index = {j.effector: i for i, j in enumerate(joints)}
+        self._perceptors = tuple(j.perceptor for j in joints)
+        #: where this type's joints and foot sensors sit in its perception message
+        self.perception_layout: PerceptionLayout = perception_layout(robot_type)
+        self._lower, self._upper = nao_model.joint_limits(robot_type)
+        self._indices = list(range(n))
         self._caps = [float(c) for c in nao_model.speed_caps(robot_type)]
         self._caps_array = np.array(self._caps)
         self._neg_caps = -self._caps_array
         names = [pb.getJointInfo(body, i, physicsClientId=client)[12].decode() for i in self._indices]
-        self._part_names = ("torso", *names)
+        self._part_names = nao_model.part_names(robot_type)
+        #: ``part_poses``' rows (torso, then pybullet's links) in ``part_names``' order; None
+        #: when that is pybullet's order (every type without toes)
+        order = [0] + [names.index(name) + 1 for name in self._part_names[1:]]
+        self._scene_order = None if order == list(range(n + 1)) else np.array(order)
         self._link_index = {name: i for i, name in enumerate(names)}
         self._head_link = self._link_index["head"]
-        self._foot_keys = {names.index(part): key for key, part in nao_model.FOOT_PARTS.items()}
+        self._foot_keys = {names.index(part): key for key, part in nao_model.pressure_parts(robot_type).items()}
         # rad/s by joint index, NaN where no command came
-        self._requested = np.full(_N, np.nan)  # commands since the last step
-        self._pending = np.full(_N, np.nan)  # commands to apply at the start of the next step
-        self._motor = np.zeros(_N)  # sticky motor target velocities, rad/s
+        self._no_commands = np.full(n, np.nan)
+        self._requested = np.full(n, np.nan)  # commands since the last step
+        self._pending = np.full(n, np.nan)  # commands to apply at the start of the next step
+        self._motor = np.zeros(n)  # sticky motor target velocities, rad/s
         #: this step's motor targets and forces, the solve's motor rows (none before the first step)
         self._sent: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros(0))
         #: the torso's velocity now: after the last step, or 0 after a beam or a move
@@ -103,21 +110,22 @@ class Robot:
         Unknown effector -> KeyError; non-finite -> ValueError. The value is clipped to the
         joint's speed cap now and applied (or dropped) in the step after the next one.
         """
-        self.command_joint(_EFFECTOR_INDEX[effector], velocity)
+        self.command_joint(self._effector_index[effector], velocity)
 
     def command_joint(self, index: int, velocity: float) -> None:
-        """``command`` for the joint at ``index`` in ``protocol.nao.JOINTS`` order: the server's
-        path for the 22 hinge commands of every cycle, without the name lookup."""
+        """``command`` for the joint at ``index`` in ``protocol.nao.joints_of`` order: the server's
+        path for the hinge commands of every cycle, without the name lookup."""
         if not math.isfinite(velocity):
-            raise ValueError(f"velocity for {JOINTS[index].effector} must be finite, got {velocity!r}")
+            effector = joints_of(self.robot_type)[index].effector
+            raise ValueError(f"velocity for {effector} must be finite, got {velocity!r}")
         cap = self._caps[index]
         self._requested[index] = min(cap, max(-cap, velocity))
 
     def command_joints(self, velocities: np.ndarray) -> None:
-        """``command_joint`` for every joint at once, ``velocities`` in ``JOINTS`` order (the
-        optimizer's direct episodes, which hand over an agent's 22 commands without text)."""
-        if velocities.shape != (_N,) or not np.isfinite(velocities).all():
-            raise ValueError(f"velocities must be {_N} finite numbers, got {velocities!r}")
+        """``command_joint`` for every joint at once, ``velocities`` in ``joints_of`` order (the
+        optimizer's direct episodes, which hand over an agent's commands without text)."""
+        if velocities.shape != self._requested.shape or not np.isfinite(velocities).all():
+            raise ValueError(f"velocities must be {len(self._requested)} finite numbers, got {velocities!r}")
         # np.clip for finite numbers, without its checks
         np.minimum(np.maximum(velocities, self._neg_caps, out=self._requested), self._caps_array, out=self._requested)
 
@@ -139,13 +147,13 @@ class Robot:
             due, self._pending = self._pending, self._requested
         else:
             due = self._requested
-        self._requested = _NO_COMMANDS.copy()
+        self._requested = self._no_commands.copy()
         cfg = self._config
         self._sent = motors.motor_step(
             angles,
             rates,
-            JOINT_MIN,
-            JOINT_MAX,
+            self._lower,
+            self._upper,
             due,
             self._motor,
             cfg.motor_torque,
@@ -267,7 +275,11 @@ class Robot:
         pb.resetBasePositionAndOrientation(self._body, (x, y, z), orientation, physicsClientId=client)
         pb.resetBaseVelocity(self._body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=client)
         pb.resetJointStatesMultiDof(
-            self._body, self._indices, [[a] for a in angles], targetVelocities=[[0.0]] * _N, physicsClientId=client
+            self._body,
+            self._indices,
+            [[a] for a in angles],
+            targetVelocities=[[0.0]] * len(self._indices),
+            physicsClientId=client,
         )
         self._invalidate()
         self._velocity = (0.0, 0.0, 0.0)
@@ -362,8 +374,14 @@ class Robot:
         return self._motion
 
     def joint_angles(self) -> dict[str, float]:
-        """Hinge angles in degrees by perceptor name (hj1 ... llj6), in JOINTS order."""
-        return dict(zip(_PERCEPTORS, self.joint_degrees()))
+        """Hinge angles in degrees by perceptor name (hj1 ... llj6, then a type's toes rlj7, llj7),
+        in ``joints_of`` order."""
+        return dict(zip(self._perceptors, self.joint_degrees()))
+
+    @property
+    def perceptors(self) -> tuple[str, ...]:
+        """Every joint's perceptor name, in ``joints_of`` order: the keys of ``joint_angles``."""
+        return self._perceptors
 
     def joint_degrees(self) -> list[float]:
         """``joint_angles``' values alone: what a reader that knows the order needs."""
@@ -399,9 +417,10 @@ class Robot:
         return self._acc
 
     def foot_pressure(self) -> dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]]:
-        """FRP per foot that touches: (centre of pressure, total contact force), both in the
-        foot's frame (origin at the foot centre, so the sole is z = -0.01), as
-        ``contact.link_pressure`` sums them; a foot that does not touch is absent."""
+        """FRP per foot (and toe, on a type with toes: rf1, lf1) that touches: (centre of
+        pressure, total contact force), both in the part's frame (origin at its centre, so a
+        foot's sole is z = -0.01), as ``contact.link_pressure`` sums them; a part that does not
+        touch is absent."""
         touching = contact.link_pressure(self._contacts(), self._foot_keys)
         if not touching:
             return {}
@@ -430,7 +449,8 @@ class Robot:
         order, for the monitor; computed once per step."""
         if self._parts is None:
             position, rotation, _ = self._base_pose()
-            self._parts = body_poses(np.array(position), np.array(rotation).reshape(3, 3), self._link_table())
+            poses = body_poses(np.array(position), np.array(rotation).reshape(3, 3), self._link_table())
+            self._parts = poses if self._scene_order is None else poses[self._scene_order]
         return self._parts
 
     def part_positions(self, names: Sequence[str]) -> dict[str, tuple[float, float, float]]:

@@ -54,6 +54,8 @@ class RobotModel:
         parts = {part.name: part for part in nao_model.body_parts(robot_type)}
         names = ["torso"] + [i[12].decode() for i in infos]
         self.principal = np.array([nao_model.inertia_diagonal(parts[name]) for name in names], dtype=float)
+        #: each hinge's upper limit (rad): which side of its range a hinge outside it is on
+        self.upper = nao_model.joint_limits(robot_type)[1]
         self.parents = np.zeros(n + 1, dtype=np.int64)
         self.joint_of = np.zeros(n + 1, dtype=np.int64)
         self.local_axes = np.array([i[13] for i in infos], dtype=float)
@@ -193,7 +195,7 @@ def prepare(robot, physics: RobotPhysics, model: RobotModel, config) -> Prepared
     moved, physics.moved = physics.moved, False
     if bodies is not None and not moved:
         # nothing but the step has moved the robot: the bodies go on from their own state
-        return _prepared(robot, physics, bodies, bodies.vel, bodies.spin, robot.joint_state()[0], config)
+        return _prepared(robot, physics, model, bodies, bodies.vel, bodies.spin, robot.joint_state()[0], config)
     robot.sync()
     angles, rates = robot.joint_state()
     position, orientation = robot.stored_pose()
@@ -214,7 +216,7 @@ def prepare(robot, physics: RobotPhysics, model: RobotModel, config) -> Prepared
         drag_spin[0] = bodies.spin[0]
         bodies.vel[:] = 0.0
         bodies.spin[:] = 0.0
-        return _prepared(robot, physics, bodies, drag_vel, drag_spin, angles, config)
+        return _prepared(robot, physics, model, bodies, drag_vel, drag_spin, angles, config)
     # every body where pybullet's exact joints put it
     links = robot.link_frames()
     coms = np.array([position] + [link[0] for link in links], dtype=float)
@@ -237,11 +239,11 @@ def prepare(robot, physics: RobotPhysics, model: RobotModel, config) -> Prepared
     else:
         child, parent = bodies.anchor_child, bodies.anchor_parent
     bodies = physics.bodies = Bodies(coms, quats, vel, spin, child, parent)
-    return _prepared(robot, physics, bodies, bodies.vel, bodies.spin, angles, config)
+    return _prepared(robot, physics, model, bodies, bodies.vel, bodies.spin, angles, config)
 
 
 def _prepared(
-    robot, physics: RobotPhysics, bodies: Bodies, drag_vel, drag_spin, angles: np.ndarray, config
+    robot, physics: RobotPhysics, model: RobotModel, bodies: Bodies, drag_vel, drag_spin, angles: np.ndarray, config
 ) -> Prepared:
     """A robot's prepared step: its bodies, the velocities the drag acts on, its motor rows."""
     target, force, sticky = robot.motor_commands()
@@ -251,7 +253,9 @@ def _prepared(
         force = np.full(nj, config.motor_torque)
     if physics.motor_state is None:
         physics.motor_state = np.zeros(nj, dtype=np.int64)
-    lo, hi, push = motor_rows(angles, np.asarray(force, dtype=float), sticky, config.motor_torque, FUDGE_FACTOR)
+    lo, hi, push = motor_rows(
+        angles, model.upper, np.asarray(force, dtype=float), sticky, config.motor_torque, FUDGE_FACTOR
+    )
     return Prepared(
         bodies, drag_vel, drag_spin, Motors(np.asarray(target, dtype=float), lo, hi, push, physics.motor_state)
     )
@@ -291,7 +295,7 @@ def apply(robot, solved: Solved) -> None:
 def warm_up() -> None:
     """Compile (or load from numba's disk cache) the step's kernels on a two-body problem with one
     contact."""
-    motor_rows(np.zeros(22), np.full(22, 10.0), np.zeros(22), 10.0, FUDGE_FACTOR)
+    motor_rows(np.zeros(22), np.ones(22), np.full(22, 10.0), np.zeros(22), 10.0, FUDGE_FACTOR)
     ground_contacts(
         np.array([0, 0, 0], dtype=np.int64),
         np.array([BOX, SPHERE, CAPSULE], dtype=np.int64),

@@ -17,7 +17,6 @@ import numpy as np
 from numba import njit
 
 from server_stub.physics.linalg import cross3, mv3, plane_space3
-from server_stub.physics.nao_model import JOINT_MAX
 
 #: columns of a surface row: soft ERP, soft CFM, slip, bounce, minimum bounce velocity (inf: none)
 ERP, CFM, SLIP, BOUNCE, BOUNCE_VEL = range(5)
@@ -33,8 +32,9 @@ FUDGE_FACTOR = 1e-5
 
 
 @njit(cache=True)
-def motor_rows(angles, force, sticky, torque_limit, fudge):
-    """Bounds of each hinge's row and the torque pushing hinges besides it. Inside its range a
+def motor_rows(angles, upper, force, sticky, torque_limit, fudge):
+    """Bounds of each hinge's row and the torque pushing hinges besides it (``upper``: each
+    hinge's upper limit, rad, ``nao_model.joint_limits``). Inside its range a
     hinge's row is its motor's, |torque| <= 10 N m. Outside, ``server_stub.physics.motors`` has
     made the row its stop's (target: back by ERP 0.8 or the bounced speed, whichever is larger)
     and the row is ODE's limit row: one-sided (it only pushes the hinge back in), and the motor,
@@ -50,7 +50,7 @@ def motor_rows(angles, force, sticky, torque_limit, fudge):
         hi[j] = force[j]
         if not force[j] > torque_limit:
             continue
-        if angles[j] >= JOINT_MAX[j]:
+        if angles[j] >= upper[j]:
             lo[j], hi[j] = -np.inf, 0.0
             push[j] = torque_limit if sticky[j] >= 0.0 else -fudge * torque_limit
         else:

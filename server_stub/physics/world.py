@@ -92,7 +92,7 @@ class World:
 
     # ----- robots -----
     def add_robot(self, robot_type: int = 0) -> Robot:
-        """A new NAO of ``robot_type`` (0-3) with its torso at (0, -1, 1.5), facing +y, falling.
+        """A new NAO of ``robot_type`` (0-4) with its torso at (0, -1, 1.5), facing +y, falling.
 
         The body of a robot removed earlier is reused when one of this type is parked: pybullet
         never frees all a ``loadURDF`` takes (about 19 KiB a robot, even across
@@ -192,6 +192,23 @@ class World:
 
     def ball_position(self) -> tuple[float, float, float]:
         return tuple(pb.getBasePositionAndOrientation(self._ball, physicsClientId=self._client)[0])
+
+    def robots_touching_ball(self) -> list[Robot]:
+        """The robots with a part touching the ball as everything stands now (Bullet's closest
+        points at no distance), for the referee's record of who played the ball: SimSpark's ball
+        recorder, filled by the collision pass at the start of a step. Changes nothing; asks
+        pybullet only about robots whose torso is within 1 m of the ball (a lone walker never)."""
+        bx, by, bz = self.ball_position()
+        touching = []
+        for robot in self._robots:
+            x, y, z = robot.torso_position()
+            if (x - bx) ** 2 + (y - by) ** 2 + (z - bz) ** 2 > 1.0:
+                continue
+            robot.sync()
+            points = pb.getClosestPoints(self._ball, robot.body_id, 0.0, physicsClientId=self._client)
+            if any(point[8] <= 0.0 for point in points):
+                touching.append(robot)
+        return touching
 
     def close(self) -> None:
         if self._client >= 0:

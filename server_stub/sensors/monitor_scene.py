@@ -31,8 +31,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from protocol.nao import PLAY_MODES
+from protocol.nao import PLAY_MODES, TOE_ROBOT_TYPES
 from server_stub import field as soccer_field
+from server_stub.physics import nao_model
 from server_stub.sensors.number_text import g_rows
 
 Vec3 = tuple[float, float, float]
@@ -188,6 +189,8 @@ def _part_children(part: str, team: str | None, unum: int | None, robot_type: in
     elif side in "rl" and kind in ("upperarm", "shank"):
         scale = 0.07 if kind == "upperarm" else 0.08
         nodes = [_mesh(f"models/{part}{robot_type}.obj", scale, [mat_team, mat_type, "naowhite"])]
+    elif side in "rl" and kind in ("foot", "toe") and robot_type in TOE_ROBOT_TYPES:
+        nodes = [_mesh(f"models/{side}foot.obj", _toe_type_scale(kind, robot_type), [mat_team, "naowhite"])]
     elif side in "rl" and kind in ("lowerarm", "thigh", "foot"):
         scale = {"lowerarm": 0.05, "thigh": 0.07, "foot": 0.08}[kind]
         numbered = [mat_num] if part == "rthigh" else []
@@ -195,6 +198,22 @@ def _part_children(part: str, team: str | None, unum: int | None, robot_type: in
     else:
         raise ValueError(f"unknown NAO body part {part!r} for the monitor scene")
     return _Node("".join(n.full for n in nodes), "".join(n.delta for n in nodes))
+
+
+def _toe_type_scale(kind: str, robot_type: int) -> Vec3:
+    """The foot mesh's scale on a foot or toe of a type with toes (naolegtoe.rsg; measured on the
+    real server: foot 0.08 0.062241 0.08, toe 0.08 0.0228259 0.04): the foot's by its length of
+    the full 0.16 m, the toe's by its length of the foot's and its thickness of the foot's."""
+    parts = {p.name: p for p in nao_model.body_parts(robot_type)}
+    width, foot_length, foot_height = parts["rfoot"].size
+    if kind == "foot":
+        return (width, width * foot_length / _FULL_FOOT_LENGTH, width)
+    _, toe_length, toe_height = parts["rtoe"].size
+    return (width, width * toe_length / foot_length, width * toe_height / foot_height)
+
+
+#: The type-0 foot's length (docs/robot_and_server.md section 2), to which the foot mesh is made.
+_FULL_FOOT_LENGTH = 0.16
 
 
 # ---------------------------------------------------------------------------------------------

@@ -13,15 +13,17 @@ and one join. Format (docs/robot_and_server.md section 5; fixtures ``agent_perce
 
 The order is the server's scene-graph order: perceptors are collected walking the robot's body
 tree, so the head's ``See`` sits between the neck/head joints and the arms, and each foot's
-``FRP`` just before the ankle-roll joint of that leg.
+``FRP`` just before the ankle-roll joint of that leg (a toe's ``FRP`` and joint after it, on a
+type with toes). ``protocol.nao.PerceptionLayout`` holds each type's order.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cache
 
-from protocol.nao import HJ_BEFORE_FRP_LF, HJ_BEFORE_FRP_RF, HJ_BEFORE_SEE, HJ_LAST
+from protocol.nao import LAYOUT, PerceptionLayout
 
 Vec3 = tuple[float, float, float]
 #: One foot's contact: centre of pressure and total force, both in the foot frame.
@@ -45,14 +47,17 @@ def _hj_template(names: Sequence[str]) -> str:
     return "".join(f"(HJ (n {name}) (ax %.2f))" for name in names)
 
 
-# the message's layout: protocol.nao's blocks of joint perceptors, with See and FRP between them
-_HEAD_T = "(time (now %.2f))%s(GYR (n torso) (rt %.2f %.2f %.2f))(ACC (n torso) (a %.2f %.2f %.2f))" + _hj_template(
-    HJ_BEFORE_SEE
-)
-_BEFORE_FRP_RF_T = _hj_template(HJ_BEFORE_FRP_RF)
-_BEFORE_FRP_LF_T = _hj_template(HJ_BEFORE_FRP_LF)
-_LAST_T = _hj_template(HJ_LAST)
+_HEADER_T = "(time (now %.2f))%s(GYR (n torso) (rt %.2f %.2f %.2f))(ACC (n torso) (a %.2f %.2f %.2f))"
 _FRP_T = "(FRP (n %s) (c %.2f %.2f %.2f) (f %.2f %.2f %.2f))"
+
+
+@cache
+def _templates(layout: PerceptionLayout) -> tuple[str, tuple[tuple[str, str, tuple[str, ...]], ...]]:
+    """A layout's message, laid out once: the head's template (time to the first joint block),
+    then each later block as (the FRP before it, '' for none; its template; its perceptors)."""
+    head = _HEADER_T + _hj_template(layout.blocks[0])
+    later = tuple((foot, _hj_template(block), block) for foot, block in zip(("",) + layout.feet, layout.blocks[1:]))
+    return head, later
 
 
 def format_game_state(gs: GameStateText) -> str:
@@ -86,14 +91,17 @@ def format_perception(
     frp: Mapping[str, FootContact],
     see: str | None = None,
     hear: Sequence[str] = (),
+    layout: PerceptionLayout = LAYOUT,
 ) -> str:
-    """One perception message. ``joints_deg`` needs every perceptor of ``protocol.nao.JOINTS``;
-    ``frp`` holds only the feet touching something ('lf', 'rf'); ``see`` is a full ``(See ...)``
-    entry (vision cycles only); ``hear`` entries come from ``format_hear``, printed after the
-    head's other perceptors (our choice; the fixtures hold no ``hear``)."""
+    """One perception message. ``joints_deg`` needs every perceptor of ``layout`` (the robot
+    type's, ``protocol.nao.perception_layout``); ``frp`` holds only the parts touching something
+    ('lf', 'rf', and a toe's 'lf1', 'rf1'); ``see`` is a full ``(See ...)`` entry (vision cycles
+    only); ``hear`` entries come from ``format_hear``, printed after the head's other perceptors
+    (our choice; the fixtures hold no ``hear``)."""
     j = joints_deg
+    head, later = _templates(layout)
     parts = [
-        _HEAD_T
+        head
         % (
             now,
             format_game_state(game),
@@ -103,19 +111,15 @@ def format_perception(
             acc[0],
             acc[1],
             acc[2],
-            *[j[n] for n in HJ_BEFORE_SEE],
+            *[j[n] for n in layout.blocks[0]],
         ),
     ]
     if see is not None:
         parts.append(see)
     parts.extend(hear)
-    parts.append(_BEFORE_FRP_RF_T % tuple([j[n] for n in HJ_BEFORE_FRP_RF]))
-    right = frp.get("rf")
-    if right is not None:
-        parts.append(_frp("rf", right))
-    parts.append(_BEFORE_FRP_LF_T % tuple([j[n] for n in HJ_BEFORE_FRP_LF]))
-    left = frp.get("lf")
-    if left is not None:
-        parts.append(_frp("lf", left))
-    parts.append(_LAST_T % tuple([j[n] for n in HJ_LAST]))
+    for foot, template, block in later:
+        contact = frp.get(foot) if foot else None
+        if contact is not None:
+            parts.append(_frp(foot, contact))
+        parts.append(template % tuple([j[n] for n in block]))
     return "".join(parts)

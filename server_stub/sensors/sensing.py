@@ -105,6 +105,7 @@ class Sensing:
             robot.foot_pressure(),
             see,
             self._hear(state, self.world.time),
+            robot.perception_layout,
         )
 
     # ----- monitors -----
