@@ -317,3 +317,27 @@ def test_a_search_names_the_key_of_its_best(seed: int, elitism: bool) -> None:
     assert key is not None and answered[key][1] == result.best_fitness
     assert np.array_equal(answered[key][0], result.best_genes)
     assert search.best_key("nothing/") is None
+
+
+def test_cma_es_strategies_asked_in_turn_draw_what_each_draws_alone() -> None:
+    """``cma`` samples from numpy's global generator; two strategies asked in turn (the refinement's
+    race) must not draw from each other's streams."""
+    from optimizer.search.cmaes import cmaes_program
+
+    bounds = np.array([[0.0, 1.0]] * 3)
+
+    def batches(programs, rounds: int) -> list[list[np.ndarray]]:
+        out = [[next(p).genes] for p in programs]
+        for _ in range(rounds):
+            for p, seen in zip(programs, out):
+                seen.append(p.send(-np.sum((seen[-1] - 0.3) ** 2, axis=1)).genes)
+        return out
+
+    def program(seed: int):
+        return cmaes_program(bounds, lambda g: g, seed, start=[0.5, 0.5, 0.5], sigma0=0.2, population=6)
+
+    alone = [batches([program(seed)], 4)[0] for seed in (1, 2)]
+    together = batches([program(1), program(2)], 4)
+    for a, b in zip(alone, together):
+        assert all(np.array_equal(x, y) for x, y in zip(a, b))
+    assert not np.array_equal(together[0][1], together[1][1])

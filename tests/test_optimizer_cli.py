@@ -18,7 +18,7 @@ from gait import GENE_BOUNDS, LEGACY_GENE_BOUNDS, load_gait
 from optimizer.cli import episode as episode_command
 from optimizer.cli import ga as ga_command
 from optimizer.cli import gala as gala_command
-from optimizer.cli.refine import refinements
+from optimizer.cli.refine import Arm, heat_gaits, refinement_arms
 from optimizer.episode import EpisodeResult
 from optimizer.evaluation.pool import EpisodeOutcome
 from optimizer.evaluation.record import WalkKind
@@ -473,9 +473,27 @@ def test_the_refinement_phase_searches_on_from_the_best_and_leaves_table_i_alone
     assert settings["refine_population"] == 8 and settings["refine_sigma"] == [0.2]
 
 
-def test_the_refinement_shares_its_gaits_among_its_steps_and_an_older_run_keeps_its_one_run() -> None:
-    assert refinements({"refine": 41, "refine_sigma": [0.05, 0.1]}) == [("refine0", 0.05, 21), ("refine1", 0.1, 20)]
-    assert refinements({"refine": 3000, "refine_sigma": 0.05}) == [("refine", 0.05, 3000)]  # keyed as it was made
+def test_the_refinement_runs_one_cma_es_per_start_and_step_and_an_older_run_keeps_its_one_run() -> None:
+    a, b = (1.0, 2.0), (3.0, 4.0)
+    arms = refinement_arms({"refine_sigma": [0.05, 0.1]}, [a, b])
+    assert [(arm.prefix, arm.start, arm.sigma) for arm in arms] == [
+        ("refine0", a, 0.05),
+        ("refine1", a, 0.1),
+        ("refine2", b, 0.05),
+        ("refine3", b, 0.1),
+    ]
+    assert refinement_arms({"refine_sigma": 0.05}, [a]) == [Arm("refine", a, 0.05)]  # keyed as it was made
+
+
+def test_the_race_heat_is_whole_generations_of_a_quarter_of_the_budget_over_two_runs() -> None:
+    race = {"refine": 1600, "refine_population": 20, "refine_race": True}
+    assert heat_gaits(race, 4, 7) == 200 and heat_gaits(race, 2, 7) == 400
+    assert heat_gaits({**race, "refine": 1619}, 4, 7) == 200  # whole generations only
+    assert heat_gaits(race, 1, 7) == 0  # nothing to race
+    assert heat_gaits({**race, "refine": 40}, 2, 7) == 0  # not a generation each: shared
+    assert heat_gaits({**race, "refine_race": False}, 4, 7) == 0
+    assert heat_gaits({"refine": 1600, "refine_sigma": [0.05, 0.1]}, 2, 7) == 0  # a run from before the race
+    assert heat_gaits({"refine": 360, "refine_race": True}, 2, 7) == 90  # the library's 9 a generation
 
 
 def _refined(folder: Path) -> list[dict]:

@@ -97,3 +97,37 @@ def test_the_drift_penalty_is_a_stored_setting_every_walk_of_the_run_gets(tmp_pa
     assert refine_command.main(argv, make_evaluator=fake) == 0
     assert setups[0].drift_penalty == 1.5
     assert json.loads((out / "manifest.json").read_text())["settings"]["drift_penalty"] == 1.5
+
+
+def test_the_refinement_races_its_runs_and_the_leader_walks_the_rest(tmp_path: Path) -> None:
+    """Two runs (steps 0.05 and 0.1) walk a heat of 80 gaits each (4 generations of 20, a quarter of
+    320 over two), then the one with the higher best score walks the other 160; --no-race shares
+    the 320 evenly. A run stopped in the heat and resumed hands over the same gait."""
+    argv = ["--budget", "320", "--check-repeats", "2", "--seed", "3", "--quiet"]
+    counts = {}
+    for name, extra in (("race", []), ("shared", ["--no-race"])):
+        out = tmp_path / name
+        assert (
+            refine_command.main(
+                [str(_start_file(tmp_path)), *argv, *extra, "--out", str(out)],
+                make_evaluator=lambda s: FakeEvaluator(),
+            )
+            == 0
+        )
+        firsts = [e for e in _episodes(out) if e["key"].startswith("refine") and e["key"].count("/") == 2]
+        counts[name] = {p: sum(1 for e in firsts if e["key"].startswith(p + "/")) for p in ("refine0", "refine1")}
+        if name == "race":
+            heat = {
+                p: max(e["fitness"] for e in firsts if e["key"].startswith(p + "/") and int(e["key"][9:12]) < 4)
+                for p in ("refine0", "refine1")
+            }
+            leader = max(sorted(heat), key=heat.__getitem__)
+    assert counts["shared"] == {"refine0": 160, "refine1": 160}
+    assert counts["race"][leader] == 240 and sum(counts["race"].values()) == 320
+    cut = tmp_path / "cut"
+    with pytest.raises(Killed):
+        refine_command.main(
+            [str(_start_file(tmp_path)), *argv, "--out", str(cut)], make_evaluator=lambda s: FakeEvaluator(150)
+        )
+    assert refine_command.main(["--resume", str(cut), "--quiet"], make_evaluator=lambda s: FakeEvaluator()) == 0
+    assert (cut / "fastest_gait.json").read_text() == (tmp_path / "race" / "fastest_gait.json").read_text()

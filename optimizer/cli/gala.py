@@ -55,7 +55,7 @@ from optimizer.cli.common import (
     write_gait,
 )
 from optimizer.cli.refine import DEFAULTS as REFINE_DEFAULTS
-from optimizer.cli.refine import refine
+from optimizer.cli.refine import refine, refine_starts
 from optimizer.evaluation.pool import stable_seed
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
@@ -201,6 +201,14 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"gaits per CMA-ES generation of the refinement (default {PAPER['refine_population']}; "
         "the library's own for 7 genes is 9)",
     )
+    p.add_argument(
+        "--refine-race",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="race the refinement's CMA-ES runs (from the fastest gait that held and the best-scored "
+        "one, each step) and give the winner half the gaits (default); --no-refine-race: "
+        "one start, the gaits shared evenly among the steps, as before the race",
+    )
     add_run_arguments(p)
     return p
 
@@ -327,7 +335,8 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             fastest = fastest_walk(driver, run.setup.start, stability)
             write_outputs(run, rows, fastest)
         if run.settings.get("refine", 0) and fastest is not None:  # a run from before it: none
-            refine(driver, run.settings, run.seed, bounds, repair, fastest.gait.genes)
+            starts = refine_starts(driver, fastest) if run.settings.get("refine_race") else [fastest.gait.genes]
+            refine(driver, run.settings, run.seed, bounds, repair, starts)
             fastest = fastest_walk(driver, run.setup.start, stability)
             write_outputs(run, rows, fastest)
         falling = [f"{row.result.crossover:g}" for row in rows if row.check is not None and not row.check.stable]

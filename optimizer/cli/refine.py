@@ -21,8 +21,10 @@ continues from) into the run folder.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -41,9 +43,9 @@ from optimizer.cli.common import (
 from optimizer.evaluation.pool import stable_seed
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
-from optimizer.run.stability import fastest_walk
-from optimizer.search.cmaes import CMAESRun
-from optimizer.search.ga import Batch, KeyedSearch, Repair, SearchProgram
+from optimizer.run.stability import Fastest, fastest_walk, ranked_gaits
+from optimizer.search.cmaes import CMAESRun, population_size
+from optimizer.search.ga import Batch, Candidate, KeyedSearch, Repair, SearchProgram
 from protocol.cli_values import positive_float, positive_int
 
 #: Keys of the refinement's episodes start with this (in the main job too).
@@ -51,50 +53,131 @@ REFINE_PREFIX = "refine"
 #: The start gait's episodes are keyed under this.
 START_KEY = "start"
 
-#: The refinement's defaults, in the main job and here: 8000 gaits, shared by two CMA-ES runs
-#: from the same start, one with a first step of 0.05 of the box and one of 0.1, 20 gaits a
-#: generation (docs/optimizer.md, "Why a refinement phase": which step climbs higher depends on the
-#: start's neighbourhood, and on two seeds of the default row each step won once).
-DEFAULTS: dict[str, Any] = {"refine": 8000, "refine_sigma": [0.05, 0.1], "refine_population": 20}
+#: The refinement's defaults, in the main job and here: 8000 gaits of CMA-ES, 20 a generation, from
+#: each start with a first step of 0.05 of the box and one of 0.1, raced (``refine``): which step
+#: climbs higher depends on the start's neighbourhood (docs/optimizer.md, "Why a refinement phase"),
+#: and so does which start.
+DEFAULTS: dict[str, Any] = {"refine": 8000, "refine_sigma": [0.05, 0.1], "refine_population": 20, "refine_race": True}
 
 
-def refinements(settings: Mapping[str, Any]) -> list[tuple[str, float, int]]:
-    """The refinement's CMA-ES runs as (key prefix, first step, gaits): one per step of
-    ``settings["refine_sigma"]``, the ``settings["refine"]`` gaits shared evenly (the first runs
-    take one more where they do not divide), keyed ``refine<j>/...``. A run from before several
-    steps stored one number: one run keyed ``refine/...``, as it was made."""
+@dataclass(frozen=True)
+class Arm:
+    """One CMA-ES run of the refinement: its key prefix, start (genes) and first step."""
+
+    prefix: str
+    start: tuple[float, ...]
+    sigma: float
+
+
+def refinement_arms(settings: Mapping[str, Any], starts: Sequence[Sequence[float]]) -> list[Arm]:
+    """The refinement's CMA-ES runs: one per start and step of ``settings["refine_sigma"]``, the
+    starts in the order given, keyed ``refine<j>``. A run from before several steps stored one
+    number: one run keyed ``refine``, as it was made."""
     sigmas = settings["refine_sigma"]
-    total = settings["refine"]
     if isinstance(sigmas, (int, float)):
-        return [(REFINE_PREFIX, float(sigmas), total)]
-    share, extra = divmod(total, len(sigmas))
-    return [(f"{REFINE_PREFIX}{j}", float(s), share + (j < extra)) for j, s in enumerate(sigmas)]
+        return [Arm(REFINE_PREFIX, tuple(starts[0]), float(sigmas))]
+    pairs = [(tuple(start), float(sigma)) for start in starts for sigma in sigmas]
+    return [Arm(f"{REFINE_PREFIX}{j}", start, sigma) for j, (start, sigma) in enumerate(pairs)]
+
+
+def heat_gaits(settings: Mapping[str, Any], arms: int, genes: int) -> int:
+    """Gaits each run walks in the race's heat: whole generations, a quarter of the budget over two
+    runs (half of it over all of them), so the winner keeps half for itself. 0 where the settings
+    do not race or the budget is too small for a generation each: then every run takes its share
+    (the first ones one more where they do not divide)."""
+    population = population_size(genes, settings.get("refine_population"))
+    if arms < 2 or not settings.get("refine_race", False):  # a run from before the race: shares
+        return 0
+    return settings["refine"] // (2 * arms * population) * population
 
 
 def refine(
-    driver: Driver, settings: Mapping[str, Any], seed: int, bounds: np.ndarray, repair: Repair, start: Sequence[float]
+    driver: Driver,
+    settings: Mapping[str, Any],
+    seed: int,
+    bounds: np.ndarray,
+    repair: Repair,
+    starts: Sequence[Sequence[float]],
 ) -> None:
-    """CMA-ES from ``start`` (genes), once per step of the settings (``refinements``), each run
-    seeded from the run's seed and its prefix; every gait scored as the run scores.
+    """CMA-ES from each of ``starts`` (genes) with each step of the settings (``refinement_arms``),
+    each run seeded from the run's seed and its prefix; every gait scored as the run scores.
 
-    The main job runs it after its Table I rows, from the fastest gait of the rows that held its
-    check: a fragile start's neighbourhood falls almost everywhere, and CMA-ES learns nothing from
-    a population of falls (measured: from a gait that fell in 4 of its 10 check walks, 2,997 of
-    3,000 refined gaits fell). Two steps, because a start on a narrow ridge loses a large step's
-    first generations to falls while a start on a broad one climbs further with it."""
-    for prefix, sigma, gaits in refinements(settings):
-        driver.run(
-            CMAESRun(
-                bounds,
-                repair,
-                stable_seed(seed, prefix),
-                start,
-                sigma,
-                gaits,
-                prefix,
-                settings.get("refine_population"),  # a run from before the flag: the library's default
+    The runs race: each walks a heat (``heat_gaits``), then the one whose best score is highest
+    (the first on a tie) walks the rest of the budget, going on where it stopped, with its own
+    racing bar. A start on a narrow ridge loses a large step's first generations to falls while one
+    on a broad ridge climbs further with it, and a start the checks trusted can sit in a lower
+    basin than the fastest gait, which fell once: measured on a quick run whose start held at
+    1.2 m, its two steps reached 6.38 m in 1600 gaits, and from the row's best (3.1 m, one fall in
+    10 checks) 9.13 m (docs/optimizer.md). The heat costs each loser what it would have cost to
+    know.
+
+    The main job starts it from the fastest gait of the rows that held its check and from the
+    best-scored gait (``refine_starts``): a fragile start's neighbourhood falls almost everywhere,
+    and CMA-ES learns nothing from a population of falls (measured: from a gait that fell in 4 of
+    its 10 check walks, 2,997 of 3,000 refined gaits fell), so such a run loses its heat."""
+    arms = refinement_arms(settings, starts)
+    total = settings["refine"]
+    population = settings.get("refine_population")  # a run from before the flag: the library's default
+    heat = heat_gaits(settings, len(arms), len(bounds))
+    if heat == 0:
+        share, extra = divmod(total, len(arms))
+        for j, arm in enumerate(arms):
+            driver.run(
+                CMAESRun(
+                    bounds,
+                    repair,
+                    stable_seed(seed, arm.prefix),
+                    arm.start,
+                    arm.sigma,
+                    share + (j < extra),
+                    arm.prefix,
+                    population,
+                )
             )
-        )
+        return
+    whole = total - (len(arms) - 1) * heat  # what the winner walks in all
+    runs = [
+        CMAESRun(bounds, repair, stable_seed(seed, arm.prefix), arm.start, arm.sigma, whole, arm.prefix, population)
+        for arm in arms
+    ]
+    races = [driver.race() for _ in runs]
+    for run, race in zip(runs, races):
+        driver.run(Heat(run, heat), race)
+    best = [-math.inf if run.result() is None else run.result()[0] for run in runs]
+    winner = max(range(len(runs)), key=lambda j: (best[j], -j))
+    driver.run(runs[winner], races[winner])
+
+
+def refine_starts(driver: Driver, fastest: Fastest) -> list[tuple[float, ...]]:
+    """Where the main job's refinement starts: the fastest gait that held its check, and the
+    best-scored gait of the run when that is another (it may have fallen in its check)."""
+    starts = [fastest.gait.genes]
+    ranked = ranked_gaits(driver.scored)
+    if ranked and ranked[0].genes != fastest.gait.genes:
+        starts.append(ranked[0].genes)
+    return [tuple(start) for start in starts]
+
+
+class Heat:
+    """A search's next ``gaits`` gaits (whole batches), for the race of ``refine``."""
+
+    def __init__(self, search: KeyedSearch, gaits: int) -> None:
+        self._search = search
+        self._left = gaits
+
+    @property
+    def done(self) -> bool:
+        return self._search.done or self._left <= 0
+
+    def ask(self) -> list[Candidate]:
+        return self._search.ask()
+
+    def tell(self, results: Mapping[str, float]) -> None:
+        self._left -= len(results)
+        self._search.tell(results)
+
+    def result(self) -> Any:
+        return self._search.result()
 
 
 class StartGait(KeyedSearch):
@@ -143,6 +226,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="N",
         help=f"gaits per CMA-ES generation (default {DEFAULTS['refine_population']})",
     )
+    p.add_argument(
+        "--race",
+        dest="refine_race",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="race the CMA-ES runs (one per step) and give the winner half the gaits (default); "
+        "--no-race: the gaits shared evenly among the steps",
+    )
     add_walk_run_arguments(p)
     return p
 
@@ -177,7 +268,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
 
     def body(driver: Driver) -> str:
         driver.run(StartGait(start_genes))
-        refine(driver, run.settings, run.seed, bounds, repair, start_genes)
+        refine(driver, run.settings, run.seed, bounds, repair, [start_genes])
         fastest = fastest_walk(driver, run.setup.start, stability)
         write_json(run.folder.path / "results.json", {"settings": run.settings, **hand_over(run, fastest, "refined")})
         start = driver.scored.get(f"{START_KEY}/i000")

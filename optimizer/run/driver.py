@@ -69,9 +69,10 @@ class Driver:
         #: episodes this driver evaluated (not replayed from the log)
         self.evaluated = 0
 
-    def run(self, search: AskTellSearch) -> Any:
-        """Drive ``search`` to the end and return its ``result()``."""
-        race = self.race()
+    def run(self, search: AskTellSearch, race: Race | None = None) -> Any:
+        """Drive ``search`` to the end and return its ``result()``; ``race``: the race it goes on
+        with (a search run in stages keeps its bar), else a fresh one."""
+        race = self.race() if race is None else race
         while not search.done:
             scored = self.score([(c.key, c.genes) for c in search.ask()], race)
             search.tell({s.key: s.fitness for s in scored})

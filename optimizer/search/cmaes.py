@@ -13,7 +13,9 @@ the Table I rows found, with a smaller step (``optimizer.cli.gala``, ``--refine`
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from typing import Any
 
 import cma
 import numpy as np
@@ -23,6 +25,32 @@ from optimizer.search.ga import Batch, KeyedSearch, Repair, SearchProgram
 #: Initial step size from a random point, as a fraction of the box (the library's advice: about a
 #: quarter to a third of the range the optimum may lie in).
 SIGMA0 = 0.3
+
+
+class _OwnRandom:
+    """numpy's global random state, kept apart for one strategy: ``cma`` draws its samples from
+    numpy's global generator, which its ``seed`` option seeds, so strategies asked in turn (the
+    refinement's race) would draw from each other's streams. Swapped in around every call into
+    the library, so a strategy draws what it would draw alone."""
+
+    def __init__(self) -> None:
+        self._state: Any = None
+
+    @contextmanager
+    def active(self) -> Iterator[None]:
+        outer = np.random.get_state()
+        if self._state is not None:
+            np.random.set_state(self._state)
+        try:
+            yield
+        finally:
+            self._state = np.random.get_state()
+            np.random.set_state(outer)
+
+
+def population_size(genes: int, population: int | None) -> int:
+    """Gaits per generation: ``population``, or the library's own 4 + 3 ln n when None."""
+    return population if population is not None else 4 + int(3 * np.log(genes))
 
 
 def _strategy(
@@ -49,12 +77,15 @@ def cmaes_program(
     to fit)."""
     low, high = bounds[:, 0], bounds[:, 1]
     rng = np.random.default_rng(seed)
+    own = _OwnRandom()
     x0 = None if start is None else np.clip((np.asarray(start, dtype=float) - low) / (high - low), 0.0, 1.0)
-    strategy = _strategy(rng, rng.uniform(0.0, 1.0, len(low)) if x0 is None else x0, sigma0, population)
+    with own.active():
+        strategy = _strategy(rng, rng.uniform(0.0, 1.0, len(low)) if x0 is None else x0, sigma0, population)
     generation, asked = 0, 0
     best: tuple[float, np.ndarray] | None = None
     while candidates is None or asked < candidates:
-        unit = strategy.ask()
+        with own.active():
+            unit = strategy.ask()
         if candidates is not None:
             unit = unit[: candidates - asked]
         genes = np.array([repair(low + np.asarray(u) * (high - low)) for u in unit])
@@ -63,13 +94,15 @@ def cmaes_program(
         generation += 1
         if len(unit) < strategy.popsize:
             return  # the budget cut this batch: cma takes only whole generations
-        strategy.tell(unit, [-float(f) for f in fitness])  # cma minimises
+        with own.active():
+            strategy.tell(unit, [-float(f) for f in fitness])  # cma minimises
         k = int(np.argmax(fitness))
         if best is None or fitness[k] > best[0]:
             best = (float(fitness[k]), np.clip((genes[k] - low) / (high - low), 0.0, 1.0))
         if strategy.stop():  # a refinement starts again from the best it met, a search from anywhere
             restart = rng.uniform(0.0, 1.0, len(low)) if x0 is None else best[1]
-            strategy = _strategy(rng, restart, sigma0, population)
+            with own.active():
+                strategy = _strategy(rng, restart, sigma0, population)
 
 
 class CMAESRun(KeyedSearch):
