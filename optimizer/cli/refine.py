@@ -143,8 +143,7 @@ def refine(
     races = [driver.race() for _ in runs]
     for run, race in zip(runs, races):
         driver.run(Heat(run, heat), race)
-    best = [-math.inf if run.result() is None else run.result()[0] for run in runs]
-    winner = max(range(len(runs)), key=lambda j: (best[j], -j))
+    winner = max(range(len(runs)), key=lambda j: (_best_score(runs[j]), -j))
     driver.run(runs[winner], races[winner])
 
 
@@ -158,10 +157,15 @@ def refine_starts(driver: Driver, fastest: Fastest) -> list[tuple[float, ...]]:
     return [tuple(start) for start in starts]
 
 
+def _best_score(run: CMAESRun) -> float:
+    best = run.result()
+    return -math.inf if best is None else best[0]
+
+
 class Heat:
     """A search's next ``gaits`` gaits (whole batches), for the race of ``refine``."""
 
-    def __init__(self, search: KeyedSearch, gaits: int) -> None:
+    def __init__(self, search: CMAESRun, gaits: int) -> None:
         self._search = search
         self._left = gaits
 
