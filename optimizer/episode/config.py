@@ -43,6 +43,12 @@ def start_problem_on_real_server(start: Start) -> str | None:
     return None
 
 
+def parked_ball(sx: float, sy: float) -> tuple[float, float, float]:
+    """Where an episode's trainer puts the ball as the walk starts (start at ``sx, sy``): 5 m to
+    its side, on the ground, out of a straight walk's way."""
+    return (sx, sy + 5.0, 0.042)
+
+
 @dataclass(frozen=True)
 class EpisodeConfig:
     #: Seconds of walking (game time after PlayOn) before the walk is scored (paper: 15 s).

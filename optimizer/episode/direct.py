@@ -31,7 +31,7 @@ import numpy as np
 from agent.behaviour import WalkBehaviour
 from agent.config import AgentConfig
 from gait import Gait
-from optimizer.episode.config import EpisodeConfig
+from optimizer.episode.config import EpisodeConfig, parked_ball
 from optimizer.episode.monitor_link import EpisodeFailure
 from optimizer.episode.scoring import Judge
 from protocol import commands
@@ -166,7 +166,6 @@ class DirectStub:
         # what the runner's trainer sends before each episode
         sim.set_play_mode("BeforeKickOff")
         sim.set_game_time(0.0)
-        sim.set_ball((sx, sy + 5.0, 0.042), (0.0, 0.0, 0.0))
         agent_config = AgentConfig(
             team=config.team,
             unum=config.unum,
@@ -211,6 +210,7 @@ class DirectStub:
                 if delivered is not None:
                     if not play_on_sent and behaviour.settle_cycle >= agent_config.settle_cycles:
                         sim.set_play_mode("PlayOn")  # between the perception and its reply
+                        sim.set_ball(parked_ball(sx, sy), (0.0, 0.0, 0.0))
                         play_on_sent = True
                     inbox = self._reply(behaviour, delivered)
                 if cycles > limit:

@@ -5,9 +5,10 @@ Everything is read the way a trainer on a real rcssserver3d would: the torso pos
 monitor stream, control through trainer commands.
 
 Per episode on the server (stub or real, sync mode):
-``(playMode BeforeKickOff)(time 0)``, the ball parked out of the way; a new agent connects, beams
-to the start, settles; ``(playMode PlayOn)`` is sent at the cycle its walk starts, so the game clock
-measures walking time; the episode ends at a fall or at ``walk_time``; the agent disconnects and
+``(playMode BeforeKickOff)(time 0)``; a new agent connects, beams to the start, settles;
+``(playMode PlayOn)`` is sent at the cycle its walk starts, so the game clock measures walking time,
+with the ball parked 5 m to the side of the start (not before: until PlayOn the referee keeps the
+ball at the centre spot); the episode ends at a fall or at ``walk_time``; the agent disconnects and
 its robot is removed. Resetting the clock each episode keeps a real server's half (300 s) from
 ever ending, so thousands of episodes run on one server.
 
@@ -29,7 +30,7 @@ from pathlib import Path
 
 from agent import AgentConfig, AgentError, NaoAgent
 from gait import Gait, family_named, save_gait
-from optimizer.episode.config import EpisodeConfig, EpisodeResult, Start
+from optimizer.episode.config import EpisodeConfig, EpisodeResult, Start, parked_ball
 from optimizer.episode.direct import DirectStub
 from optimizer.episode.monitor_link import EpisodeFailure, MonitorLink
 from optimizer.episode.scoring import Judge, TracePoint, find_robot
@@ -54,6 +55,13 @@ def quiet_agent_logs() -> None:
     through any progress display. Called by the processes' entry points, not by a library
     constructor."""
     logging.getLogger("agent").setLevel(logging.ERROR)
+
+
+def play_on(config: EpisodeConfig) -> tuple[str, ...]:
+    """The trainer's start of a walk: PlayOn, and the ball parked 5 m to the side of the start,
+    out of the walk's way (the same cycle: from PlayOn on the referee leaves the ball where it is)."""
+    sx, sy = config.start
+    return trainer.play_mode("PlayOn"), trainer.ball(parked_ball(sx, sy), (0.0, 0.0, 0.0))
 
 
 class EpisodeRunner:
@@ -175,12 +183,7 @@ class EpisodeRunner:
 
     def _prepare(self, link: MonitorLink, config: EpisodeConfig) -> None:
         """Reset what a long-running server carries over from the previous episode."""
-        sx, sy = config.start
-        link.send(
-            trainer.play_mode("BeforeKickOff"),
-            trainer.set_time(0.0),
-            trainer.ball((sx, sy + 5.0, 0.042), (0.0, 0.0, 0.0)),
-        )
+        link.send(trainer.play_mode("BeforeKickOff"), trainer.set_time(0.0))
         link.poll()
 
     def _agent_config(self, address: ServerAddress, config: EpisodeConfig) -> AgentConfig:
@@ -240,7 +243,7 @@ class EpisodeRunner:
                 if not play_on_sent and agent.settled:
                     # sent between a perception and its reply, so it reaches the server at the
                     # same cycle in every run: the walk and the game clock start together
-                    link.send(trainer.play_mode("PlayOn"))
+                    link.send(*play_on(judge.config))
                     play_on_sent = True
                 agent.reply()
                 for state in link.poll():
@@ -302,7 +305,7 @@ class EpisodeRunner:
                     if robot is not None and not play_on_sent:
                         settle_states += 1
                         if settle_states >= wanted:
-                            link.send(trainer.play_mode("PlayOn"))
+                            link.send(*play_on(config))
                             play_on_sent = True
                     judge.feed(state)
                 if process.poll() is not None:

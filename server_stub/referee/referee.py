@@ -12,6 +12,8 @@
   once the ball has also left the penalty area) gives play on, or over ``drop_ball_time`` a drop
   ball on the spot.
 - **Goal**: ``goal_pause_time``, then the ball to the centre and a kick-off for the side scored on.
+- **Before kick-off**: the ball is put back on the centre spot every cycle while any agent is
+  connected, and each side is cleared from the other half.
 - **Halves**: at ``half_time`` the first half ends in BeforeKickOff of the second (sides are not
   swapped); at twice it the game is over (GameOver: the clock stops; the server keeps running).
 
@@ -99,7 +101,11 @@ class Referee:
             self._set_piece(agents, *_SET_PIECES[mode])
         elif mode in _GOALS:
             self._goal_pause(agents, _GOALS[mode])
-        # BeforeKickOff (see before_step), GameOver, offside and pass modes: nothing to do here
+        elif mode == "BeforeKickOff" and agents:
+            # the ball waits at the centre spot while any agent is connected (the clearing is in
+            # before_step); a trainer that parks it elsewhere does so with or after PlayOn
+            self._place_ball((0.0, 0.0, field.BALL_RADIUS))
+        # GameOver, offside and pass modes: nothing to do here
 
     def field_emptied(self) -> None:
         self.ball.forget_touches()
