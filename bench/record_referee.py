@@ -7,8 +7,8 @@ agent's perceptions report them. Recorded on a real rcssserver3d 0.7.3, the file
     python bench/record_referee.py --only kick_in,say   # some of them
     python bench/record_referee.py --stub               # on the stand-in, printed beside the recording
 
-A scenario is data: its robots (team, number, beam), the trainer's commands and the robots'
-``say`` messages and beams at given cycles, and how many cycles it runs. Cycle k is the agents'
+A scenario is data: its robots (team, number, beam, the cycle it joins at), the trainer's commands
+and the robots' ``say`` messages and beams at given cycles, and how many cycles it runs. Cycle k is the agents'
 k-th perception; what a robot does at k is its reply to it, and a trainer command due at k acts in
 the same step as that reply. The real server reads its monitor port at the start of a cycle,
 before it waits for the agents' ``(syn)``, the stand-in whenever a command arrives: so a command
@@ -29,6 +29,7 @@ from __future__ import annotations
 import argparse
 import json
 import re
+import select
 import socket
 import struct
 import subprocess
@@ -55,6 +56,9 @@ BEAM_CYCLE = 3
 #: (s) before it, long enough for a real server to have finished its step and wait for the agents.
 TRAINER_LEAD = {"real": 1, "stand-in": 0}
 _SETTLE = 0.01
+#: How long (s) to look for a joining robot's first perception once the others' have come: a
+#: server in sync mode sends a cycle's perceptions together.
+_JOIN_WAIT = 0.2
 #: Cycles after a play mode shows before ``ball_in`` is read: a ball the real referee moves after
 #: the step is seen where it was for one more cycle (vision reads the scene graph, which the next
 #: step updates).
@@ -66,6 +70,11 @@ class Player:
     team: str
     unum: int
     beam: tuple[float, float, float]
+    #: The cycle after which it connects (0: before the first). Robots are created at one spot
+    #: until ``init`` moves them; on the real server two created there together collide and are
+    #: knocked about (the stand-in hangs the later one beside), so robots that must stand still
+    #: join one by one. A robot's ``init`` and beam count from its own first perception.
+    joins: int = 0
 
 
 @dataclass(frozen=True)
@@ -158,18 +167,39 @@ SCENARIOS: tuple[Scenario, ...] = (
     ),
     Scenario(
         "say",
-        "Say and hear: two left robots and a right one, messages at once and in turn.",
-        (Player("Ref", 1, (-3.0, 0.0, 0.0)), Player("Ref", 2, (-5.0, 3.0, 90.0)), Player("Opp", 1, (-4.0, -2.0, 0.0))),
-        ((10, "(playMode PlayOn)"),),
-        40,
+        "Say and hear: two left robots and a right one joining one by one, standing still; "
+        "messages at once and in turn, every cycle, too long, then from over 50 m and under.",
+        (
+            Player("Ref", 1, (-3.0, 0.0, 0.0)),
+            Player("Ref", 2, (-5.0, 3.0, 90.0), joins=4),
+            Player("Opp", 1, (-4.0, -2.0, 0.0), joins=14),
+        ),
+        (
+            (30, "(playMode PlayOn)"),
+            (60, "(agent (unum 1) (team Right) (pos 22 22 0.4))"),
+            (62, "(agent (unum 2) (team Left) (pos -22 -22 0.4))"),  # 62.2 m from the right robot
+            (70, "(agent (unum 2) (team Left) (pos -19 -10 0.4))"),  # 52.0 m
+            (76, "(agent (unum 2) (team Left) (pos -17 -7 0.4))"),  # 48.6 m
+        ),
+        84,
         acts=(
-            (12, 0, "(say hello)"),
-            (14, 1, "(say two)"),
-            (14, 2, "(say three)"),
-            (15, 0, "(say again)"),
-            (16, 0, "(say onemore)"),
-            (20, 0, "(say exactly_twenty_chars)"),
-            (22, 0, "(say twenty_one_characters)"),
+            (32, 0, "(say hello)"),
+            (34, 1, "(say two)"),
+            (34, 2, "(say three)"),
+            (35, 0, "(say again)"),
+            (36, 0, "(say onemore)"),
+            (40, 0, "(say exactly_twenty_chars)"),
+            (42, 0, "(say twenty_one_characters)"),
+            (50, 0, "(say m50)"),
+            (51, 0, "(say m51)"),
+            (51, 2, "(say o51)"),
+            (52, 0, "(say m52)"),
+            (53, 0, "(say m53)"),
+            (56, 1, "(say a-b+c*d/e<f>g!?)"),
+            (66, 1, "(say far1)"),
+            (68, 2, "(say far2)"),
+            (74, 1, "(say out52)"),
+            (80, 1, "(say in49)"),
         ),
     ),
 )
@@ -186,6 +216,10 @@ class _Connection:
 
     def send(self, text: str) -> None:
         self.sock.sendall(encode_frame(text.encode()))
+
+    def ready(self, wait: float) -> bool:
+        """Whether a message is there, or comes within ``wait`` s."""
+        return bool(self._frames) or bool(select.select([self.sock], [], [], wait)[0])
 
     def receive(self) -> bytes:
         while not self._frames:
@@ -248,29 +282,47 @@ def run(scenario: Scenario, address: ServerAddress, lead: int) -> dict:
     monitor = _Connection((address.host, address.monitor_port))
     drain = threading.Thread(target=_drain, args=(monitor,), daemon=True)
     drain.start()
-    agents = [_Connection((address.host, address.agent_port)) for _ in scenario.players]
+    agents: list[_Connection | None] = [None] * len(scenario.players)
+    #: the cycle of each robot's first perception: robots there from the start have theirs at 1
+    first: list[int | None] = [None if player.joins else 1 for player in scenario.players]
     log = _Log(hear=[[] for _ in scenario.players])
     trainer = dict(scenario.trainer)
+
+    def join(index: int) -> None:
+        agents[index] = _Connection((address.host, address.agent_port))
+        agents[index].send("(scene rsg/agent/nao/nao.rsg)")
+
     try:
-        for agent in agents:
-            agent.send("(scene rsg/agent/nao/nao.rsg)")
+        for index, player in enumerate(scenario.players):
+            if not player.joins:
+                join(index)
         for cycle in range(1, scenario.cycles + 1):
             for index, agent in enumerate(agents):
-                log.read(cycle, index, parse_perception(agent.receive()))
+                if agent is not None and first[index] is None and agent.ready(_JOIN_WAIT):
+                    first[index] = cycle
+                if agent is not None and first[index] is not None:
+                    log.read(cycle, index, parse_perception(agent.receive()))
             if cycle + lead in trainer:
                 time.sleep(_SETTLE)
                 monitor.send(trainer[cycle + lead])
             for index, (agent, player) in enumerate(zip(agents, scenario.players)):
+                if agent is None:
+                    continue
+                own = None if first[index] is None else cycle - first[index] + 1
                 reply = ""
-                if cycle == 1:
+                if own == 1:
                     reply = f"(init (unum {player.unum})(teamname {player.team}))"
-                elif cycle == BEAM_CYCLE:
+                elif own == BEAM_CYCLE:
                     reply = "(beam {:g} {:g} {:g})".format(*player.beam)
                 reply += "".join(text for at, who, text in scenario.acts if at == cycle and who == index)
                 agent.send(reply + "(syn)")
+            for index, player in enumerate(scenario.players):
+                if player.joins == cycle:
+                    join(index)
     finally:
         for agent in agents:
-            agent.close()
+            if agent is not None:
+                agent.close()
         monitor.close()
     return {"scenario": scenario.name, "about": scenario.about, "segments": log.segments, "hear": log.hear}
 

@@ -103,6 +103,25 @@ class PhysicsConfig:
 
 
 @dataclass(frozen=True)
+class HearingConfig:
+    """How far a ``say`` carries and how much of it a robot hears: rcssserver3d 0.7.3's defaults,
+    which naosoccersim.rb leaves alone (SoccerRuleAspect's ``mAudioCutDist``; AgentState's
+    ``mHearMax``, ``mHearInc``, ``mHearDecay``; docs/robot_and_server.md section 8). The longest
+    message is ``protocol.commands.SAY_MAX_LENGTH`` (``mSayMsgSize``), a rule agents share."""
+
+    #: A robot hears another's message only if their torso centres are less than this apart (m,
+    #: in 3-D); a robot's own message always reaches it.
+    range: float = 50.0
+    #: Each robot has one hearing capacity for its teammates' messages and one for its opponents':
+    #: a message costs ``cost`` and is lost when less is left; each perception gives back
+    #: ``recovery`` while the capacity is below ``capacity`` (its start). With 2, 2, 1: one message
+    #: of each kind per perception, then none of that kind in the next cycle.
+    capacity: int = 2
+    cost: int = 2
+    recovery: int = 1
+
+
+@dataclass(frozen=True)
 class ServerConfig:
     """Network, timing and sensing options of the stand-in server (``python -m server_stub``)."""
 
@@ -118,6 +137,8 @@ class ServerConfig:
     #: Add ``mypos`` / ``myorien`` / ``ballpos`` to vision (off on the real server by default).
     sense_mypos: bool = False
     vision_noise: bool = True
+    #: Range and capacity of hearing (``say``).
+    hearing: HearingConfig = HearingConfig()
     #: Move every agent's beam by a uniform random amount within +-``beam_noise_xy`` (m) on x and
     #: y and +-``beam_noise_angle`` (deg) on the heading: the real server's defaults
     #: (``BeamNoiseXY``, ``BeamNoiseAngle``; docs/robot_and_server.md sections 6 and 10). The fixtures' server had

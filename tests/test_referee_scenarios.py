@@ -72,7 +72,7 @@ def _on_the_stand_in(name: str) -> dict:
         return record_referee.run(SCENARIOS[name], address, record_referee.TRAINER_LEAD["stand-in"])
 
 
-@pytest.mark.parametrize("name", ["halves", "touch", "kick_in", "goal_line", "goal_right", "free_kick", "beams"])
+@pytest.mark.parametrize("name", ["halves", "touch", "kick_in", "goal_line", "goal_right", "free_kick", "beams", "say"])
 def test_the_stand_in_referees_as_the_real_server_did(name: str) -> None:
     assert_same_game(_recorded(name), _on_the_stand_in(name))
 

@@ -6,15 +6,17 @@ and one join. Format (docs/robot_and_server.md section 5; fixtures ``agent_perce
 2 decimals as the server's printf does (``-0.00`` included)::
 
     (time (now <t>))(GS [(unum <n>) (team <left|right>)] (sl <n>) (sr <n>) (t <t>) (pm <mode>))
+    [(hear <team> <t> <self|deg> <message>)...]
     (GYR (n torso) (rt <x> <y> <z>))(ACC (n torso) (a <x> <y> <z>))
-    (HJ (n hj1) (ax <deg>))(HJ (n hj2) (ax <deg>))[(See ...)][(hear ...)...]
+    (HJ (n hj1) (ax <deg>))(HJ (n hj2) (ax <deg>))[(See ...)]
     (HJ raj1..4)(HJ laj1..4)(HJ rlj1..5)[(FRP (n rf) (c <x> <y> <z>) (f <x> <y> <z>))](HJ rlj6)
     (HJ llj1..5)[(FRP (n lf) (c ...) (f ...))](HJ llj6)
 
 The order is the server's scene-graph order: perceptors are collected walking the robot's body
-tree, so the head's ``See`` sits between the neck/head joints and the arms, and each foot's
-``FRP`` just before the ankle-roll joint of that leg (a toe's ``FRP`` and joint after it, on a
-type with toes). ``protocol.nao.PerceptionLayout`` holds each type's order.
+tree, so ``hear`` follows ``GS`` (both hang under the torso's AgentState), the head's ``See`` sits
+between the neck/head joints and the arms, and each foot's ``FRP`` just before the ankle-roll
+joint of that leg (a toe's ``FRP`` and joint after it, on a type with toes).
+``protocol.nao.PerceptionLayout`` holds each type's order.
 """
 
 from __future__ import annotations
@@ -71,8 +73,9 @@ def format_game_state(gs: GameStateText) -> str:
 
 
 def format_hear(team: str, time: float, direction: float | None, message: str) -> str:
-    """``(hear <team> <t> <self|angle> <message>)``; ``direction`` None means the robot heard
-    itself, else the horizontal angle (deg) towards the speaker."""
+    """``(hear <team> <t> <self|angle> <message>)``: ``team`` the speaker's, ``time`` the game
+    time; ``direction`` None means the robot heard itself, else the direction (deg) towards the
+    speaker in the listener's field frame (``server_stub.sensors.sensing.hear_direction``)."""
     source = "self" if direction is None else f"{direction:.2f}"
     return f"(hear {team} {time:.2f} {source} {message})"
 
@@ -96,15 +99,15 @@ def format_perception(
     """One perception message. ``joints_deg`` needs every perceptor of ``layout`` (the robot
     type's, ``protocol.nao.perception_layout``); ``frp`` holds only the parts touching something
     ('lf', 'rf', and a toe's 'lf1', 'rf1'); ``see`` is a full ``(See ...)`` entry (vision cycles
-    only); ``hear`` entries come from ``format_hear``, printed after the head's other perceptors
-    (our choice; the fixtures hold no ``hear``)."""
+    only); ``hear`` entries come from ``format_hear``, printed right after ``GS`` as the real
+    server prints them (recorded: ``tests/test_hear.py``)."""
     j = joints_deg
     head, later = _templates(layout)
     parts = [
         head
         % (
             now,
-            format_game_state(game),
+            format_game_state(game) + "".join(hear),
             gyro[0],
             gyro[1],
             gyro[2],
@@ -116,7 +119,6 @@ def format_perception(
     ]
     if see is not None:
         parts.append(see)
-    parts.extend(hear)
     for foot, template, block in later:
         contact = frp.get(foot) if foot else None
         if contact is not None:
