@@ -145,7 +145,8 @@ class Simulation:
         elif name == "beam":
             self._beam(state, args)
         elif name == "say":
-            self.sensing.say(state, " ".join(str(a) for a in args))
+            # the real say effector relays the first word only: (say a b) is heard as "a"
+            self.sensing.say(state, str(args[0]) if args else "")
         else:
             raise ValueError(f"unknown effector (robot {'exists' if robot else 'not created yet'})")
 

@@ -152,6 +152,12 @@ def test_a_message_over_20_characters_is_heard_by_nobody(sim: Simulation) -> Non
     assert [h[3] for h in _cycle(sim, states, {0: "exactly_twenty_chars"})[1]] == ["exactly_twenty_chars"]
 
 
+def test_a_say_of_several_words_is_heard_as_its_first_word(sim: Simulation) -> None:
+    """As the real server relays ``(say a b)`` (a probe heard ``hear B 0.00 self a``)."""
+    states = _robots(sim, _LEFT_1, _LEFT_2)
+    assert [[h[3] for h in heard] for heard in _cycle(sim, states, {0: "first second"})] == [["first"], ["first"]]
+
+
 def test_say_before_init_is_refused(sim: Simulation) -> None:
     state = sim.join()
     sim.apply_frame(state, b"(scene rsg/agent/nao/nao.rsg)", _ignore)
