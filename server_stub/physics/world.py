@@ -193,12 +193,13 @@ class World:
     def ball_position(self) -> tuple[float, float, float]:
         return tuple(pb.getBasePositionAndOrientation(self._ball, physicsClientId=self._client)[0])
 
-    def robots_touching_ball(self) -> list[Robot]:
-        """The robots with a part touching the ball as everything stands now (Bullet's closest
-        points at no distance), for the referee's record of who played the ball: SimSpark's ball
-        recorder, filled by the collision pass at the start of a step. Changes nothing; asks
-        pybullet only about robots whose torso is within 1 m of the ball (a lone walker never)."""
-        bx, by, bz = self.ball_position()
+    def robots_touching_ball(self, ball: tuple[float, float, float]) -> list[Robot]:
+        """The robots with a part touching the ball (at ``ball``, where it is now) as everything
+        stands now (Bullet's closest points at no distance), for the referee's record of who
+        played the ball: SimSpark's ball recorder, filled by the collision pass at the start of a
+        step. Changes nothing; asks pybullet only about robots whose torso is within 1 m of the
+        ball (a lone walker never)."""
+        bx, by, bz = ball
         touching = []
         for robot in self._robots:
             x, y, z = robot.torso_position()

@@ -71,6 +71,8 @@ def goal_entered(ball: Vec3) -> str | None:
     box begins at x = 15.042, so the ball reaches it once its centre is on the goal line between
     the posts (|y| <= 1.05) and under the bar (z <= 0.842)."""
     r = field.BALL_RADIUS
+    if abs(ball[0]) < field.HALF_LENGTH - r:
+        return None  # short of both boxes: the test every cycle of play costs
     half = (field.GOAL_DEPTH / 2 - r, field.GOAL_WIDTH / 2 - r, field.GOAL_HEIGHT / 2)
     for side, sign in (("left", -1.0), ("right", 1.0)):
         centre = (sign * (field.HALF_LENGTH + field.GOAL_DEPTH / 2), 0.0, field.GOAL_HEIGHT / 2)

@@ -28,13 +28,17 @@ class BallWatch:
         self._goal: str | None = None
 
     def before_step(self, world: World, agents: Sequence[AgentState]) -> None:
-        sides = {id(s.robot): (s.side, s.unum) for s in agents if s.robot is not None}
-        self._touchers = [
-            (side, unum)
-            for side, unum in (sides.get(id(robot), (None, None)) for robot in world.robots_touching_ball())
-            if side is not None and unum is not None
-        ]
-        self._goal = goal_entered(world.ball_position())
+        ball = world.ball_position()
+        touching = world.robots_touching_ball(ball)
+        self._touchers = []
+        if touching:
+            sides = {id(s.robot): (s.side, s.unum) for s in agents if s.robot is not None}
+            self._touchers = [
+                (side, unum)
+                for side, unum in (sides.get(id(robot), (None, None)) for robot in touching)
+                if side is not None and unum is not None
+            ]
+        self._goal = goal_entered(ball)
 
     def after_step(self, game_time: float, ball: Vec3) -> None:
         if self._touchers:
