@@ -12,7 +12,8 @@ dither that reproduces the real server's run-to-run spread, and is scored by the
 reached. ``--robust-walks 1 --command-noise 0`` is the paper's single undithered walk (eq. 9).
 
 After the rows, a refinement phase (beyond the paper; ``--refine N``, 0 to skip) runs CMA-ES from
-the fastest gait of the rows that held its check for N more gaits, scored the same way
+the fastest gait of the rows that held its check and from the best-scored gait, its runs raced
+(``--refine-race``), for N more gaits, scored the same way
 (``optimizer.cli.refine``, which ``python -m optimizer.refine`` runs on a gait file of your own):
 GALA's population levels off below what the gait family holds. Table I is the same with or
 without it. ``--family`` searches another gait family (``gait.FAMILIES``).

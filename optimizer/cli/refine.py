@@ -106,7 +106,7 @@ def refine(
     (the first on a tie) walks the rest of the budget, going on where it stopped, with its own
     racing bar. A start on a narrow ridge loses a large step's first generations to falls while one
     on a broad ridge climbs further with it, and a start the checks trusted can sit in a lower
-    basin than the fastest gait, which fell once: measured on a quick run whose start held at
+    basin than the best-scored gait, which fell once: measured on a quick run whose start held at
     1.2 m, its two steps reached 6.38 m in 1600 gaits, and from the row's best (3.1 m, one fall in
     10 checks) 9.13 m (docs/optimizer.md). The heat costs each loser what it would have cost to
     know.
