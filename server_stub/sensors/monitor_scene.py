@@ -33,10 +33,15 @@ import numpy as np
 
 from protocol.nao import PLAY_MODES, TOE_ROBOT_TYPES
 from server_stub import field as soccer_field
+from server_stub.config import RefereeConfig
 from server_stub.physics import nao_model
 from server_stub.sensors.number_text import g_rows
 
 Vec3 = tuple[float, float, float]
+
+
+#: The referee's rules, whose values the monitor header also reports.
+_RULES = RefereeConfig()
 
 
 @dataclass(frozen=True)
@@ -51,14 +56,14 @@ class MonitorConfig:
     goal_depth: float = soccer_field.GOAL_DEPTH
     goal_height: float = soccer_field.GOAL_HEIGHT
     border_size: float = 0
-    free_kick_distance: float = soccer_field.CENTRE_CIRCLE_RADIUS
+    free_kick_distance: float = _RULES.free_kick_distance
     wait_before_kick_off: float = 30
     agent_radius: float = 0.4
     ball_radius: float = soccer_field.BALL_RADIUS
     ball_mass: float = soccer_field.BALL_MASS
-    rule_goal_pause_time: float = 3
-    rule_kick_in_pause_time: float = 1
-    rule_half_time: float = 300
+    rule_goal_pause_time: float = _RULES.goal_pause_time
+    rule_kick_in_pause_time: float = _RULES.kick_in_pause_time
+    rule_half_time: float = _RULES.half_time
     pass_mode_min_opp_ball_dist: float = 1
     pass_mode_duration: float = 4
     slt_threshold: float = 0.005
