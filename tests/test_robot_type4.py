@@ -119,17 +119,24 @@ def test_a_standing_type4_robot_rests_and_presses_as_on_the_real_server(real):
 
 
 # ----- over the socket -----
+def _stand(client: RawClient) -> str:
+    """After the scene: init as player 9, beam to (-3, 2), stand 60 cycles; the last perception."""
+    client.send("(init (unum 9)(teamname Toes))(syn)")
+    client.receive()
+    client.send("(beam -3 2 0)(syn)")
+    message = ""
+    for _ in range(60):
+        message = client.receive()
+        client.send("(syn)")
+    return message
+
+
 def test_type4_over_the_socket_perceives_and_drives_its_toes(real):
     with StubProcess("--sync", "--no-realtime", "--agent-timeout", "3") as stub:
         client = RawClient(stub.agent_port)
         client.send(_TYPE4_SCENE + "(syn)")
         client.receive()
-        client.send("(init (unum 9)(teamname Toes))(syn)")
-        client.receive()
-        client.send("(beam -3 2 0)(syn)")
-        for _ in range(60):
-            message = client.receive()
-            client.send("(syn)")
+        message = _stand(client)
         assert _order(message) == real["standing"]["order"]
         assert joint(message, "rlj7") == 0.0
         # the toe effectors are accepted: the right toe rises, the left one is held
@@ -198,12 +205,7 @@ def test_a_real_server_perceives_type4_as_recorded(rcssserver3d: str, real) -> N
             except TimeoutError:
                 client.send("(syn)")
         client.sock.settimeout(10.0)
-        client.send("(init (unum 9)(teamname Toes))(syn)")
-        client.receive()
-        client.send("(beam -3 2 0)(syn)")
-        for _ in range(60):
-            message = client.receive()
-            client.send("(syn)")
+        message = _stand(client)
         client.close()
     finally:
         server.stop()
