@@ -11,7 +11,17 @@ import pytest
 from protocol.nao import JOINTS
 from server_stub.config import PhysicsConfig
 from server_stub.physics import bodies, calibration_walk, collision, contact, island_step, robot_step, rows
-from server_stub.physics.bundles import Contacts, Forces, GroundContacts, Model, Motors, PairContacts, Params, State
+from server_stub.physics.bundles import (
+    Contacts,
+    Forces,
+    GroundContacts,
+    IslandSolve,
+    Model,
+    Motors,
+    PairContacts,
+    Params,
+    State,
+)
 from server_stub.physics.integrate import gyroscopic_torque
 from server_stub.physics.solver import box_qp
 from server_stub.physics.world import World
@@ -424,6 +434,7 @@ def test_the_island_solve_equals_the_tree_solve_for_one_robot(monkeypatch):
             ),
             PairContacts(none, none, np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 5))),
             params,
+            IslandSolve(10**6, 1, 0.0),
         )
         out = tree(model, state, forces, ground, motors, params)
         worst[0] = max(worst[0], np.abs(out[2] - island[2]).max(), np.abs(out[3] - island[3]).max())
@@ -689,15 +700,16 @@ def test_the_ball_follows_the_real_servers_recorded_path(case, ball, velocity, b
 
 def test_robots_beamed_onto_one_spot_are_pushed_apart_in_reasonable_time():
     """Four robots beamed onto one spot (hundreds of contact points; at most
-    ``driver.MAX_PAIR_POINTS`` kept a pair, the island solved by block pivoting): ten steps
-    take seconds, not minutes (measured 0.05 s a step; 165 s for the first before), and the
-    robots spread out."""
+    ``driver.MAX_PAIR_POINTS`` kept a pair, the island past ``island_exact_rows`` solved by block
+    Gauss-Seidel): ten steps take seconds, not minutes (165 s for the first with the dense solve
+    before the cap), and the robots spread out."""
     import time
 
     with World(MAX) as world:
         robots = [world.add_robot() for _ in range(4)]
         for robot in robots:
             robot.beam(-3.0, 0.0, 0.0)
+        island_step.warm_up_large()  # compiled (or loaded) before the clock starts
         start = time.process_time()
         for _ in range(10):
             world.step()
@@ -705,3 +717,77 @@ def test_robots_beamed_onto_one_spot_are_pushed_apart_in_reasonable_time():
         spread = np.ptp(np.array([robot.torso_position() for robot in robots]), axis=0)
     assert elapsed < 10.0
     assert max(spread) > 0.05
+
+
+def _pile_islands(monkeypatch, rows: int) -> list[tuple]:
+    """The arguments of every island step with at least ``rows`` bounded rows while three robots
+    beamed around the ball flail into each other for 30 steps (solved exactly)."""
+    import copy
+
+    caught = []
+    real = island_step.step_island
+
+    def keep(model, state, forces, motors, contacts, pairs, params, solve):
+        args = (model, state, forces, motors, contacts, pairs, params)
+        if motors.target.shape[0] + contacts.body.shape[0] + 3 * pairs.body1.shape[0] >= rows:
+            caught.append(copy.deepcopy(args))
+        return real(*args, IslandSolve(10**6, 1, 0.0))
+
+    monkeypatch.setattr(island_step, "step_island", keep)
+    rng = np.random.default_rng(3)
+    with World(MAX) as world:
+        robots = [world.add_robot() for _ in range(3)]
+        for k, robot in enumerate(robots):
+            angle = 2.0 * np.pi * k / 3
+            robot.beam(0.15 * np.cos(angle), 0.15 * np.sin(angle), np.degrees(angle) + 180.0)
+        world.set_ball((0.0, 0.0, 0.042))
+        for step in range(30):
+            if step % 10 == 0:
+                for robot in robots:
+                    for joint, speed in zip(JOINTS, rng.normal(size=22) * 3.0):
+                        robot.command(joint.effector, float(speed))
+            world.step()
+    monkeypatch.setattr(island_step, "step_island", real)
+    return caught
+
+
+def test_gauss_seidel_converges_to_the_exact_island_solve(monkeypatch):
+    """On islands of three robots piled together (80 bounded rows or more), block Gauss-Seidel's
+    velocities approach the exact solve's as its sweeps grow, and match them to 1e-5 when it runs
+    to convergence (thousands of sweeps: the motors' tiny CFM makes the LCP stiff): the same LCP,
+    solved another way."""
+    islands = _pile_islands(monkeypatch, 80)
+    assert len(islands) >= 3
+    import copy
+
+    for args in islands[:3]:
+        exact = island_step.step_island(*copy.deepcopy(args), IslandSolve(10**6, 1, 0.0))
+        errors = []
+        for sweeps in (2, 200, 50000):
+            out = island_step.step_island(*copy.deepcopy(args), IslandSolve(0, sweeps, 1e-14))
+            assert out[-1] <= sweeps
+            errors.append(max(np.abs(out[2] - exact[2]).max(), np.abs(out[3] - exact[3]).max()))
+        assert errors[0] > errors[2]
+        assert errors[1] >= errors[2]
+        assert errors[2] < 1e-5
+        # the multipliers too: contact forces on both kinds of contact, and the motors' torques
+        assert np.abs(out[6] - exact[6]).max() < 1e-3 * (1.0 + np.abs(exact[6]).max())
+        assert np.abs(out[8] - exact[8]).max() < 1e-3 * (1.0 + np.abs(exact[8]).max())
+
+
+def test_an_island_past_the_exact_rows_is_solved_by_gauss_seidel_within_its_sweeps(monkeypatch):
+    """``PhysicsConfig.island_exact_rows`` chooses: at or under it the exact solve (the same bits
+    as before Gauss-Seidel existed, ``bench/physics_hashes.py``), past it at most
+    ``island_sweeps`` sweeps. A pile stepped that way does not blow up."""
+    args = _pile_islands(monkeypatch, 80)[0]
+    import copy
+
+    rows = args[3].target.shape[0] + args[4].body.shape[0] + 3 * args[5].body1.shape[0]
+    under = island_step.step_island(*copy.deepcopy(args), IslandSolve(rows, 3, 0.0))
+    exact = island_step.step_island(*copy.deepcopy(args), IslandSolve(10**6, 3, 0.0))
+    assert all(np.array_equal(a, b) for a, b in zip(under[:-1], exact[:-1]))
+    past = island_step.step_island(*copy.deepcopy(args), IslandSolve(rows - 1, 3, 0.0))
+    assert past[-1] == 3
+    assert not np.array_equal(past[2], exact[2])
+    with pytest.raises(ValueError, match="island_sweeps"):
+        PhysicsConfig(island_sweeps=0)

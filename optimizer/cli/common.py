@@ -445,6 +445,12 @@ def pool_evaluator(setup: EvaluationSetup) -> Evaluator:
         )
     # an episode may take the runner's timeout twice (it restarts and retries once) plus a restart
     timeout = 2 * config.episode_timeout + 30.0
+    if not setup.servers and setup.real_command is None:
+        # the embedded stand-in's kernels compiled once here, in two processes on a fresh clone,
+        # rather than by every worker at once; the workers load them from numba's cache
+        from server_stub import kernels
+
+        kernels.warm_up(kernels.WALK, eager=False)
     return ProcessPoolEvaluator(
         EpisodeRunnerFactory(config, setup.servers, setup.seed, setup.real_command), setup.workers, task_timeout=timeout
     )

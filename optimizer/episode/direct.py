@@ -38,6 +38,7 @@ from protocol import commands
 from protocol.monitor import MonitorState, RobotPose
 from protocol.nao import JOINT_BY_EFFECTOR, JOINTS
 from protocol.perception import GameState, Perception
+from server_stub import kernels
 from server_stub.agent_state import AgentState
 from server_stub.config import PhysicsConfig, ServerConfig
 from server_stub.sensors.monitor_scene import MonitorConfig
@@ -153,6 +154,9 @@ class DirectStub:
 
     def __init__(self, seed: int = 0) -> None:
         self.seed = seed
+        # the walk's kernels compiled now, in two processes if numba's cache is cold (a fresh
+        # clone), rather than one by one in the first episode
+        kernels.warm_up(kernels.WALK, eager=False)
         self.sim = Simulation(ServerConfig(sync=True, realtime=False, beam_noise=False, seed=seed), PhysicsConfig())
         #: the monitor reader's knowledge, kept across episodes as a trainer's connection keeps it
         self._view = _TorsoView()

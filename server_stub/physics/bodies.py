@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from server_stub.physics.linalg import conj, cross, mat_vec, mv3, qmul, qmul4
+from server_stub.physics.linalg import conj, cross3, mat_vec, mv3, qmul, qmul4
 from server_stub.physics.rotations import rotation_into, rotation_matrix
 
 
@@ -71,14 +71,25 @@ def body_velocities(parents, joint_of, local_axes, coms, quats, anchors, v0, w0,
     nb = coms.shape[0]
     vel = np.zeros((nb, 3))
     spin = np.zeros((nb, 3))
-    vel[0] = v0
-    spin[0] = w0
+    # component by component, no array expressions: the same sums, and numba compiles no
+    # broadcasting (with its error messages' text) for them (``bench/bench_cold_start.py``)
+    for a in range(3):
+        vel[0, a] = v0[a]
+        spin[0, a] = w0[a]
+    arm_p = np.empty(3)
+    arm_k = np.empty(3)
     for k in range(1, nb):
         p = parents[k]
         j = joint_of[k]
-        axis = mat_vec(rotation_matrix(quats[k]), local_axes[j])
-        spin[k] = spin[p] + qd[j] * axis
-        vel[k] = vel[p] + cross(spin[p], anchors[j] - coms[p]) + cross(spin[k], coms[k] - anchors[j])
+        axis = mv3(rotation_matrix(quats[k]), local_axes[j])
+        for a in range(3):
+            spin[k, a] = spin[p, a] + qd[j] * axis[a]
+            arm_p[a] = anchors[j, a] - coms[p, a]
+            arm_k[a] = coms[k, a] - anchors[j, a]
+        around_p = cross3(spin[p], arm_p)
+        around_k = cross3(spin[k], arm_k)
+        for a in range(3):
+            vel[k, a] = vel[p, a] + around_p[a] + around_k[a]
     return vel, spin
 
 

@@ -106,3 +106,13 @@ class Params(NamedTuple):
     contact_erp: float
     contact_cfm: float
     slip: float
+
+
+class IslandSolve(NamedTuple):
+    """How an island's bounded rows are solved: exactly up to ``exact_rows`` rows, past them by
+    ``gauss_seidel`` with at most ``sweeps`` sweeps, stopping when no multiplier moves by more
+    than ``tolerance`` of the largest (``PhysicsConfig``'s island settings)."""
+
+    exact_rows: int
+    sweeps: int
+    tolerance: float

@@ -53,7 +53,8 @@ def box_plane(c, r, size, max_points):
     depths = np.empty(4)
     if depth < 0.0:
         return points[:0], depths[:0]
-    points[0] = p
+    for q in range(3):  # not ``points[0] = p``: numba would compile broadcasting for it
+        points[0, q] = p[q]
     depths[0] = depth
     # the two sides with the shortest projections, ties broken as ODE's comparisons break them
     if bb[0] < bb[1]:

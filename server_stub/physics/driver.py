@@ -41,7 +41,7 @@ import pybullet as pb
 
 from server_stub import field
 from server_stub.physics import collision, contact, island_step, robot_step
-from server_stub.physics.bundles import Contacts, Forces, Model, Motors, PairContacts, State
+from server_stub.physics.bundles import Contacts, Forces, IslandSolve, Model, Motors, PairContacts, State
 from server_stub.physics.robot import Robot
 from server_stub.physics.rows import Surfaces
 
@@ -140,6 +140,7 @@ class Stepper:
         self.static = static
         self.surfaces = Surfaces(config)
         self.params = robot_step.params_of(config)
+        self.island_solve = IslandSolve(config.island_exact_rows, config.island_sweeps, config.island_tolerance)
         r = field.BALL_RADIUS
         self.ball_mass = field.BALL_MASS
         self.ball_inertia = 0.4 * field.BALL_MASS * r * r
@@ -303,7 +304,9 @@ class Stepper:
         model, state, forces, motors = self._gather_bodies(island, statics, preps, ball_now)
         contacts = self._gather_contacts(island, statics, preps, entities, ball_now, state, by_body)
         pair_contacts = self._gather_pairs(island, entities, pairs, state, by_body)
-        out = island_step.step_island(model, state, forces, motors, contacts, pair_contacts, self.params)
+        out = island_step.step_island(
+            model, state, forces, motors, contacts, pair_contacts, self.params, self.island_solve
+        )
         self._scatter(island, out, robots, statics, preps, motors, contacts, pair_contacts, by_body)
 
     def _gather_bodies(self, island: _Island, statics, preps, ball_now) -> tuple[Model, State, Forces, Motors]:

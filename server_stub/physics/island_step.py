@@ -25,7 +25,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from server_stub.physics.bundles import Contacts, Forces, Model, Motors, PairContacts, Params, State
+from server_stub.physics.bundles import Contacts, Forces, IslandSolve, Model, Motors, PairContacts, Params, State
+from server_stub.physics.gauss_seidel import block_gauss_seidel, body_blocks, trees_of
 from server_stub.physics.integrate import advance, body_terms, free_velocities
 from server_stub.physics.linalg import cross, plane_space
 from server_stub.physics.rows import (
@@ -52,14 +53,85 @@ from server_stub.physics.solver import (
 )
 
 
-@njit(cache=True)
-def step_island(model, state, forces, motors, contacts, pairs, params):
+def step_island(model, state, forces, motors, contacts, pairs, params, solve):
     """One dWorldStep of an island (``server_stub.physics.bundles``): the bodies of a forest, with
     ``parents`` -1 at each root and ``joint_of`` the hinge of each non-root; the drag per body.
     Contacts with one body in ``contacts`` (each with its own surface; ``params``' robot-ground
-    surface is not used), between two in ``pairs``. Returns (positions,
+    surface is not used), between two in ``pairs``; ``solve`` says how the bounded rows are
+    solved (exactly, or past ``solve.exact_rows`` by ``gauss_seidel``). Returns (positions,
     quaternions, velocities, spins, one-body contact forces (normal, t1, t2) and tangents, two-body
     contact forces (on body 1) and tangents, motor/stop torques, solver passes)."""
+    free, gb, gj, bb, lo, hi, cfm_b, yb, bj, bf, jc, jp, jf, contact_first, contact_next, dinv, tangents, p_tangents = (
+        _prepare(model, state, forces, motors, contacts, pairs, params)
+    )
+    parents, joint_of = model.parents, model.joint_of
+    nj = model.local_axes.shape[0]
+    nbd = bb.shape[0]
+    # each bounded row's state (-1 at lo, +1 at hi, 0 free): the motors' from the last step
+    row_state = np.zeros(nbd, dtype=np.int64)
+    row_state[:nj] = motors.state
+    # the solvers are chosen here, not in a compiled kernel, so that a walk (a lone ball's island
+    # of one row) never compiles the solvers of large islands (``bench/bench_cold_start.py``)
+    if nbd <= solve.exact_rows:
+        schur = schur_of_rows(parents, joint_of, jc, jp, dinv[0], dinv[1], gb, gj, cfm_b)
+        rows_sub(gb, gj, yb, bb)
+        converged = False
+        if nbd > BLOCK_PIVOT_ROWS:
+            lam_b, converged, iterations = block_pivot(schur, bb, lo, hi, row_state)
+        if not converged:
+            lam_b, iterations = box_qp(schur, bb, lo, hi, row_state)
+    else:
+        first, end, tree_of = trees_of(parents)
+        kb = body_blocks(first, end, parents, joint_of, contact_first, contact_next, jc, jp, jf, *dinv)
+        rows_sub(gb, gj, yb, bb)
+        lam_b, iterations = block_gauss_seidel(
+            kb,
+            first,
+            end,
+            tree_of,
+            gb,
+            gj,
+            bb,
+            lo,
+            hi,
+            cfm_b,
+            row_state,
+            nj,
+            contacts.point.shape[0],
+            solve.sweeps,
+            solve.tolerance,
+        )
+    motors.state[:] = row_state[:nj]
+    return _finish(
+        model,
+        state.pos,
+        state.quat,
+        free,
+        gb,
+        gj,
+        lam_b,
+        bj,
+        bf,
+        jc,
+        jp,
+        jf,
+        contact_first,
+        contact_next,
+        dinv,
+        tangents,
+        p_tangents,
+        params.h,
+        contacts.point.shape[0],
+        iterations,
+    )
+
+
+@njit(cache=True)
+def _prepare(model, state, forces, motors, contacts, pairs, params):
+    """The island's rows: its tree factored with the unbounded rows (hinges, one-body friction),
+    the bounded rows (motors, one-body normals, two-body contacts: bodies ``gb``, Jacobians ``gj``,
+    right side ``bb`` less the free motion, bounds, CFM), and the unbounded solve ``yb`` with no
+    bounded row pushing."""
     masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
     pos, quat, vel, spin = state
     gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
@@ -156,8 +228,115 @@ def step_island(model, state, forces, motors, contacts, pairs, params):
     yj = bj.copy()
     yf = bf.copy()
     tree_solve(
-        nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, yb, yj, yf
+        0,
+        nb,
+        parents,
+        joint_of,
+        contact_first,
+        contact_next,
+        jc,
+        jp,
+        jf,
+        dinv_body,
+        dinv_joint,
+        dinv_contact,
+        yb,
+        yj,
+        yf,
     )
+    return (
+        free,
+        gb,
+        gj,
+        bb,
+        lo,
+        hi,
+        cfm_b,
+        yb,
+        bj,
+        bf,
+        jc,
+        jp,
+        jf,
+        contact_first,
+        contact_next,
+        (dinv_body, dinv_joint, dinv_contact),
+        tangents,
+        p_tangents,
+    )
+
+
+@njit(cache=True)
+def _finish(
+    model,
+    pos,
+    quat,
+    free,
+    gb,
+    gj,
+    lam_b,
+    bj,
+    bf,
+    jc,
+    jp,
+    jf,
+    contact_first,
+    contact_next,
+    dinv,
+    tangents,
+    p_tangents,
+    h,
+    nc,
+    iterations,
+):
+    """The solved bounded rows' push carried through the tree, the bodies advanced, and the
+    forces reported (``step_island``'s return)."""
+    dinv_body, dinv_joint, dinv_contact = dinv
+    parents, joint_of = model.parents, model.joint_of
+    nb = parents.shape[0]
+    nj = model.local_axes.shape[0]
+    nbd = lam_b.shape[0]
+    npc = (nbd - nj - nc) // 3
+    rb = np.zeros((nb, 6))
+    for r in range(nbd):
+        for x in range(2):
+            k = gb[r, x]
+            if k >= 0:
+                for a in range(6):
+                    rb[k, a] += gj[r, x, a] * lam_b[r]
+    tree_solve(
+        0,
+        nb,
+        parents,
+        joint_of,
+        contact_first,
+        contact_next,
+        jc,
+        jp,
+        jf,
+        dinv_body,
+        dinv_joint,
+        dinv_contact,
+        rb,
+        bj,
+        bf,
+    )
+    out_pos, out_quat, out_vel, out_spin = advance(pos, quat, free + rb, h)
+    forces = contact_forces(lam_b, nj, bf)
+    p_forces = np.empty((npc, 3))
+    for i in range(npc):
+        for x in range(3):
+            p_forces[i, x] = lam_b[nj + nc + 3 * i + x]
+    torques = lam_b[:nj].copy()
+    return out_pos, out_quat, out_vel, out_spin, forces, tangents, p_forces, p_tangents, torques, iterations
+
+
+@njit(cache=True)
+def schur_of_rows(parents, joint_of, jc, jp, dinv_body, dinv_joint, gb, gj, cfm_b):
+    """The bounded rows' dense Schur complement (``solver.schur_complement``), for the exact
+    solve."""
+    nbd = gb.shape[0]
+    nb = parents.shape[0]
     # the bounded rows' Jacobians on their bodies and the union of their paths to the roots
     path_b = np.empty((nbd, nb), dtype=np.int64)
     len_b = np.zeros(nbd, dtype=np.int64)
@@ -181,41 +360,11 @@ def step_island(model, state, forces, motors, contacts, pairs, params):
             if mark[k]:
                 path_b[r, len_b[r]] = k
                 len_b[r] += 1
-    schur = schur_complement(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b)
-    rows_sub(gb, gj, yb, bb)
-    state = np.zeros(nbd, dtype=np.int64)
-    for j in range(nj):
-        state[j] = motor_state[j]
-    converged = False
-    if nbd > BLOCK_PIVOT_ROWS:
-        lam_b, converged, iterations = block_pivot(schur, bb, lo, hi, state)
-    if not converged:
-        lam_b, iterations = box_qp(schur, bb, lo, hi, state)
-    for j in range(nj):
-        motor_state[j] = state[j]
-    rb = np.zeros((nb, 6))
-    for r in range(nbd):
-        for x in range(2):
-            k = gb[r, x]
-            if k >= 0:
-                for a in range(6):
-                    rb[k, a] += gj[r, x, a] * lam_b[r]
-    tree_solve(
-        nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, bj, bf
-    )
-    out_pos, out_quat, out_vel, out_spin = advance(pos, quat, free + rb, h)
-    forces = contact_forces(lam_b, nj, bf)
-    p_forces = np.empty((npc, 3))
-    for i in range(npc):
-        for x in range(3):
-            p_forces[i, x] = lam_b[nj + nc + 3 * i + x]
-    torques = lam_b[:nj].copy()
-    return out_pos, out_quat, out_vel, out_spin, forces, tangents, p_forces, p_tangents, torques, iterations
+    return schur_complement(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b)
 
 
-def warm_up() -> None:
-    """Compile (or load from numba's disk cache) ``step_island`` on a ball on the ground touching
-    a second ball."""
+def _two_balls(solve: IslandSolve) -> None:
+    """One step of a ball on the ground touching a second ball, solved as ``solve`` says."""
     one = np.ones(2)
     none = np.zeros((0, 3))
     step_island(
@@ -244,4 +393,17 @@ def warm_up() -> None:
             np.array([[0.5, 0.05, 0.6, 0.8, 1.0]]),
         ),
         Params(0.02, 0.2, 1e-5, 1e-8, 0.001, True, 0.4, 1e-4, 0.005),
+        solve,
     )
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's disk cache) what a small island takes (the exact solve; a
+    lone ball's every step on a walk)."""
+    _two_balls(IslandSolve(10**6, 1, 0.0))
+
+
+def warm_up_large() -> None:
+    """Compile (or load) the solvers only large islands take: block pivoting and Gauss-Seidel."""
+    _two_balls(IslandSolve(0, 10, 1e-6))
+    block_pivot(np.eye(2), np.ones(2), np.zeros(2), np.full(2, np.inf), np.zeros(2, dtype=np.int64))

@@ -186,16 +186,31 @@ def block_pivot(a, b, lo, hi, state):
 
 @njit(cache=True)
 def tree_solve(
-    nb, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, rj, rf
+    first,
+    end,
+    parents,
+    joint_of,
+    contact_first,
+    contact_next,
+    jc,
+    jp,
+    jf,
+    dinv_body,
+    dinv_joint,
+    dinv_contact,
+    rb,
+    rj,
+    rf,
 ):
     """Solve H x = r on the factored forest (``step_tree``, ``island_step.step_island``; roots
     have parent -1), r given per body (rb, nb x 6), hinge node (rj, nj x 5) and friction node
-    (rf, nc x 2); overwritten by x."""
+    (rf, nc x 2); overwritten by x. Only the bodies [first, end) are visited: the whole forest,
+    or whole trees of it (``gauss_seidel.body_blocks``)."""
     t6 = np.empty(6)
     t5 = np.empty(5)
     t2 = np.empty(2)
     # forward: leaves to roots
-    for k in range(nb - 1, -1, -1):
+    for k in range(end - 1, first - 1, -1):
         c = contact_first[k]
         while c >= 0:
             mv(dinv_contact[c], rf[c], t2)
@@ -210,7 +225,7 @@ def tree_solve(
         mv(dinv_joint[j], rj[j], t5)
         mtv_sub(jp[j], t5, rb[p])
     # backward: roots to leaves
-    for k in range(nb):
+    for k in range(first, end):
         p = parents[k]
         if p >= 0:
             j = joint_of[k]

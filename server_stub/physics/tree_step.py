@@ -107,7 +107,7 @@ def step_tree(model, state, forces, ground, motors, params):
     yj = bj.copy()
     yf = bf.copy()
     tree_solve(
-        nb, roots, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, yb, yj, yf
+        0, nb, roots, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, yb, yj, yf
     )
     # the bounded rows' Jacobians on their bodies and their paths to the torso
     path_b = np.empty((nbd, nb), dtype=np.int64)
@@ -156,7 +156,7 @@ def step_tree(model, state, forces, ground, motors, params):
         for a in range(6):
             rb[contact_body[i], a] += jn[i, a] * lam_b[nj + i]
     tree_solve(
-        nb, roots, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, bj, bf
+        0, nb, roots, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, bj, bf
     )
     out_pos, out_quat, out_vel, out_spin = advance(pos, quat, free + rb, h)
     forces = contact_forces(lam_b, nj, bf)

@@ -105,7 +105,7 @@ def _put_g(value: float, buf: np.ndarray, pos: int, pow10: np.ndarray) -> int:
 
 
 @njit(cache=True)
-def _format_rows(values: np.ndarray, pow10: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def format_rows(values: np.ndarray, pow10: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """All rows, numbers separated by one space, back to back in one buffer; ``ends[i]`` is where
     row i stops, ``by_python[i]`` marks a row the kernel could not print exactly (left empty)."""
     rows, columns = values.shape
@@ -131,7 +131,7 @@ def _format_rows(values: np.ndarray, pow10: np.ndarray) -> tuple[np.ndarray, np.
 def g_rows(values: np.ndarray) -> list[str]:
     """``' '.join('%g' % v for v in row)`` for each row of a 2-D array, the same text."""
     values = np.ascontiguousarray(values, dtype=np.float64)
-    buf, ends, by_python = _format_rows(values, _POW10)
+    buf, ends, by_python = format_rows(values, _POW10)
     text = buf.tobytes().decode("ascii")
     rows, start = [], 0
     for end in ends.tolist():
