@@ -51,6 +51,12 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="exit when the process that started the server dies (for optimizer workers)",
     )
+    p.add_argument(
+        "--cycle-times",
+        metavar="FILE",
+        default="",
+        help="when stopping, write every cycle's wall times (physics step and whole cycle, ms) to FILE as JSON",
+    )
     p.add_argument("-v", "--verbose", action="store_true", help="log connections")
     return p
 
@@ -81,6 +87,7 @@ def main(argv: list[str] | None = None) -> int:
         seed=args.seed,
         agent_timeout=args.agent_timeout,
         parent_pid=os.getppid() if args.exit_with_parent else 0,
+        cycle_times=args.cycle_times,
     )
     try:
         server = StubServer(config)

@@ -201,6 +201,10 @@ class ServerConfig:
     #: Exit when this process is no longer our parent (0: never). A worker that starts a stub and
     #: is killed (SIGKILL leaves no chance to clean up) must not leave the stub behind.
     parent_pid: int = 0
+    #: A file the server writes when it stops: every cycle's wall time (ms) of the physics step
+    #: and of the whole cycle, as JSON ``{"physics": [...], "cycle": [...]}``; for benchmarks
+    #: (``bench/bench_match.py``), "" none. Kept in memory until then: 16 bytes a cycle.
+    cycle_times: str = ""
 
 
 @dataclass(frozen=True)

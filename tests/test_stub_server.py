@@ -379,3 +379,33 @@ def test_the_real_agents_commands_replayed_give_the_real_perceptions(fixtures_di
             assert torso_sensor(mine, "ACC") == pytest.approx(torso_sensor(theirs, "ACC"), abs=0.021), k + 1
     assert torso_sensor(ours[2], "ACC")[2] == pytest.approx(19.62, abs=0.01)
     assert torso_sensor(real[2], "ACC")[2] == pytest.approx(29.42, abs=0.01)
+
+
+def test_cycle_times_are_written_when_the_server_stops(tmp_path) -> None:
+    """``--cycle-times FILE``: on SIGTERM the server writes one physics time and one whole-cycle
+    time (ms) per cycle it ran, the physics part of each cycle never more than the cycle."""
+    times = tmp_path / "times.json"
+    with StubProcess("--sync", "--no-realtime", "--cycle-times", str(times)) as server:
+        client = RawClient(server.agent_port)
+        _handshake(client)
+        for _ in range(30):
+            client.send("(syn)")
+            client.receive()
+        server.stop()
+        client.close()
+    import json
+
+    written = json.loads(times.read_text())
+    physics, cycle = written["physics"], written["cycle"]
+    assert len(physics) == len(cycle) >= 31
+    assert all(0.0 < p <= c for p, c in zip(physics, cycle))
+
+
+def test_a_cycle_times_file_that_cannot_be_written_is_reported_and_the_server_exits(tmp_path) -> None:
+    with StubProcess("--sync", "--no-realtime", "--cycle-times", str(tmp_path / "missing" / "times.json")) as server:
+        client = RawClient(server.agent_port)
+        _handshake(client)
+        err = server.stop()
+        client.close()
+    assert "cannot write the cycle times" in err
+    assert server.proc.returncode == 0

@@ -20,11 +20,13 @@ Sync mode starts a cycle once every agent that was sent a perception has answere
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import selectors
 import socket
 import time
+from array import array
 from collections.abc import Callable
 
 from protocol.errors import ProtocolError, excerpt
@@ -65,6 +67,8 @@ class StubServer:
         self._wakeup.setblocking(False)
         self._waker.setblocking(False)
         self._selector.register(self._wakeup, selectors.EVENT_READ, "wakeup")
+        #: each cycle's wall seconds: the physics step, the whole cycle (``ServerConfig.cycle_times``)
+        self._times: tuple[array, array] | None = (array("d"), array("d")) if config.cycle_times else None
 
     @property
     def world(self) -> World:
@@ -279,6 +283,7 @@ class StubServer:
         return active or (self.config.realtime and bool(self._monitors))
 
     def _run_cycle(self) -> None:
+        started = time.perf_counter()
         now = time.monotonic()
         for client, state in self._agents.items():
             if state.next_perception is not None:
@@ -289,13 +294,18 @@ class StubServer:
         for client, state in list(self._agents.items()):
             inbox, state.inbox, state.inbox_bytes = state.inbox, [], 0
             self._guarded(client, self._on_agent_frames, client, state, inbox)
+        physics = time.perf_counter()
         self.sim.step()
+        physics = time.perf_counter() - physics
         with_vision = self.sim.vision_due
         for client, state in list(self._agents.items()):
             if state.robot is not None:
                 self._guarded(client, self._perceive, state, with_vision)
         if self.sim.monitor_due:
             self._broadcast_monitor()
+        if self._times is not None:
+            self._times[0].append(physics)
+            self._times[1].append(time.perf_counter() - started)
 
     def _broadcast_monitor(self) -> None:
         """One update to every monitor: a delta, or a full scene to those that need one (just
@@ -392,7 +402,18 @@ class StubServer:
         except OSError:
             pass
 
+    def _write_cycle_times(self) -> None:
+        assert self._times is not None
+        physics, cycle = ([round(t * 1000.0, 4) for t in times] for times in self._times)
+        try:
+            with open(self.config.cycle_times, "w") as out:
+                json.dump({"physics": physics, "cycle": cycle}, out)
+        except OSError as exc:
+            log.error("cannot write the cycle times to %s: %s", self.config.cycle_times, exc)
+
     def close(self) -> None:
+        if self._times is not None:
+            self._write_cycle_times()
         for client in list(self._agents) + list(self._monitors):
             client.flush()
             self._drop(client, None)

@@ -1,0 +1,169 @@
+"""A match's load: two teams of 11 of our agents on the stand-in in real time, and what each cycle
+costs the server.
+
+Starts ``python -m server_stub --cycle-times FILE`` (real time, 50 cycles a second) and 22
+``python -m agent`` processes, 11 a side, each beamed on its own half in two lines and walking
+the shipped gait towards the other team from its first cycle, so that they meet, bump and fall
+near the centre line. A trainer connection kicks off (``KickOff_Left``; the referee then goes to
+PlayOn). After ``--minutes`` the server is stopped (SIGTERM) and writes every cycle's wall time
+of the physics step and of the whole cycle (perceptions, vision and the monitor included); this
+prints their percentiles and the cycles over 20 ms. Issue 28's target: on 2 cores, 10 minutes
+with no cycle's physics over 20 ms.
+
+    python bench/bench_match.py                 # 10 minutes
+    python bench/bench_match.py --minutes 1 --players 4
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from protocol.framing import encode_frame  # noqa: E402
+
+#: Cycles left out of the second set of figures: 10 s, while the agents connect and beam (each
+#: robot's first step reads its model from pybullet, tens of ms).
+JOINING_CYCLES = 500
+
+
+def start_server(times: Path) -> tuple[subprocess.Popen, int, int]:
+    """The stand-in on free ports, in real time, writing its cycle times to ``times``."""
+    server = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "server_stub",
+            "--agent-port",
+            "0",
+            "--monitor-port",
+            "0",
+            "--cycle-times",
+            str(times),
+        ],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    assert server.stdout is not None
+    found = re.search(r"agent port (\d+), monitor port (\d+)", server.stdout.readline())
+    if found is None:
+        server.kill()
+        raise SystemExit("the stand-in did not start")
+    return server, int(found.group(1)), int(found.group(2))
+
+
+def start_players(port: int, players: int, seconds: float) -> list[subprocess.Popen]:
+    """``players`` agents a side: beamed in two lines on their own half (each team's beam is in
+    its own frame, its goal at -x), facing the other half."""
+    agents = []
+    for team in ("Home", "Away"):
+        for unum in range(1, players + 1):
+            x = -1.0 - 1.2 * ((unum - 1) // 2)
+            y = -4.0 + 8.0 * ((unum - 1) % 2) + 0.3 * (unum - 1) / max(players, 1)
+            agents.append(
+                subprocess.Popen(
+                    [
+                        sys.executable,
+                        "-m",
+                        "agent",
+                        "--port",
+                        str(port),
+                        "--team",
+                        team,
+                        "--unum",
+                        str(unum),
+                        "--beam",
+                        f"{x:.2f}",
+                        f"{y:.2f}",
+                        "0",
+                        "--start-now",
+                        "--duration",
+                        f"{seconds:.0f}",
+                    ],
+                    cwd=ROOT,
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                )
+            )
+        time.sleep(1.0)  # the first team to connect takes the left side
+    return agents
+
+
+def kick_off(monitor_port: int) -> socket.socket:
+    """A trainer's connection that puts the game in KickOff_Left (kept open: the monitor stream
+    is read and dropped, so that the server never waits on it)."""
+    trainer = socket.create_connection(("127.0.0.1", monitor_port))
+    trainer.sendall(encode_frame("(playMode KickOff_Left)"))
+    trainer.setblocking(False)
+    return trainer
+
+
+def percentiles(ms: np.ndarray) -> str:
+    p50, p90, p99, p999 = np.percentile(ms, [50, 90, 99, 99.9])
+    return (
+        f"p50 {p50:.2f}, p90 {p90:.2f}, p99 {p99:.2f}, p99.9 {p999:.2f}, max {ms.max():.2f} ms; "
+        f"over 20 ms: {int(np.sum(ms > 20.0))}"
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--minutes", type=float, default=10.0, help="wall minutes of play (default 10)")
+    parser.add_argument("--players", type=int, default=11, help="agents a side (default 11)")
+    args = parser.parse_args(argv)
+    if args.minutes <= 0.0 or not 1 <= args.players <= 11:
+        parser.error("--minutes must be > 0 and --players 1-11")
+    with tempfile.TemporaryDirectory(prefix="bench_match_") as folder:
+        times_file = Path(folder) / "cycle_times.json"
+        started = time.monotonic()
+        server, agent_port, monitor_port = start_server(times_file)
+        seconds = args.minutes * 60.0
+        agents = start_players(agent_port, args.players, seconds + 30.0)
+        trainer = kick_off(monitor_port)
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            try:
+                while trainer.recv(1 << 16):
+                    pass
+            except BlockingIOError:
+                pass
+            time.sleep(0.05)
+        alive = sum(agent.poll() is None for agent in agents)
+        server.send_signal(signal.SIGTERM)
+        server.wait(60)
+        served = time.monotonic() - started
+        trainer.close()
+        for agent in agents:
+            agent.kill()
+            agent.wait()
+        times = json.loads(times_file.read_text())
+    physics, cycle = np.array(times["physics"]), np.array(times["cycle"])
+    print(
+        f"{2 * args.players} agents ({alive} still connected at the end), {args.minutes:g} min real time, "
+        f"{physics.size} cycles in {served:.0f} s of the server's life"
+    )
+    print(f"physics step: {percentiles(physics)}")
+    print(f"whole cycle:  {percentiles(cycle)}")
+    # a robot's first step reads its model from pybullet (tens of ms): the players joining
+    joined = JOINING_CYCLES
+    print(f"after the first {joined} cycles (the players joining): physics {percentiles(physics[joined:])}")
+    print(f"after the first {joined} cycles: whole cycle {percentiles(cycle[joined:])}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
