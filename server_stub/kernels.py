@@ -27,6 +27,7 @@ from server_stub.physics import (
     motors,
     robot_step,
     rotations,
+    solver,
     tree_step,
 )
 from server_stub.sensors import number_text, vision
@@ -67,7 +68,7 @@ _HERE = "robot"
 #: One kernel of each part: a part whose kernel numba's cache holds is taken as compiled.
 _PROBES: dict[str, Callable[[], Any]] = {
     "robot": lambda: tree_step.step_tree,
-    "island": lambda: island_step.schur_of_rows,
+    "island": lambda: solver.schur_of_rows,
     "motors": lambda: motors.motor_step,
     "large_islands": lambda: gauss_seidel.block_gauss_seidel,
     "sensors": lambda: number_text.format_rows,

@@ -78,7 +78,8 @@ class _Entity:
     def __init__(self, index: int, robot=None) -> None:
         self.index = index
         self.robot = robot
-        self.frames: dict[int, tuple[np.ndarray, np.ndarray]] | None = None  # link -> (centre, rotation) in pybullet
+        #: link -> (centre, transposed rotation) in pybullet, and the rotation of its body here
+        self.frames: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
         self.ground: tuple | None = None
         self.static: list = []  # (body, point, normal, depth, surface)
 
@@ -86,22 +87,24 @@ class _Entity:
         """A world point on pybullet's link carried to the same place on our body."""
         if self.robot is None:
             return np.asarray(point, dtype=float)
-        centre, rot = self._frame(link)
-        local = rot.T @ (np.asarray(point) - centre)
-        return body_pos + _rotation(body_quat) @ local
+        centre, rot_t, body_rot = self._frame(link, body_quat)
+        local = rot_t @ (np.asarray(point) - centre)
+        return body_pos + body_rot @ local
 
     def map_dir(self, link: int, d, body_quat) -> np.ndarray:
         if self.robot is None:
             return np.asarray(d, dtype=float)
-        _, rot = self._frame(link)
-        return _rotation(body_quat) @ (rot.T @ np.asarray(d))
+        _, rot_t, body_rot = self._frame(link, body_quat)
+        return body_rot @ (rot_t @ np.asarray(d))
 
-    def _frame(self, link: int) -> tuple[np.ndarray, np.ndarray]:
+    def _frame(self, link: int, body_quat) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The link's centre and transposed rotation in pybullet, and its body's rotation: made
+        once a step per link (a pile has hundreds of points on a few dozen links)."""
         if self.frames is None:
             self.frames = {}
         if link not in self.frames:
             c, q = self.robot.link_frame(link)
-            self.frames[link] = (np.asarray(c, dtype=float), _rotation(q))
+            self.frames[link] = (np.asarray(c, dtype=float), _rotation(q).T, _rotation(body_quat))
         return self.frames[link]
 
 

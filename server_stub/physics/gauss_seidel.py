@@ -4,23 +4,24 @@ with the rows rather than with their cube.
 Why: the exact solve (``solver.schur_complement``, then block pivoting and ``box_qp``) forms the
 dense Schur complement of the bounded rows and factors it. A pile of six robots makes 1,200 rows
 and took seconds a step (``bench/bench_pile.py``). Here the same boxed LCP (S = G' H^-1 G +
-diag(cfm), the same right side and bounds, ``solver``'s scaling) is solved without forming S:
+diag(cfm), the same right side and bounds, ``solver``'s scaling) is solved without forming S. The
+bodies' velocity change u = H^-1 G lambda (its body part) is kept up to date as lambda changes,
+and each sweep solves, in turn:
 
-- ``body_blocks``: each tree's body block K of H^-1 (one tree solve per body coordinate: the hinges
-  and one-body friction eliminated as the exact solve eliminates them), so that the bodies'
-  velocity change u = K G lambda is kept as lambda changes;
-- the blocks of the sweep: each tree's own rows (its motors and its one-body contact normals),
-  solved exactly by ``box_qp`` on their small Schur complement; then each two-body contact point's
-  three rows (normal >= 0, friction free) by a 3x3 solve, the points between one pair of bodies
-  one after another on those two bodies' velocities, their trees told once per sweep;
-- sweeps until no multiplier moves by more than ``tolerance`` (relative to the largest) or
-  ``sweeps`` are done.
+- each tree's own rows (its motors and its one-body contact normals) exactly, by ``box_qp`` on
+  their small Schur complement (``solver.schur_of_rows``); their change reaches u by one tree
+  solve;
+- each two-body contact point's three rows (normal >= 0, friction free) by a 3x3 solve on the
+  two bodies' blocks of H^-1; the points between one pair of bodies one after another, their
+  trees told once per sweep through those bodies' columns of H^-1 (``contact_columns``: six tree
+  solves per body that touches another).
 
-Each block solve is exact for its rows with the others held, so every one lowers the same strictly
-convex quadratic: the sweeps converge to the exact solve's answer (``tests/test_stub_ode.py``
-checks it). Stopped early, the answer is the softer one of ODE's own iterative step (QuickStep);
-the stand-in takes this path only past ``PhysicsConfig.island_exact_rows``, which no walk, kick or
-bump of two robots reaches.
+Sweeps end when no multiplier moved by more than ``tolerance`` of the largest, or after
+``sweeps``. Each block solve is exact for its rows with the others held, so every one lowers the
+same strictly convex quadratic: the sweeps converge to the exact solve's answer
+(``tests/test_stub_ode.py`` checks it). Stopped early, the answer is the softer one of ODE's own
+iterative step (QuickStep); the stand-in takes this path only past
+``PhysicsConfig.island_exact_rows``, which no walk, kick or bump of two robots reaches.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from server_stub.physics.solver import box_qp, tree_solve
+from server_stub.physics.solver import box_qp, schur_of_rows, tree_solve
 
 
 @njit(cache=True)
@@ -54,89 +55,67 @@ def trees_of(parents):
 
 
 @njit(cache=True)
-def body_blocks(
-    first, end, parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact
-):
-    """K as 6x6 blocks: ``kb[k, m]`` = the block of H^-1 between body k and body ``first[t] + m``
-    of k's tree t (zero across trees: no hinge joins them), one tree solve per column."""
-    nb = parents.shape[0]
+def _tree_solve(t, first, end, tree, rb, rj, rf):
+    """H^-1 r on tree t alone: r given on its bodies in ``rb`` (its hinge and friction nodes
+    zeroed here), the body part of the answer left in ``rb``."""
+    parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact = tree
+    for k in range(first[t], end[t]):
+        if parents[k] >= 0:
+            rj[joint_of[k], :] = 0.0
+        c = contact_first[k]
+        while c >= 0:
+            rf[c, :] = 0.0
+            c = contact_next[c]
+    tree_solve(
+        first[t],
+        end[t],
+        parents,
+        joint_of,
+        contact_first,
+        contact_next,
+        jc,
+        jp,
+        jf,
+        dinv_body,
+        dinv_joint,
+        dinv_contact,
+        rb,
+        rj,
+        rf,
+    )
+
+
+@njit(cache=True)
+def contact_columns(bodies, first, end, tree_of, tree, rb, rj, rf):
+    """For each of ``bodies``: its columns of H^-1 over its tree, as 6x6 blocks: ``kc[s, m]`` =
+    the block between body ``first[t] + m`` and ``bodies[s]`` (t its tree)."""
     width = 1
     for t in range(first.shape[0]):
         width = max(width, end[t] - first[t])
-    kb = np.zeros((nb, width, 6, 6))
-    rb = np.zeros((nb, 6))
-    rj = np.zeros((jc.shape[0], 5))
-    rf = np.zeros((jf.shape[0], 2))
-    for t in range(first.shape[0]):
-        for m in range(end[t] - first[t]):
-            col = first[t] + m
-            for a in range(6):
-                for k in range(first[t], end[t]):
-                    rb[k, :] = 0.0
-                    if parents[k] >= 0:
-                        rj[joint_of[k], :] = 0.0
-                    c = contact_first[k]
-                    while c >= 0:
-                        rf[c, :] = 0.0
-                        c = contact_next[c]
-                rb[col, a] = 1.0
-                tree_solve(
-                    first[t],
-                    end[t],
-                    parents,
-                    joint_of,
-                    contact_first,
-                    contact_next,
-                    jc,
-                    jp,
-                    jf,
-                    dinv_body,
-                    dinv_joint,
-                    dinv_contact,
-                    rb,
-                    rj,
-                    rf,
-                )
-                for k in range(first[t], end[t]):
-                    for x in range(6):
-                        kb[k, m, x, a] = rb[k, x]
-    return kb
+    kc = np.zeros((bodies.shape[0], width, 6, 6))
+    for s in range(bodies.shape[0]):
+        k = bodies[s]
+        t = tree_of[k]
+        for a in range(6):
+            rb[first[t] : end[t]] = 0.0
+            rb[k, a] = 1.0
+            _tree_solve(t, first, end, tree, rb, rj, rf)
+            for m in range(end[t] - first[t]):
+                for x in range(6):
+                    kc[s, m, x, a] = rb[first[t] + m, x]
+    return kc
 
 
 @njit(cache=True)
-def _spread(kb, first, end, tree_of, k, impulse, u):
-    """u += K[:, k] impulse over k's tree."""
-    t = tree_of[k]
-    m = k - first[t]
-    for i in range(first[t], end[t]):
-        block = kb[i, m]
+def _spread(kc, s, lo, hi, impulse, u):
+    """u[lo:hi] += the column blocks ``kc[s]`` times ``impulse`` (a push on contact body s)."""
+    for i in range(lo, hi):
+        block = kc[s, i - lo]
         for x in range(6):
-            s = 0.0
+            v = 0.0
             for a in range(6):
-                s += block[x, a] * impulse[a]
-            u[i, x] += s
-
-
-@njit(cache=True)
-def _coupling(kb, first, tree_of, gb, gj, r, s):
-    """S[r, s] without CFM: the sum over the rows' bodies of g_r' K g_s (zero across trees)."""
-    v = 0.0
-    for x in range(2):
-        k = gb[r, x]
-        if k < 0:
-            continue
-        for y in range(2):
-            q = gb[s, y]
-            if q < 0 or tree_of[q] != tree_of[k]:
-                continue
-            block = kb[k, q - first[tree_of[q]]]
-            for a in range(6):
-                g = gj[r, x, a]
-                if g == 0.0:
-                    continue
-                for b in range(6):
-                    v += g * block[a, b] * gj[s, y, b]
-    return v
+                v += block[x, a] * impulse[a]
+            u[i, x] += v
 
 
 @njit(cache=True)
@@ -169,32 +148,54 @@ def _solve3(a, rhs, out):
 
 
 @njit(cache=True)
-def block_gauss_seidel(kb, first, end, tree_of, gb, gj, bb, lo, hi, cfm_b, state, nj, nc, sweeps, tolerance):
-    """The bounded rows' boxed LCP (``box_qp``'s, with S = G' K G + diag(cfm_b) never formed):
-    rows [0, nj) motors, [nj, nj + nc) one-body contact normals, then three rows (normal,
+def _point_block(block1, block2, cross12, gj, r0, cfm_b, out):
+    """The 3x3 block of S of one contact point's rows r0..r0+2 (bodies 1 and 2; ``cross12`` the
+    block of H^-1 between them, zero when in different trees)."""
+    for x in range(3):
+        for y in range(3):
+            v = 0.0
+            for a in range(6):
+                g1 = gj[r0 + x, 0, a]
+                g2 = gj[r0 + x, 1, a]
+                for b in range(6):
+                    v += g1 * block1[a, b] * gj[r0 + y, 0, b] + g2 * block2[a, b] * gj[r0 + y, 1, b]
+                    v += g1 * cross12[a, b] * gj[r0 + y, 1, b] + g2 * cross12[b, a] * gj[r0 + y, 0, b]
+            out[x, y] = v
+        out[x, x] += cfm_b[r0 + x]
+
+
+@njit(cache=True)
+def block_gauss_seidel(tree, gb, gj, bb, lo, hi, cfm_b, state, nj, nc, sweeps, tolerance):
+    """The bounded rows' boxed LCP (``box_qp``'s, with S never formed) on the factored forest
+    ``tree`` (parents, joint_of, contact_first, contact_next, jc, jp, jf and the inverted
+    blocks): rows [0, nj) motors, [nj, nj + nc) one-body contact normals, then three rows (normal,
     friction, friction) per two-body contact point. ``state`` (in/out) as ``box_qp``'s. Returns
     (multipliers, sweeps taken)."""
+    parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact = tree
     nbd = bb.shape[0]
-    nb = kb.shape[0]
+    nb = parents.shape[0]
+    first, end, tree_of = trees_of(parents)
     nt = first.shape[0]
+    rb = np.zeros((nb, 6))
+    rj = np.zeros((jc.shape[0], 5))
+    rf = np.zeros((jf.shape[0], 2))
     lam = np.zeros(nbd)
     for r in range(nbd):
         if state[r] < 0 and np.isfinite(lo[r]):
             lam[r] = lo[r]
         elif state[r] > 0 and np.isfinite(hi[r]):
             lam[r] = hi[r]
-    # u = K G lambda
-    u = np.zeros((nb, 6))
-    impulse = np.empty(6)
+    # u = H^-1 G lambda, tree by tree
     for r in range(nbd):
-        if lam[r] == 0.0:
-            continue
         for x in range(2):
             k = gb[r, x]
             if k >= 0:
                 for a in range(6):
-                    impulse[a] = gj[r, x, a] * lam[r]
-                _spread(kb, first, end, tree_of, k, impulse, u)
+                    rb[k, a] += gj[r, x, a] * lam[r]
+    u = np.zeros((nb, 6))
+    for t in range(nt):
+        _tree_solve(t, first, end, tree, rb, rj, rf)
+    u[:, :] = rb
     # each tree's own rows and their Schur complement
     owned = nj + nc
     count = np.zeros(nt, dtype=np.int64)
@@ -212,26 +213,29 @@ def block_gauss_seidel(kb, first, end, tree_of, gb, gj, bb, lo, hi, cfm_b, state
     blocks = []
     for t in range(nt):
         mine = rows[start[t] : start[t + 1]]
-        s = np.empty((mine.size, mine.size))
-        for i in range(mine.size):
-            for j in range(i, mine.size):
-                v = _coupling(kb, first, tree_of, gb, gj, mine[i], mine[j])
-                s[i, j] = v
-                s[j, i] = v
-            s[i, i] += cfm_b[mine[i]]
-        blocks.append(s)
-    # the contact points, those between one pair of bodies together, and each point's 3x3 block
+        blocks.append(schur_of_rows(parents, joint_of, jc, jp, dinv_body, dinv_joint, gb[mine], gj[mine], cfm_b[mine]))
+    # the bodies that touch another, their columns of H^-1, and the contact points by pair of bodies
     npc = (nbd - owned) // 3
+    slot = np.full(nb, -1, dtype=np.int64)
+    touching = np.empty(2 * npc, dtype=np.int64)
+    nslots = 0
+    for i in range(npc):
+        for x in range(2):
+            k = gb[owned + 3 * i, x]
+            if slot[k] < 0:
+                slot[k] = nslots
+                touching[nslots] = k
+                nslots += 1
+    kc = contact_columns(touching[:nslots], first, end, tree_of, tree, rb, rj, rf)
     order = np.argsort(gb[owned::3, 0] * nb + gb[owned::3, 1], kind="mergesort")
+    zero = np.zeros((6, 6))
     local = np.empty((npc, 3, 3))
     for i in range(npc):
         r0 = owned + 3 * i
-        for x in range(3):
-            for y in range(x, 3):
-                v = _coupling(kb, first, tree_of, gb, gj, r0 + x, r0 + y)
-                local[i, x, y] = v
-                local[i, y, x] = v
-            local[i, x, x] += cfm_b[r0 + x]
+        k1, k2 = gb[r0, 0], gb[r0, 1]
+        t1, t2 = tree_of[k1], tree_of[k2]
+        cross12 = kc[slot[k2], k1 - first[t1]] if t1 == t2 else zero
+        _point_block(kc[slot[k1], k1 - first[t1]], kc[slot[k2], k2 - first[t2]], cross12, gj, r0, cfm_b, local[i])
     rhs3 = np.empty(3)
     new3 = np.empty(3)
     u1 = np.empty(6)
@@ -252,23 +256,17 @@ def block_gauss_seidel(kb, first, end, tree_of, gb, gj, bb, lo, hi, cfm_b, state
                 continue
             s = blocks[t]
             q = np.empty(m)
-            old = np.empty(m)
-            sub_lo = np.empty(m)
-            sub_hi = np.empty(m)
-            sub_state = np.empty(m, dtype=np.int64)
-            for i in range(m):
-                r = mine[i]
-                old[i] = lam[r]
-                sub_lo[i] = lo[r]
-                sub_hi[i] = hi[r]
-                sub_state[i] = state[r]
+            old = lam[mine]
+            sub_state = state[mine]
             # the block's right side: b less what every other row's multiplier does to its rows
             for i in range(m):
                 v = bb[mine[i]] - _row_velocity(gb, gj, u, mine[i]) - cfm_b[mine[i]] * old[i]
                 for j in range(m):
                     v += s[i, j] * old[j]
                 q[i] = v
-            x, _ = box_qp(s, q, sub_lo, sub_hi, sub_state)
+            x, _ = box_qp(s, q, lo[mine], hi[mine], sub_state)
+            rb[first[t] : end[t]] = 0.0
+            changed = False
             for i in range(m):
                 r = mine[i]
                 state[r] = sub_state[i]
@@ -276,24 +274,29 @@ def block_gauss_seidel(kb, first, end, tree_of, gb, gj, bb, lo, hi, cfm_b, state
                 lam[r] = x[i]
                 moved = max(moved, abs(delta))
                 largest = max(largest, abs(x[i]))
-                if delta == 0.0:
-                    continue
-                for y in range(2):
-                    k = gb[r, y]
-                    if k >= 0:
-                        for a in range(6):
-                            impulse[a] = gj[r, y, a] * delta
-                        _spread(kb, first, end, tree_of, k, impulse, u)
+                if delta != 0.0:
+                    changed = True
+                    for y in range(2):
+                        k = gb[r, y]
+                        if k >= 0:
+                            for a in range(6):
+                                rb[k, a] += gj[r, y, a] * delta
+            if changed:
+                _tree_solve(t, first, end, tree, rb, rj, rf)
+                for k in range(first[t], end[t]):
+                    for a in range(6):
+                        u[k, a] += rb[k, a]
         g = 0
         while g < npc:
             head = owned + 3 * order[g]
             k1 = gb[head, 0]
             k2 = gb[head, 1]
-            same = tree_of[k1] == tree_of[k2]
-            b11 = kb[k1, k1 - first[tree_of[k1]]]
-            b22 = kb[k2, k2 - first[tree_of[k2]]]
-            b12 = kb[k1, k2 - first[tree_of[k2]]]
-            b21 = kb[k2, k1 - first[tree_of[k1]]]
+            t1, t2 = tree_of[k1], tree_of[k2]
+            s1, s2 = slot[k1], slot[k2]
+            b11 = kc[s1, k1 - first[t1]]
+            b22 = kc[s2, k2 - first[t2]]
+            same = t1 == t2
+            b12 = kc[s2, k1 - first[t1]]  # H^-1 between k1 and k2, read only in one tree
             u1[:] = u[k1]
             u2[:] = u[k2]
             push1[:] = 0.0
@@ -336,18 +339,18 @@ def block_gauss_seidel(kb, first, end, tree_of, gb, gj, bb, lo, hi, cfm_b, state
                     push1[a] += d1[a]
                     push2[a] += d2[a]
                 for x in range(6):
-                    s1 = 0.0
-                    s2 = 0.0
+                    v1 = 0.0
+                    v2 = 0.0
                     for a in range(6):
-                        s1 += b11[x, a] * d1[a]
-                        s2 += b22[x, a] * d2[a]
+                        v1 += b11[x, a] * d1[a]
+                        v2 += b22[x, a] * d2[a]
                         if same:
-                            s1 += b12[x, a] * d2[a]
-                            s2 += b21[x, a] * d1[a]
-                    u1[x] += s1
-                    u2[x] += s2
-            _spread(kb, first, end, tree_of, k1, push1, u)
-            _spread(kb, first, end, tree_of, k2, push2, u)
+                            v1 += b12[x, a] * d2[a]
+                            v2 += b12[a, x] * d1[a]
+                    u1[x] += v1
+                    u2[x] += v2
+            _spread(kc, s1, first[t1], end[t1], push1, u)
+            _spread(kc, s2, first[t2], end[t2], push2, u)
         if moved <= tolerance * max(largest, 1.0):
             break
     return lam, done

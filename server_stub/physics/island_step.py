@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit
 
 from server_stub.physics.bundles import Contacts, Forces, IslandSolve, Model, Motors, PairContacts, Params, State
-from server_stub.physics.gauss_seidel import block_gauss_seidel, body_blocks, trees_of
+from server_stub.physics.gauss_seidel import block_gauss_seidel
 from server_stub.physics.integrate import advance, body_terms, free_velocities
 from server_stub.physics.linalg import cross, plane_space
 from server_stub.physics.rows import (
@@ -47,7 +47,7 @@ from server_stub.physics.solver import (
     box_qp,
     contact_forces,
     factor,
-    schur_complement,
+    schur_of_rows,
     tree_solve,
     unbounded_rhs,
 )
@@ -81,25 +81,10 @@ def step_island(model, state, forces, motors, contacts, pairs, params, solve):
         if not converged:
             lam_b, iterations = box_qp(schur, bb, lo, hi, row_state)
     else:
-        first, end, tree_of = trees_of(parents)
-        kb = body_blocks(first, end, parents, joint_of, contact_first, contact_next, jc, jp, jf, *dinv)
         rows_sub(gb, gj, yb, bb)
+        tree = (parents, joint_of, contact_first, contact_next, jc, jp, jf, *dinv)
         lam_b, iterations = block_gauss_seidel(
-            kb,
-            first,
-            end,
-            tree_of,
-            gb,
-            gj,
-            bb,
-            lo,
-            hi,
-            cfm_b,
-            row_state,
-            nj,
-            contacts.point.shape[0],
-            solve.sweeps,
-            solve.tolerance,
+            tree, gb, gj, bb, lo, hi, cfm_b, row_state, nj, contacts.point.shape[0], solve.sweeps, solve.tolerance
         )
     motors.state[:] = row_state[:nj]
     return _finish(
@@ -329,38 +314,6 @@ def _finish(
             p_forces[i, x] = lam_b[nj + nc + 3 * i + x]
     torques = lam_b[:nj].copy()
     return out_pos, out_quat, out_vel, out_spin, forces, tangents, p_forces, p_tangents, torques, iterations
-
-
-@njit(cache=True)
-def schur_of_rows(parents, joint_of, jc, jp, dinv_body, dinv_joint, gb, gj, cfm_b):
-    """The bounded rows' dense Schur complement (``solver.schur_complement``), for the exact
-    solve."""
-    nbd = gb.shape[0]
-    nb = parents.shape[0]
-    # the bounded rows' Jacobians on their bodies and the union of their paths to the roots
-    path_b = np.empty((nbd, nb), dtype=np.int64)
-    len_b = np.zeros(nbd, dtype=np.int64)
-    zb = np.zeros((nbd, nb, 6))
-    mark = np.zeros(nb, dtype=np.bool_)
-    for r in range(nbd):
-        mark[:] = False
-        top = -1
-        for x in range(2):
-            k = gb[r, x]
-            if k < 0:
-                continue
-            for a in range(6):
-                zb[r, k, a] += gj[r, x, a]
-            if k > top:
-                top = k
-            while k >= 0 and not mark[k]:
-                mark[k] = True
-                k = parents[k]
-        for k in range(top, -1, -1):
-            if mark[k]:
-                path_b[r, len_b[r]] = k
-                len_b[r] += 1
-    return schur_complement(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b)
 
 
 def _two_balls(solve: IslandSolve) -> None:

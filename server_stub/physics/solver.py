@@ -352,6 +352,38 @@ def schur_complement(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, l
 
 
 @njit(cache=True)
+def schur_of_rows(parents, joint_of, jc, jp, dinv_body, dinv_joint, gb, gj, cfm_b):
+    """The bounded rows' dense Schur complement (``schur_complement``), for the exact
+    solve (all of an island's rows) and for Gauss-Seidel (one tree's own rows)."""
+    nbd = gb.shape[0]
+    nb = parents.shape[0]
+    # the bounded rows' Jacobians on their bodies and the union of their paths to the roots
+    path_b = np.empty((nbd, nb), dtype=np.int64)
+    len_b = np.zeros(nbd, dtype=np.int64)
+    zb = np.zeros((nbd, nb, 6))
+    mark = np.zeros(nb, dtype=np.bool_)
+    for r in range(nbd):
+        mark[:] = False
+        top = -1
+        for x in range(2):
+            k = gb[r, x]
+            if k < 0:
+                continue
+            for a in range(6):
+                zb[r, k, a] += gj[r, x, a]
+            if k > top:
+                top = k
+            while k >= 0 and not mark[k]:
+                mark[k] = True
+                k = parents[k]
+        for k in range(top, -1, -1):
+            if mark[k]:
+                path_b[r, len_b[r]] = k
+                len_b[r] += 1
+    return schur_complement(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b)
+
+
+@njit(cache=True)
 def contact_forces(lam_b, first, bf):
     """One-body contacts' forces (normal, t1, t2): the normals' from the bounded rows (from row
     ``first``), the friction's from the unbounded solve."""
