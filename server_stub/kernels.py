@@ -6,9 +6,9 @@ numba compiles a kernel when it is first called, and keeps it in its disk cache.
 server would miss its pace); the optimizer's in-process episodes call it for the kernels a walk
 takes (``WALK``) before their first episode. On a fresh clone, compiling is most of a first run's
 time (``bench/bench_cold_start.py``), and it is one core's work: so a helper process
-(``python -m server_stub.kernels PART...``) compiles the later parts into the cache while this
-process compiles the first, then this process loads them. Kernels both need (the solver's) may be
-compiled twice; the parts are ordered so that little is.
+(``python -m server_stub.kernels PART...``) compiles the other parts into the cache while this
+process compiles a robot's step, then this process loads them. The solver's kernels, which both
+halves need, are compiled in both; the halves take about as long.
 """
 
 from __future__ import annotations

@@ -17,7 +17,10 @@ same stages: ``rows``, ``solver``, ``integrate``):
   along the union of its two bodies' paths to their roots;
 - ODE's contact row (contact.cpp, ODE 0.16): c = ERP / h * max(depth - surface layer, 0); with
   bounce, the outgoing normal velocity u = J v at the step's start and, when -u > the minimum
-  bounce velocity, c = max(c, -bounce * u).
+  bounce velocity, c = max(c, -bounce * u);
+- the bounded rows are solved exactly (as ODE does) up to ``PhysicsConfig.island_exact_rows``,
+  past it (a pile of robots) by ``gauss_seidel`` in bounded time (docs/physics.md, "Large
+  islands").
 """
 
 from __future__ import annotations
@@ -120,7 +123,7 @@ def _prepare(model, state, forces, motors, contacts, pairs, params):
     masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
     pos, quat, vel, spin = state
     gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
-    motor_target, motor_lo, motor_hi, push, motor_state = motors
+    motor_target, motor_lo, motor_hi, push, _ = motors  # the motors' states: ``step_island``'s
     c_body, c_point, c_normal, c_depth, c_surface = contacts
     p_body1, p_body2, p_point, p_normal, p_depth, p_surface = pairs
     h, joint_erp, joint_cfm, motor_cfm, surface_layer, implicit_gyro, _erp, _cfm, _slip = params
