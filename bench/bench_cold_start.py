@@ -1,7 +1,8 @@
 """Cold start: how long the first episode takes on a fresh clone, numba's compilation included.
 
-numba compiles the stand-in's kernels on first use and keeps them in its disk cache; a fresh clone
-(or a new machine, or a changed kernel) has no cache, so its first episode pays for every compile.
+numba compiles the stand-in's kernels and keeps them in its disk cache; a fresh clone (or a new
+machine, or a changed kernel) has no cache, so its first episode pays for every compile (in two
+processes: ``server_stub.kernels``).
 This runs ``python -m optimizer.episode --json`` (the shipped gait on the embedded stand-in) in a
 new process with an empty cache directory (cold), then again with the cache it left (warm), and
 prints both wall times.
