@@ -58,7 +58,7 @@ def trees_of(parents):
 def _tree_solve(t, first, end, tree, rb, rj, rf):
     """H^-1 r on tree t alone: r given on its bodies in ``rb`` (its hinge and friction nodes
     zeroed here), the body part of the answer left in ``rb``."""
-    parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact = tree
+    parents, joint_of, contact_first, contact_next = tree[:4]
     for k in range(first[t], end[t]):
         if parents[k] >= 0:
             rj[joint_of[k], :] = 0.0
@@ -66,23 +66,7 @@ def _tree_solve(t, first, end, tree, rb, rj, rf):
         while c >= 0:
             rf[c, :] = 0.0
             c = contact_next[c]
-    tree_solve(
-        first[t],
-        end[t],
-        parents,
-        joint_of,
-        contact_first,
-        contact_next,
-        jc,
-        jp,
-        jf,
-        dinv_body,
-        dinv_joint,
-        dinv_contact,
-        rb,
-        rj,
-        rf,
-    )
+    tree_solve(first[t], end[t], *tree, rb, rj, rf)
 
 
 @njit(cache=True)

@@ -64,10 +64,10 @@ def step_island(model, state, forces, motors, contacts, pairs, params, solve):
     solved (exactly, or past ``solve.exact_rows`` by ``gauss_seidel``). Returns (positions,
     quaternions, velocities, spins, one-body contact forces (normal, t1, t2) and tangents, two-body
     contact forces (on body 1) and tangents, motor/stop torques, solver passes)."""
-    free, gb, gj, bb, lo, hi, cfm_b, yb, bj, bf, jc, jp, jf, contact_first, contact_next, dinv, tangents, p_tangents = (
-        _prepare(model, state, forces, motors, contacts, pairs, params)
+    free, gb, gj, bb, lo, hi, cfm_b, yb, bj, bf, tree, tangents, p_tangents = _prepare(
+        model, state, forces, motors, contacts, pairs, params
     )
-    parents, joint_of = model.parents, model.joint_of
+    parents, joint_of, _, _, jc, jp, _, dinv_body, dinv_joint, _ = tree
     nj = model.local_axes.shape[0]
     nbd = bb.shape[0]
     # each bounded row's state (-1 at lo, +1 at hi, 0 free): the motors' from the last step
@@ -76,7 +76,7 @@ def step_island(model, state, forces, motors, contacts, pairs, params, solve):
     # the solvers are chosen here, not in a compiled kernel, so that a walk (a lone ball's island
     # of one row) never compiles the solvers of large islands (``bench/bench_cold_start.py``)
     if nbd <= solve.exact_rows:
-        schur = schur_of_rows(parents, joint_of, jc, jp, dinv[0], dinv[1], gb, gj, cfm_b)
+        schur = schur_of_rows(parents, joint_of, jc, jp, dinv_body, dinv_joint, gb, gj, cfm_b)
         rows_sub(gb, gj, yb, bb)
         converged = False
         if nbd > BLOCK_PIVOT_ROWS:
@@ -85,7 +85,6 @@ def step_island(model, state, forces, motors, contacts, pairs, params, solve):
             lam_b, iterations = box_qp(schur, bb, lo, hi, row_state)
     else:
         rows_sub(gb, gj, yb, bb)
-        tree = (parents, joint_of, contact_first, contact_next, jc, jp, jf, *dinv)
         lam_b, iterations = block_gauss_seidel(
             tree, gb, gj, bb, lo, hi, cfm_b, row_state, nj, contacts.point.shape[0], solve.sweeps, solve.tolerance
         )
@@ -100,12 +99,7 @@ def step_island(model, state, forces, motors, contacts, pairs, params, solve):
         lam_b,
         bj,
         bf,
-        jc,
-        jp,
-        jf,
-        contact_first,
-        contact_next,
-        dinv,
+        tree,
         tangents,
         p_tangents,
         params.h,
@@ -116,10 +110,11 @@ def step_island(model, state, forces, motors, contacts, pairs, params, solve):
 
 @njit(cache=True)
 def _prepare(model, state, forces, motors, contacts, pairs, params):
-    """The island's rows: its tree factored with the unbounded rows (hinges, one-body friction),
-    the bounded rows (motors, one-body normals, two-body contacts: bodies ``gb``, Jacobians ``gj``,
-    right side ``bb`` less the free motion, bounds, CFM), and the unbounded solve ``yb`` with no
-    bounded row pushing."""
+    """The island's rows: its tree factored with the unbounded rows (hinges, one-body friction;
+    ``tree``: parents, joint_of, contact_first, contact_next, jc, jp, jf and the inverted blocks,
+    what ``solver.tree_solve`` takes), the bounded rows (motors, one-body normals, two-body
+    contacts: bodies ``gb``, Jacobians ``gj``, right side ``bb`` less the free motion, bounds,
+    CFM), and the unbounded solve ``yb`` with no bounded row pushing."""
     masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
     pos, quat, vel, spin = state
     gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
@@ -215,73 +210,16 @@ def _prepare(model, state, forces, motors, contacts, pairs, params):
     yb = np.zeros((nb, 6))
     yj = bj.copy()
     yf = bf.copy()
-    tree_solve(
-        0,
-        nb,
-        parents,
-        joint_of,
-        contact_first,
-        contact_next,
-        jc,
-        jp,
-        jf,
-        dinv_body,
-        dinv_joint,
-        dinv_contact,
-        yb,
-        yj,
-        yf,
-    )
-    return (
-        free,
-        gb,
-        gj,
-        bb,
-        lo,
-        hi,
-        cfm_b,
-        yb,
-        bj,
-        bf,
-        jc,
-        jp,
-        jf,
-        contact_first,
-        contact_next,
-        (dinv_body, dinv_joint, dinv_contact),
-        tangents,
-        p_tangents,
-    )
+    tree = (parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact)
+    tree_solve(0, nb, *tree, yb, yj, yf)
+    return free, gb, gj, bb, lo, hi, cfm_b, yb, bj, bf, tree, tangents, p_tangents
 
 
 @njit(cache=True)
-def _finish(
-    model,
-    pos,
-    quat,
-    free,
-    gb,
-    gj,
-    lam_b,
-    bj,
-    bf,
-    jc,
-    jp,
-    jf,
-    contact_first,
-    contact_next,
-    dinv,
-    tangents,
-    p_tangents,
-    h,
-    nc,
-    iterations,
-):
+def _finish(model, pos, quat, free, gb, gj, lam_b, bj, bf, tree, tangents, p_tangents, h, nc, iterations):
     """The solved bounded rows' push carried through the tree, the bodies advanced, and the
     forces reported (``step_island``'s return)."""
-    dinv_body, dinv_joint, dinv_contact = dinv
-    parents, joint_of = model.parents, model.joint_of
-    nb = parents.shape[0]
+    nb = model.parents.shape[0]
     nj = model.local_axes.shape[0]
     nbd = lam_b.shape[0]
     npc = (nbd - nj - nc) // 3
@@ -292,23 +230,7 @@ def _finish(
             if k >= 0:
                 for a in range(6):
                     rb[k, a] += gj[r, x, a] * lam_b[r]
-    tree_solve(
-        0,
-        nb,
-        parents,
-        joint_of,
-        contact_first,
-        contact_next,
-        jc,
-        jp,
-        jf,
-        dinv_body,
-        dinv_joint,
-        dinv_contact,
-        rb,
-        bj,
-        bf,
-    )
+    tree_solve(0, nb, *tree, rb, bj, bf)
     out_pos, out_quat, out_vel, out_spin = advance(pos, quat, free + rb, h)
     forces = contact_forces(lam_b, nj, bf)
     p_forces = np.empty((npc, 3))
