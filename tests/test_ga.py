@@ -319,6 +319,27 @@ def test_a_search_names_the_key_of_its_best(seed: int, elitism: bool) -> None:
     assert search.best_key("nothing/") is None
 
 
+def test_cma_es_restarts_with_twice_the_population_after_its_patience_without_a_gain() -> None:
+    """A best that creeps up by less than 1% a generation is no gain: with a patience of 3 the
+    strategy starts again after 3 generations, with twice the gaits, around the best gait met;
+    without one it goes on as it was. A gain of 1% or more resets the count."""
+    from optimizer.search.cmaes import cmaes_program
+
+    bounds = np.array([[0.0, 1.0]] * 3)
+
+    def sizes(patience, gain: float) -> list[int]:
+        program = cmaes_program(bounds, lambda g: g, 7, start=[0.5] * 3, sigma0=0.1, population=6, patience=patience)
+        batch, out = next(program), []
+        for generation in range(10):
+            out.append(len(batch.genes))
+            batch = program.send(100.0 * (1.0 + gain) ** generation + batch.genes[:, 0] * 1e-3)
+        return out
+
+    assert sizes(None, 0.001) == [6] * 10
+    assert sizes(3, 0.001) == [6, 6, 6, 6, 12, 12, 12, 24, 24, 24]
+    assert sizes(3, 0.02) == [6] * 10
+
+
 def test_cma_es_strategies_asked_in_turn_draw_what_each_draws_alone() -> None:
     """``cma`` samples from numpy's global generator; two strategies asked in turn (the refinement's
     race) must not draw from each other's streams."""

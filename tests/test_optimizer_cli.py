@@ -253,7 +253,7 @@ def test_a_run_made_before_start_checks_and_the_robot_box_existed_resumes_as_it_
     manifest = json.loads((out / "manifest.json").read_text())
     earlier = ("start", "check_repeats", "check_jitter", "bounds")  # what an earlier version did not write
     earlier += ("robust_walks", "robust_top", "robust_quantile", "command_noise", "refine", "refine_sigma")
-    earlier += ("refine_population", "family")
+    earlier += ("refine_population", "family", "refine_patience")
     for name in earlier:
         del manifest["settings"][name]
     (out / "manifest.json").write_text(json.dumps(manifest))
@@ -464,13 +464,16 @@ def test_the_refinement_phase_searches_on_from_the_best_and_leaves_table_i_alone
     generations = Counter("/".join(r["key"].split("/")[:2]) for r in tried)
     assert generations == {"refine0/g000": 20, "refine1/g000": 20}
     assert gala_command.PAPER["refine_population"] == 20 and gala_command.PAPER["refine_sigma"] == [0.05, 0.1]
+    assert gala_command.PAPER["refine_patience"] is None  # no restarts by default (yet)
     wide = tmp_path / "wide"
     argv = [*base, "--refine", "40", "--refine-population", "8", "--refine-sigma", "0.2", "--out", str(wide)]
+    argv += ["--refine-patience", "30"]
     assert gala_command.main(argv, make_evaluator=lambda s: FakeEvaluator()) == 0
     generations = Counter("/".join(r["key"].split("/")[:2]) for r in _refined(wide))
     assert generations == {f"refine0/g{g:03d}": 8 for g in range(5)}
     settings = json.loads((wide / "manifest.json").read_text())["settings"]
     assert settings["refine_population"] == 8 and settings["refine_sigma"] == [0.2]
+    assert settings["refine_patience"] == 30
 
 
 def test_the_refinement_runs_one_cma_es_per_start_and_step_and_an_older_run_keeps_its_one_run() -> None:

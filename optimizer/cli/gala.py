@@ -203,6 +203,14 @@ def build_parser() -> argparse.ArgumentParser:
         "the library's own for 7 genes is 9)",
     )
     p.add_argument(
+        "--refine-patience",
+        type=positive_int,
+        default=None,
+        metavar="G",
+        help="start a refinement run again from its best, with twice the gaits a generation, when its best "
+        "has not gained 1%% in G generations (default: only when CMA-ES itself stops)",
+    )
+    p.add_argument(
         "--refine-race",
         action=argparse.BooleanOptionalAction,
         default=None,

@@ -56,8 +56,15 @@ START_KEY = "start"
 #: The refinement's defaults, in the main job and here: 8000 gaits of CMA-ES, 20 a generation, from
 #: each start with a first step of 0.05 of the box and one of 0.1, raced (``refine``): which step
 #: climbs higher depends on the start's neighbourhood (docs/optimizer.md, "Why a refinement phase"),
-#: and so does which start.
-DEFAULTS: dict[str, Any] = {"refine": 8000, "refine_sigma": [0.05, 0.1], "refine_population": 20, "refine_race": True}
+#: and so does which start. Restarts after a patience without a gain (``optimizer.search.cmaes``;
+#: docs/optimizer.md, "Restarts") are off until measured on the default rows' seeds.
+DEFAULTS: dict[str, Any] = {
+    "refine": 8000,
+    "refine_sigma": [0.05, 0.1],
+    "refine_population": 20,
+    "refine_race": True,
+    "refine_patience": None,
+}
 
 
 @dataclass(frozen=True)
@@ -118,6 +125,7 @@ def refine(
     arms = refinement_arms(settings, starts)
     total = settings["refine"]
     population = settings.get("refine_population")  # a run from before the flag: the library's default
+    patience = settings.get("refine_patience")  # a run from before restarts: None, as it was made
     heat = heat_gaits(settings, len(arms), len(bounds))
     if heat == 0:
         share, extra = divmod(total, len(arms))
@@ -132,12 +140,15 @@ def refine(
                     share + (j < extra),
                     arm.prefix,
                     population,
+                    patience,
                 )
             )
         return
     whole = total - (len(arms) - 1) * heat  # what the winner walks in all
     runs = [
-        CMAESRun(bounds, repair, stable_seed(seed, arm.prefix), arm.start, arm.sigma, whole, arm.prefix, population)
+        CMAESRun(
+            bounds, repair, stable_seed(seed, arm.prefix), arm.start, arm.sigma, whole, arm.prefix, population, patience
+        )
         for arm in arms
     ]
     races = [driver.race() for _ in runs]
@@ -229,6 +240,15 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         metavar="N",
         help=f"gaits per CMA-ES generation (default {DEFAULTS['refine_population']})",
+    )
+    p.add_argument(
+        "--patience",
+        dest="refine_patience",
+        type=positive_int,
+        default=None,
+        metavar="G",
+        help="start a CMA-ES run again from its best, with twice the gaits a generation, when its best has "
+        "not gained 1%% in G generations (default: only when CMA-ES itself stops)",
     )
     p.add_argument(
         "--race",

@@ -4,7 +4,11 @@ Scaling makes one step size fit genes in degrees, seconds and rad/s alike; ``cma
 handling keeps samples in the cube, and the gait's repair (t2 folded into the period) is applied to
 what is evaluated. A strategy that stops (converged, or its step size collapsed) starts again:
 from a random point when it was started from one, else from the best gait it has met, so a
-refinement keeps climbing from where it got to.
+refinement keeps climbing from where it got to. With a ``patience``, a strategy whose best has not
+gained ``GAIN`` in that many generations also starts again, with twice the gaits a generation
+(IPOP-CMA-ES, Auger and Hansen 2005): a robust score is noisy, so ``cma``'s own tests of
+convergence rarely fire, and a refinement that has levelled off would spend the rest of its budget
+where it is (docs/optimizer.md, "Restarts").
 
 Two uses: the optimizer comparison starts it from a random point with sigma 0.3 of the box
 (``optimizer.compare.methods.cmaes``); the main job's refinement phase starts it from the best gait
@@ -25,6 +29,8 @@ from optimizer.search.ga import Batch, KeyedSearch, Repair, SearchProgram
 #: Initial step size from a random point, as a fraction of the box (the library's advice: about a
 #: quarter to a third of the range the optimum may lie in).
 SIGMA0 = 0.3
+#: What counts as a gain for ``patience``: the best score up by this fraction of itself.
+GAIN = 0.01
 
 
 class _OwnRandom:
@@ -70,11 +76,13 @@ def cmaes_program(
     sigma0: float = SIGMA0,
     candidates: int | None = None,
     population: int | None = None,
+    patience: int | None = None,
 ) -> SearchProgram:
     """CMA-ES from ``start`` (genes; None: a seeded random point) with step ``sigma0`` (a fraction
     of the box) and ``population`` gaits a generation (None: the library's 4 + 3 ln n), batches
     keyed ``gNNN``, for ``candidates`` candidates in all (None: for ever; the last batch is cut
-    to fit)."""
+    to fit); started again, with twice the gaits a generation, after ``patience`` generations
+    without a gain (None: only when ``cma`` stops it)."""
     low, high = bounds[:, 0], bounds[:, 1]
     rng = np.random.default_rng(seed)
     own = _OwnRandom()
@@ -83,6 +91,8 @@ def cmaes_program(
         strategy = _strategy(rng, rng.uniform(0.0, 1.0, len(low)) if x0 is None else x0, sigma0, population)
     generation, asked = 0, 0
     best: tuple[float, np.ndarray] | None = None
+    mark: float | None = None  # the best score at the last gain of GAIN
+    marked = 0  # that gain's generation
     while candidates is None or asked < candidates:
         with own.active():
             unit = strategy.ask()
@@ -99,7 +109,12 @@ def cmaes_program(
         k = int(np.argmax(fitness))
         if best is None or fitness[k] > best[0]:
             best = (float(fitness[k]), np.clip((genes[k] - low) / (high - low), 0.0, 1.0))
-        if strategy.stop():  # a refinement starts again from the best it met, a search from anywhere
+        if mark is None or best[0] >= mark + GAIN * abs(mark):
+            mark, marked = best[0], generation
+        stalled = patience is not None and generation - marked >= patience
+        if strategy.stop() or stalled:  # a refinement starts again from the best it met, a search from anywhere
+            if stalled:
+                population, marked = 2 * strategy.popsize, generation
             restart = rng.uniform(0.0, 1.0, len(low)) if x0 is None else best[1]
             with own.active():
                 strategy = _strategy(rng, restart, sigma0, population)
@@ -118,10 +133,12 @@ class CMAESRun(KeyedSearch):
         candidates: int,
         prefix: str,
         population: int | None = None,
+        patience: int | None = None,
     ) -> None:
         self._best: tuple[float, np.ndarray] | None = None
         self._prefix = prefix
-        super().__init__(self._run(cmaes_program(bounds, repair, seed, start, sigma0, candidates, population)))
+        program = cmaes_program(bounds, repair, seed, start, sigma0, candidates, population, patience)
+        super().__init__(self._run(program))
 
     def _run(self, program: SearchProgram) -> SearchProgram:
         fitness = None
