@@ -321,8 +321,8 @@ def test_a_search_names_the_key_of_its_best(seed: int, elitism: bool) -> None:
 
 def test_cma_es_restarts_with_twice_the_population_after_its_patience_without_a_gain() -> None:
     """A best that creeps up by less than 1% a generation is no gain: with a patience of 3 the
-    strategy starts again after 3 generations, with twice the gaits, around the best gait met;
-    without one it goes on as it was. A gain of 1% or more resets the count."""
+    strategy starts again after 3 generations, with twice the gaits; without one it goes on as it
+    was. A gain of 1% or more a generation never lets the count reach the patience."""
     from optimizer.search.cmaes import cmaes_program
 
     bounds = np.array([[0.0, 1.0]] * 3)
