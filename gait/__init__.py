@@ -12,12 +12,14 @@ from gait.params import BOUNDS_BY_NAME, GENE_BOUNDS, GENE_NAMES, LEGACY_GENE_BOU
 from gait.tfs import LegAngles, TFSGait
 from gait.tfs_family import TFS
 from gait.tfs_plus import TFS_PLUS
+from gait.tfs_start import TFS_START
 
 __all__ = [
     "DEFAULT_FAMILY",
     "FAMILIES",
     "TFS",
     "TFS_PLUS",
+    "TFS_START",
     "family_named",
     "Gait",
     "GaitFamily",

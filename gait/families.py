@@ -12,9 +12,10 @@ from collections.abc import Mapping
 from gait.family import GaitFamily
 from gait.tfs_family import TFS
 from gait.tfs_plus import TFS_PLUS
+from gait.tfs_start import TFS_START
 
 #: Every family, by name; the first is the default.
-FAMILIES: Mapping[str, GaitFamily] = {family.name: family for family in (TFS, TFS_PLUS)}
+FAMILIES: Mapping[str, GaitFamily] = {family.name: family for family in (TFS, TFS_PLUS, TFS_START)}
 
 DEFAULT_FAMILY: str = TFS.name
 

@@ -47,10 +47,13 @@ class GaitFamily:
     check: Callable[[tuple[float, ...]], None] = field(repr=False)
     repair: Repair = field(repr=False)
     walker: Callable[[tuple[float, ...]], Walker] = field(repr=False)
-    #: the family this one extends by further genes, and the values of those genes at which it
-    #: walks exactly as that family (``from_gait``)
+    #: the family this one extends by further genes, and how a gait of that family becomes the
+    #: gait of this one that walks exactly as it does (``from_gait``)
     extends: GaitFamily | None = None
-    neutral: tuple[float, ...] = ()
+    extend: Callable[[tuple[float, ...]], tuple[float, ...]] | None = field(default=None, repr=False)
+    #: genes a refinement keeps at its start gait's values, searching only the others: the part
+    #: of a walk the start gait already got right (``gait.tfs_start``)
+    held: tuple[int, ...] = ()
 
     def __repr__(self) -> str:
         return f"GaitFamily({self.name!r})"
@@ -74,11 +77,11 @@ class GaitFamily:
 
     def from_gait(self, gait: Gait) -> Gait:
         """``gait`` as a gait of this family: itself, or, from the family this one extends, the
-        same walk with the further genes at their neutral values. A ValueError otherwise."""
+        same walk as a gait of this family (``extend``). A ValueError otherwise."""
         if gait.family is self:
             return gait
-        if gait.family is self.extends:
-            return self.gait(gait.genes + self.neutral)
+        if gait.family is self.extends and self.extend is not None:
+            return self.gait(self.extend(gait.genes))
         raise ValueError(f"a {gait.family.name} gait cannot start a {self.name} search (it extends no such family)")
 
 

@@ -118,6 +118,14 @@ def _walker(genes: tuple[float, ...]) -> TFSPlusWalker:
     return TFSPlusWalker(genes)
 
 
+#: The additions' values at which a tfs-plus gait walks exactly as its TFS part.
+NEUTRAL: tuple[float, ...] = (0.0,) * len(EXTRA_NAMES)
+
+
+def _extend(tfs_genes: tuple[float, ...]) -> tuple[float, ...]:
+    return tfs_genes + NEUTRAL
+
+
 TFS_PLUS = GaitFamily(
     name="tfs-plus",
     about="the TFS plus ankle push-off, sideways sway and arm swing (13 genes; the additions at 0 are the TFS)",
@@ -128,5 +136,5 @@ TFS_PLUS = GaitFamily(
     repair=_repair,
     walker=_walker,
     extends=TFS,
-    neutral=(0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+    extend=_extend,
 )

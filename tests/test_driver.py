@@ -130,8 +130,23 @@ def test_a_complete_log_replays_without_any_episode(tmp_path: Path) -> None:
 
 def test_a_log_of_another_search_is_refused(tmp_path: Path) -> None:
     drive(tmp_path / "episodes.jsonl", FakeEvaluator(), seed=5)
-    with pytest.raises(ResumeMismatch, match="other genes or another start"):
+    with pytest.raises(ResumeMismatch, match="other genes, another start or another family"):
         drive(tmp_path / "episodes.jsonl", FakeEvaluator(), seed=6)
+
+
+def test_a_logged_episode_of_another_family_is_refused_and_its_family_is_kept(tmp_path: Path) -> None:
+    """The same key and genes walked as another family's gait are another walk: a log that holds
+    it as a TFS gait does not answer it as a tfs-start gait. The family goes into the record."""
+    genes = [15.0, 30.0, 10.0, 10.0, 20.0, 0.35, 15.708] * 2
+    with EpisodeLog(tmp_path / "episodes.jsonl") as log:
+        driver = Driver(FakeEvaluator(), log, run_seed=1)
+        record = driver.walk([driver.task("refine/g000/i000", genes, family="tfs-start")])["refine/g000/i000"]
+        assert record.family == "tfs-start"
+        assert driver.walk([driver.task("refine/g000/i000", genes, family="tfs-start")])["refine/g000/i000"] == record
+        with pytest.raises(ResumeMismatch, match="family tfs-start vs genes"):
+            driver.walk([driver.task("refine/g000/i000", genes)])
+    records, warnings, _ = read_episode_log(tmp_path / "episodes.jsonl")
+    assert warnings == [] and records["refine/g000/i000"].family == "tfs-start"
 
 
 def test_a_key_logged_twice_counts_once(tmp_path: Path) -> None:

@@ -362,3 +362,28 @@ def test_cma_es_strategies_asked_in_turn_draw_what_each_draws_alone() -> None:
     for a, b in zip(alone, together):
         assert all(np.array_equal(x, y) for x, y in zip(a, b))
     assert not np.array_equal(together[0][1], together[1][1])
+
+
+def test_held_genes_keep_the_start_values_through_generations_and_restarts() -> None:
+    """A tfs-start refinement holds the start gait: every gait CMA-ES asks has the held genes at
+    exactly the start's values, also after a restart (patience 2), while the others move and climb."""
+    from optimizer.search.cmaes import cmaes_program
+
+    bounds = np.array([[0.0, 10.0]] * 4)
+    start = [5.0, 5.0, 1.2345678901, 7.1]
+    program = cmaes_program(bounds, lambda g: g, 3, start=start, sigma0=0.2, population=6, patience=2, held=[2, 3])
+    batch, sizes, firsts = next(program), [], []
+    for _ in range(12):
+        assert np.array_equal(batch.genes[:, 2:], np.tile(start[2:], (len(batch.genes), 1)))
+        sizes.append(len(batch.genes))
+        firsts.append(batch.genes[:, 0])
+        batch = program.send(-((batch.genes[:, 0] - 9.0) ** 2) - batch.genes[:, 1] * 1e-9)
+    assert max(sizes) > min(sizes)  # a restart happened, and held the genes too
+    assert np.ptp(np.concatenate(firsts)) > 0.5 and np.mean(firsts[-1]) > 6.0
+
+
+def test_held_genes_need_a_start() -> None:
+    from optimizer.search.cmaes import cmaes_program
+
+    with pytest.raises(ValueError, match="held genes need a start"):
+        next(cmaes_program(np.array([[0.0, 1.0]] * 2), lambda g: g, 1, held=[1]))

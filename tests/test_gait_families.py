@@ -1,6 +1,7 @@
 """Gait families: every family's targets stay inside the joints' limits and its commands inside
-the speed cap, tfs-plus with its additions at 0 is the TFS, gait files name their family, and a
-search, an episode and an agent take any family."""
+the speed cap, tfs-plus with its additions at 0 is the TFS, tfs-start begun by its own gait is the
+TFS and otherwise walks its start gait then blends into its cruise gait, gait files name their
+family, and a search, an episode and an agent take any family."""
 
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from agent.controller import joint_velocities
 from gait import FAMILIES, TFS, TFS_PLUS, Gait, GaitFamily, family_named, load_gait, save_gait
 from gait.nao_legs import LIMIT_MARGIN_DEG
 from gait.tfs_plus import EXTRA_NAMES
+from gait.tfs_start import BLEND, HOLD, TFS_START
 from optimizer.cli import gala as gala_command
 from optimizer.episode import EpisodeConfig, EpisodeRunner
 from protocol.nao import JOINT_BY_EFFECTOR, JOINTS, SPEED_CAP
@@ -67,6 +69,54 @@ def test_tfs_plus_with_its_additions_at_zero_is_the_tfs(data, t: float, phases) 
     }
 
 
+@settings(max_examples=80, deadline=None)
+@given(data=st.data(), t=times)
+def test_tfs_start_begun_by_its_own_gait_is_the_tfs(data, t: float) -> None:
+    tfs = data.draw(gaits(TFS))
+    started = TFS_START.from_gait(tfs)
+    assert started.genes == tfs.genes + tfs.genes
+    assert started.walker().joint_targets(t, LIMITS) == tfs.walker().joint_targets(t, LIMITS)
+
+
+@settings(max_examples=60, deadline=None)
+@given(data=st.data(), share=st.floats(0.0, 1.0))
+def test_tfs_start_walks_its_start_gait_then_blends_into_its_cruise_gait(data, share: float) -> None:
+    cruise, start = data.draw(gaits(TFS)), data.draw(gaits(TFS))
+    walker = TFS_START.gait(cruise.genes + start.genes).walker()
+    early = share * HOLD * 0.999
+    assert walker.joint_targets(early, LIMITS) == start.walker().joint_targets(early, LIMITS)
+    late = HOLD + BLEND + 10.0 * share
+    assert walker.joint_targets(late, LIMITS) == cruise.walker().joint_targets(late, LIMITS)
+    t = HOLD + share * BLEND * 0.999
+    a, b = start.walker().joint_targets(t, LIMITS), cruise.walker().joint_targets(t, LIMITS)
+    got = walker.joint_targets(t, LIMITS)
+    for name in got:
+        assert got[name] == pytest.approx(a[name] + share * 0.999 * (b[name] - a[name]), abs=1e-9)
+
+
+def test_tfs_start_refuses_a_start_gait_no_robot_should_walk_by_name() -> None:
+    base = (15.0, 30.0, 10.0, 10.0, 20.0, 0.35, 15.708)
+    with pytest.raises(ValueError, match="c_k"):
+        TFS_START.gait(base + (15.0, -5.0, 10.0, 10.0, 20.0, 0.35, 15.708))
+    assert TFS_START.held == tuple(range(7, 14)) and TFS_START.gene_names[7:] == tuple(f"s_{n}" for n in TFS.gene_names)
+
+
+def test_an_episode_walks_the_start_gait_for_its_first_second_then_the_cruise_gait() -> None:
+    """On the stand-in: a tfs-start gait walks exactly as its start gait alone until the blend
+    begins, and differently after it."""
+    shipped = load_gait()
+    cruise = list(shipped.genes)
+    cruise[0] += 5.0  # c_h
+    started = TFS_START.gait(tuple(cruise) + shipped.genes)
+    with EpisodeRunner(EpisodeConfig(walk_time=HOLD - 0.1)) as runner:
+        alone, begun = runner.evaluate(shipped), runner.evaluate(started)
+    assert alone.status == begun.status == "ok"
+    assert (begun.distance, begun.fell, begun.time) == (alone.distance, alone.fell, alone.time)
+    with EpisodeRunner(EpisodeConfig(walk_time=HOLD + BLEND + 1.0)) as runner:
+        alone, begun = runner.evaluate(shipped), runner.evaluate(started)
+    assert begun.distance != alone.distance
+
+
 @given(st.lists(st.floats(-1e3, 1e3, allow_nan=False), min_size=13, max_size=13))
 def test_tfs_plus_repair_gives_a_valid_gait_inside_the_box(values: list[float]) -> None:
     genes = TFS_PLUS.repair(np.array(values), TFS_PLUS.bounds)
@@ -92,7 +142,7 @@ def test_tfs_plus_genes_outside_the_box_are_refused_by_name() -> None:
         TFS_PLUS.gait([15.0, 30.0, 10.0, 10.0, 20.0, 0.9, 15.708, 0, 0, 0, 0, 0, 0])
     with pytest.raises(ValueError, match="13 genes"):
         TFS_PLUS.gait(base)
-    with pytest.raises(ValueError, match="known: tfs, tfs-plus"):
+    with pytest.raises(ValueError, match="known: tfs, tfs-plus, tfs-start"):
         family_named("hexapod")
 
 
@@ -146,7 +196,8 @@ def test_a_small_search_of_each_family_writes_gait_files_of_that_family(tmp_path
         out = tmp_path / family.name
         assert (
             gala_command.main(
-                [*argv, "--family", family.name, "--out", str(out)], make_evaluator=lambda s: FakeEvaluator()
+                [*argv, "--family", family.name, "--refine-family", family.name, "--out", str(out)],
+                make_evaluator=lambda s: FakeEvaluator(),
             )
             == 0
         )

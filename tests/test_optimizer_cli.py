@@ -253,7 +253,7 @@ def test_a_run_made_before_start_checks_and_the_robot_box_existed_resumes_as_it_
     manifest = json.loads((out / "manifest.json").read_text())
     earlier = ("start", "check_repeats", "check_jitter", "bounds")  # what an earlier version did not write
     earlier += ("robust_walks", "robust_top", "robust_quantile", "command_noise", "refine", "refine_sigma")
-    earlier += ("refine_population", "family", "refine_patience")
+    earlier += ("refine_population", "family", "refine_patience", "refine_family")
     for name in earlier:
         del manifest["settings"][name]
     (out / "manifest.json").write_text(json.dumps(manifest))
@@ -506,3 +506,46 @@ def _refined(folder: Path) -> list[dict]:
 
 def _episodes(folder: Path) -> list[dict]:
     return [json.loads(line) for line in (folder / "episodes.jsonl").read_text().splitlines()]
+
+
+def _refined_run(tmp_path: Path, *flags: str) -> tuple[Path, list[dict]]:
+    out = tmp_path / "refined"
+    argv = ["--crossover", "0.8", "--population", "6", "--iterations", "3", "--generations", "2", "--quiet"]
+    argv += ["--seed", "4", "--check-repeats", "2", "--refine", "80", *flags, "--out", str(out)]
+    assert gala_command.main(argv, make_evaluator=lambda s: FakeEvaluator()) == 0
+    return out, [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
+
+
+def test_the_refinement_holds_a_rows_walk_as_the_start_and_searches_the_cruise_gait(tmp_path: Path) -> None:
+    """By default the main job refines its rows' walks as tfs-start walks: each refined gait keeps a
+    gait of the rows as its start gait, its episodes say their family, and the walk handed over is
+    a tfs-start gait file begun by a rows' gait; Table I's gaits stay TFS gaits."""
+    out, episodes = _refined_run(tmp_path)
+    rows = {tuple(e["genes"]) for e in episodes if e["key"].startswith("pc")}
+    assert all("family" not in e for e in episodes if e["key"].startswith("pc"))
+    refined = [e for e in episodes if e["key"].startswith("refine")]
+    assert refined and all(e["family"] == "tfs-start" and len(e["genes"]) == 14 for e in refined)
+    assert {tuple(e["genes"][7:]) for e in refined} <= rows
+    assert len({tuple(e["genes"][:7]) for e in refined}) > 40
+    assert load_gait(out / "best_gait.json").family.name == "tfs"
+    handed = load_gait(out / "fastest_gait.json")
+    assert handed.family.name == "tfs-start" and handed.genes[7:] in rows
+    results = json.loads((out / "results.json").read_text())
+    assert results["fastest_episode"]["family"] == "tfs-start"
+    checks = [e for e in episodes if e["key"].startswith("check/" + results["fastest_score"]["key"])]
+    assert len(checks) == 2 and all(e["family"] == "tfs-start" for e in checks)
+    assert json.loads((out / "fastest_gait.card.json").read_text())["family"] == "tfs-start"
+
+
+def test_the_refinement_can_search_the_runs_own_family(tmp_path: Path) -> None:
+    out, episodes = _refined_run(tmp_path, "--refine-family", "tfs")
+    refined = [e for e in episodes if e["key"].startswith("refine")]
+    assert refined and all("family" not in e and len(e["genes"]) == 7 for e in refined)
+    assert load_gait(out / "fastest_gait.json").family.name == "tfs"
+
+
+def test_a_refinement_family_that_cannot_refine_the_runs_walks_is_refused(tmp_path: Path, capsys) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        gala_command.main(["--family", "tfs-plus", "--out", str(tmp_path / "x")])
+    assert exit_info.value.code == 2
+    assert "--refine-family tfs-start: it cannot refine tfs-plus walks" in capsys.readouterr().err

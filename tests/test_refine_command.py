@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 from test_driver import FakeEvaluator, Killed
 
-from gait import TFS, TFS_PLUS, load_gait, save_gait
+from gait import TFS, TFS_PLUS, TFS_START, load_gait, save_gait
+from gait.tfs_plus import NEUTRAL
 from optimizer.cli import refine as refine_command
 from optimizer.cli.refine import START_KEY
 
@@ -50,10 +51,26 @@ def test_a_tfs_walk_starts_a_tfs_plus_search_with_its_additions_at_zero(tmp_path
     episodes = _episodes(out)
     assert {len(e["genes"]) for e in episodes} == {13}
     first = next(e for e in episodes if e["key"] == f"{START_KEY}/i000")
-    assert first["genes"] == [*load_gait().genes, *TFS_PLUS.neutral]
+    assert first["genes"] == [*load_gait().genes, *NEUTRAL]
     assert load_gait(out / "fastest_gait.json").family is TFS_PLUS
     genes = np.array([e["genes"] for e in episodes])
     assert np.all(genes >= TFS_PLUS.bounds[:, 0]) and np.all(genes <= TFS_PLUS.bounds[:, 1])
+
+
+def test_a_tfs_walk_starts_a_tfs_start_search_that_holds_it_as_the_start_gait(tmp_path: Path) -> None:
+    """Every refined gait keeps the file's gait as its start gait and moves only the cruise gait."""
+    out = tmp_path / "started"
+    argv = [str(_start_file(tmp_path)), "--family", "tfs-start", *SMALL, "--out", str(out)]
+    assert refine_command.main(argv, make_evaluator=lambda s: FakeEvaluator()) == 0
+    shipped = list(load_gait().genes)
+    episodes = _episodes(out)
+    first = next(e for e in episodes if e["key"] == f"{START_KEY}/i000")
+    assert first["genes"] == shipped + shipped
+    refined = [e["genes"] for e in episodes if e["key"].startswith("refine")]
+    assert len(refined) >= 40 and all(g[7:] == shipped for g in refined)
+    assert len({tuple(g[:7]) for g in refined}) > 20
+    handed = load_gait(out / "fastest_gait.json")
+    assert handed.family is TFS_START and list(handed.genes[7:]) == shipped
 
 
 def test_a_refinement_killed_midway_resumes_to_the_same_result(tmp_path: Path) -> None:

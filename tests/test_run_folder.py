@@ -262,6 +262,7 @@ def test_a_log_from_before_records_had_their_kind_reads_check_walks_by_their_key
         ({"seed": 1.5}, '"seed" must be an integer'),
         ({"start": [0, 0]}, '"start" must be 3 numbers'),
         ({"distance": float("nan")}, '"distance" must be a finite number'),
+        ({"family": 7}, '"family" must be a family\'s name'),
     ],
 )
 def test_a_record_with_a_wrong_field_is_refused_naming_it(change: dict, problem: str) -> None:

@@ -142,6 +142,33 @@ class TracingFake(FakeEvaluator):
             yield EpisodeOutcome(outcome.task, outcome.worker, result)
 
 
+def test_a_tfs_start_hand_over_is_walked_as_one_beside_the_tfs_rows(tmp_path: Path) -> None:
+    """The main job's refined walk is a tfs-start gait among TFS rows: the transfer walks each in
+    its own family, and its table has the gene columns of both (a row's start genes left empty)."""
+    out = _run(tmp_path)
+    assert json.loads((out / "results.json").read_text())["fastest_episode"]["family"] == "tfs-start"
+    evaluator = FakeEvaluator()
+    tasks: list = []
+    original = evaluator.evaluate
+
+    def spying(batch):
+        tasks.extend(batch)
+        return original(batch)
+
+    evaluator.evaluate = spying  # type: ignore[method-assign]
+    assert transfer.main([str(out), "--repeats", "2"], make_evaluator=lambda setup: evaluator) == 0
+    gaits = transfer.reported_gaits(json.loads((out / "results.json").read_text()))
+    expected = [None] * (len(gaits) - 1) + ["tfs-start"]  # the rows, then the fastest walk
+    families = {t.key.split("/")[1]: t.family for t in tasks}
+    assert [families[f"g{j}"] for j in range(len(gaits))] == expected
+    rows = {r["gait"]: r for r in csv.DictReader((out / "transfer.csv").open())}
+    assert rows["fastest"]["gene_s_w"] != "" and rows["Table I pc 0.8"]["gene_s_w"] == ""
+    assert rows["fastest"]["gene_w"] != "" and rows["Table I pc 0.8"]["gene_w"] != ""
+    document = json.loads((out / "transfer.json").read_text())
+    assert [g.get("family") for g in document["gaits"]] == expected
+    assert json.loads((out / "fastest_gait.card.json").read_text())["family"] == "tfs-start"
+
+
 def test_transfer_puts_its_walks_on_the_cards_beside_the_gait_files(tmp_path: Path) -> None:
     out = _run(tmp_path)
     fastest = out / "fastest_gait.json"

@@ -636,9 +636,12 @@ def best_gait(driver: Driver, key: str | None) -> ScoredGait | None:
     return None if key is None else driver.scored.get(key)
 
 
-def write_gait(run: Run, path: Path, genes: Sequence[float] | np.ndarray, notes: str) -> None:
-    """A gait the run found, as a gait file of its family that the agent takes with ``--gait``."""
-    save_gait(run.family.gait(genes), path, notes)
+def write_gait(
+    run: Run, path: Path, genes: Sequence[float] | np.ndarray, notes: str, family: str | None = None
+) -> None:
+    """A gait the run found, as a gait file of its family (the run's, unless ``family`` names
+    another) that the agent takes with ``--gait``."""
+    save_gait((run.family if family is None else family_named(family)).gait(genes), path, notes)
 
 
 def walked_on(setup: EvaluationSetup) -> str:
@@ -649,8 +652,9 @@ def walked_on(setup: EvaluationSetup) -> str:
 def card_of(run: Run, name: str, check: StabilityReport) -> WalkCard:
     """The walk card of a checked gait: its check walks, on the server the run walked on."""
     walks = tuple(map(CardWalk.from_record, check.repeats))
+    family = check.gait.family or run.setup.family
     return WalkCard(
-        name, check.gait.genes, run.setup.walk_time, run.setup.start[2], {walked_on(run.setup): walks}, run.setup.family
+        name, check.gait.genes, run.setup.walk_time, run.setup.start[2], {walked_on(run.setup): walks}, family
     )
 
 
@@ -659,7 +663,7 @@ def hand_over(run: Run, fastest: Fastest | None, what: str) -> dict[str, Any]:
     walk card beside it; returns its entries of results.json."""
     if fastest is not None:
         path = run.folder.path / "fastest_gait.json"
-        write_gait(run, path, fastest.gait.genes, f"{what}: {fastest.describe()}")
+        write_gait(run, path, fastest.gait.genes, f"{what}: {fastest.describe()}", fastest.gait.family)
         if fastest.check is not None:
             write_card(card_of(run, "fastest walk", fastest.check), path)
     return {

@@ -15,8 +15,12 @@ After the rows, a refinement phase (beyond the paper; ``--refine N``, 0 to skip)
 the fastest gait of the rows that held its check and from the best-scored gait, its runs raced
 (``--refine-race``), for N more gaits, scored the same way
 (``optimizer.cli.refine``, which ``python -m optimizer.refine`` runs on a gait file of your own):
-GALA's population levels off below what the gait family holds. Table I is the same with or
-without it. ``--family`` searches another gait family (``gait.FAMILIES``).
+GALA's population levels off below what the gait family holds. By default it refines them as
+tfs-start walks (``--refine-family``, ``gait.tfs_start``): each begun by itself, its start gait
+held and its cruise gait searched, because what decides whether a fast TFS gait walks at all is
+its first half second, while what makes it fast after that changes smoothly with its genes; the
+walk handed over is then a tfs-start gait file. Table I is the same with or without it.
+``--family`` searches another gait family (``gait.FAMILIES``).
 
 Each row's best gait is then checked (``optimizer.run.stability``): walked ``--check-repeats``
 more times (default 10), each with its own dither draw; Table I gives its falls, spread and
@@ -36,10 +40,12 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
+from gait import FAMILIES, TFS_START, GaitFamily, family_named
 from optimizer.cli.common import (
     EvaluatorMaker,
     Run,
@@ -50,6 +56,7 @@ from optimizer.cli.common import (
     hand_over,
     pool_evaluator,
     prepare_run,
+    run_family,
     run_session,
     search_box,
     stability_config,
@@ -98,6 +105,8 @@ PAPER: dict[str, Any] = {
     "elitism": GAConfig().elitism,
     "baseline_window": GALAConfig().baseline_window,
     **REFINE_DEFAULTS,
+    "refine": 4000,
+    "refine_family": TFS_START.name,
 }
 
 #: A first look on a 2-core machine: one row (the paper's best crossover rate), population 20,
@@ -218,8 +227,22 @@ def build_parser() -> argparse.ArgumentParser:
         "one, each step) and give the winner half the gaits (default); --no-refine-race: "
         "one start, the gaits shared evenly among the steps, as before the race",
     )
+    p.add_argument(
+        "--refine-family",
+        choices=list(FAMILIES),
+        default=None,
+        help="the gait family the refinement searches, the run's own or one extending it (default "
+        f"{PAPER['refine_family']}: the rows' walk begun by itself, its start held and its cruise gait "
+        'searched; docs/optimizer.md, "The start-up decides")',
+    )
     add_run_arguments(p)
     return p
+
+
+def refinement_family(settings: Mapping[str, Any]) -> GaitFamily:
+    """The family the refinement searches: ``refine_family``, else (a run from before the setting)
+    the run's own."""
+    return family_named(settings.get("refine_family") or run_family(settings))
 
 
 def gala_config(settings: dict[str, Any]) -> GALAConfig:
@@ -324,6 +347,17 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     if len(set(tags)) != len(tags):
         parser.error(f"--crossover: a rate is given twice ({' '.join(t[2:] for t in tags)})")
     run = prepare_run(parser, args, "gala", PAPER, argv)
+    refined = refinement_family(run.settings)
+    if refined is not run.family and refined.extends is not run.family:
+        parser.error(
+            f"--refine-family {refined.name}: it cannot refine {run.family.name} walks; give the run's own "
+            f"family (--refine-family {run.family.name}) or one that extends it"
+        )
+    if run.settings.get("bounds", "legacy") not in refined.boxes:
+        parser.error(
+            f"--refine-family {refined.name}: it has no {run.settings.get('bounds', 'legacy')} box (its boxes: "
+            f"{', '.join(refined.boxes)}); give --refine-family {run.family.name}"
+        )
     config = gala_config(run.settings)
     stability = stability_config(run.settings)
     bounds, repair = search_box(run.settings)
@@ -345,7 +379,12 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             write_outputs(run, rows, fastest)
         if run.settings.get("refine", 0) and fastest is not None:  # a run from before it: none
             starts = refine_starts(driver, fastest) if run.settings.get("refine_race") else [fastest.gait.genes]
-            refine(driver, run.settings, run.seed, bounds, repair, starts)
+            lifted = [refined.from_gait(run.family.gait(start)).genes for start in starts]
+            box = refined.boxes[run.settings.get("bounds", "legacy")]
+            named = None if refined is run.family else refined.name
+            refine(
+                driver, run.settings, run.seed, box, partial(refined.repair, bounds=box), lifted, refined.held, named
+            )
             fastest = fastest_walk(driver, run.setup.start, stability)
             write_outputs(run, rows, fastest)
         falling = [f"{row.result.crossover:g}" for row in rows if row.check is not None and not row.check.stable]

@@ -12,7 +12,9 @@ refinement never hands over less than it was given. The best-scored gaits are th
 fastest_gait.json, with its walk card.
 
 ``--family`` searches a larger family than the file's: a TFS walk starts a tfs-plus search as the
-tfs-plus gait with its additions at 0, the walk it already is (``GaitFamily.from_gait``).
+tfs-plus gait with its additions at 0, the walk it already is (``GaitFamily.from_gait``), and a
+tfs-start search as the walk begun by itself, of which the search holds the start gait and moves
+only the cruise gait (``gait.tfs_start``: fast TFS gaits fall at the start when moved at all).
 
 Writes fastest_gait.json (and its walk card), results.json and episodes.jsonl (what ``--resume DIR``
 continues from) into the run folder.
@@ -105,9 +107,14 @@ def refine(
     bounds: np.ndarray,
     repair: Repair,
     starts: Sequence[Sequence[float]],
+    held: Sequence[int] = (),
+    family: str | None = None,
 ) -> None:
     """CMA-ES from each of ``starts`` (genes) with each step of the settings (``refinement_arms``),
-    each run seeded from the run's seed and its prefix; every gait scored as the run scores.
+    each run seeded from the run's seed and its prefix; every gait scored as the run scores. The
+    genes ``held`` keep each start's values (the family's ``held``: a tfs-start search holds the
+    start gait and searches the cruise gait). ``family`` names the genes' family where it is not
+    the run's (the main job refines its TFS rows' walks as tfs-start walks).
 
     The runs race: each walks a heat (``heat_gaits``), then the one whose best score is highest
     (the first on a tie) walks the rest of the budget, going on where it stopped, with its own
@@ -141,21 +148,32 @@ def refine(
                     arm.prefix,
                     population,
                     patience,
-                )
+                    held,
+                ),
+                family=family,
             )
         return
     whole = total - (len(arms) - 1) * heat  # what the winner walks in all
     runs = [
         CMAESRun(
-            bounds, repair, stable_seed(seed, arm.prefix), arm.start, arm.sigma, whole, arm.prefix, population, patience
+            bounds,
+            repair,
+            stable_seed(seed, arm.prefix),
+            arm.start,
+            arm.sigma,
+            whole,
+            arm.prefix,
+            population,
+            patience,
+            held,
         )
         for arm in arms
     ]
     races = [driver.race() for _ in runs]
     for run, race in zip(runs, races):
-        driver.run(Heat(run, heat), race)
+        driver.run(Heat(run, heat), race, family)
     winner = max(range(len(runs)), key=lambda j: (_best_score(runs[j]), -j))
-    driver.run(runs[winner], races[winner])
+    driver.run(runs[winner], races[winner], family)
 
 
 def refine_starts(driver: Driver, fastest: Fastest) -> list[tuple[float, ...]]:
@@ -292,7 +310,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
 
     def body(driver: Driver) -> str:
         driver.run(StartGait(start_genes))
-        refine(driver, run.settings, run.seed, bounds, repair, [start_genes])
+        refine(driver, run.settings, run.seed, bounds, repair, [start_genes], run.family.held)
         fastest = fastest_walk(driver, run.setup.start, stability)
         write_json(run.folder.path / "results.json", {"settings": run.settings, **hand_over(run, fastest, "refined")})
         start = driver.scored.get(f"{START_KEY}/i000")

@@ -70,6 +70,8 @@ class ReportedGait:
     run_falls: int
     walks: list[EpisodeRecord] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
+    #: the genes' family where it is not the run's (the main job's refined walk: tfs-start)
+    family: str | None = None
 
     @property
     def name(self) -> str:
@@ -114,6 +116,7 @@ def reported_gaits(results: Mapping[str, Any]) -> list[ReportedGait]:
     files it may be in (``best_gait.json`` is every row's candidate: which row it holds is seen
     by its genes, ``gait_files``)."""
     found: list[tuple[str, Sequence[float], Mapping[str, Any] | None, Mapping[str, Any] | None, list[str]]] = []
+    families: dict[tuple[float, ...], str] = {}
     if "rows" in results or "fastest_episode" in results:  # GALA (rows, then the fastest); a refinement
         for row in results.get("rows", ()):
             found.append(
@@ -128,6 +131,8 @@ def reported_gaits(results: Mapping[str, Any]) -> list[ReportedGait]:
         fastest = results.get("fastest_episode")
         if fastest is not None:
             found.append(("fastest", fastest["genes"], results.get("fastest_check"), fastest, [FASTEST_GAIT]))
+            if fastest.get("family") is not None:
+                families[tuple(float(g) for g in fastest["genes"])] = fastest["family"]
     elif "reported" in results:  # a comparison: each method's best on each seed
         for gait in results["reported"]:
             found.append((gait["name"], gait["genes"], gait.get("check"), gait.get("walk"), []))
@@ -141,7 +146,7 @@ def reported_gaits(results: Mapping[str, Any]) -> list[ReportedGait]:
             gaits[key].files.extend(f for f in files if f not in gaits[key].files)
             continue
         distances, falls = _measured(check, walk)
-        gaits[key] = ReportedGait(key, [name], distances, falls, files=list(files))
+        gaits[key] = ReportedGait(key, [name], distances, falls, files=list(files), family=families.get(key))
     return list(gaits.values())
 
 
@@ -186,7 +191,7 @@ def update_cards(
                 notes.append(f"{path.name}: its card was of other genes; replaced by a card of the new walks")
                 card = None
             if card is None:
-                card = WalkCard(gait.name, gait.genes, walk_time, heading, family=family)
+                card = WalkCard(gait.name, gait.genes, walk_time, heading, family=gait.family or family)
             write_card(card.with_side(side, walks), path)
             written.append(path)
     if fileless:
@@ -239,12 +244,18 @@ def _row(gait: ReportedGait) -> dict[str, Any]:
 
 
 def write_csv(gaits: Sequence[ReportedGait], path: Path, family: GaitFamily) -> None:
-    genes = tuple(f"gene_{n}" for n in family.gene_names)
+    """One row per gait; a gene column for each gene of the run's ``family`` and of any other family
+    a gait is of (left empty for gaits without that gene)."""
+    names = list(family.gene_names)
+    for gait in gaits:
+        if gait.family is not None:
+            names += [n for n in family_named(gait.family).gene_names if n not in names]
     with path.open("w", newline="") as out:
-        writer = csv.DictWriter(out, COLUMNS + genes)
+        writer = csv.DictWriter(out, COLUMNS + tuple(f"gene_{n}" for n in names))
         writer.writeheader()
         for gait in gaits:
-            row = {**_row(gait), **dict(zip(genes, gait.genes))}
+            own = family if gait.family is None else family_named(gait.family)
+            row = {**_row(gait), **{f"gene_{n}": g for n, g in zip(own.gene_names, gait.genes)}}
             writer.writerow({k: ("" if v is None else v) for k, v in row.items()})
 
 
@@ -384,7 +395,9 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         starts = jittered_starts(start, jitter, args.repeats, stable_seed(seed, f"transfer/{number_}"))
         for j, point in enumerate(starts):
             key = f"transfer/g{number_}/r{j:02d}"
-            task = EpisodeTask(key, gait.genes, stable_seed(seed, key), point, WalkKind.CHECK, trace=True)
+            task = EpisodeTask(
+                key, gait.genes, stable_seed(seed, key), point, WalkKind.CHECK, trace=True, family=gait.family
+            )
             tasks[key] = (gait, task)
     print(
         f"transfer: {len(gaits)} gait(s) x {args.repeats} walks on the {target} ({workers} worker(s))", file=sys.stderr
@@ -421,7 +434,15 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             "repeats": args.repeats,
             "real_command": real_command,
             "servers": [str(s) for s in servers],
-            "gaits": [{**_row(g), "genes": list(g.genes), "walks": [w.to_json() for w in g.walks]} for g in gaits],
+            "gaits": [
+                {
+                    **_row(g),
+                    "genes": list(g.genes),
+                    **({} if g.family is None else {"family": g.family}),
+                    "walks": [w.to_json() for w in g.walks],
+                }
+                for g in gaits
+            ],
         },
     )
     cards, notes = update_cards(folder.path, gaits, side_name(real), settings["walk_time"], start[2], setup.family)

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from typing import Any, Protocol
 
+from gait import Gait, family_named
 from optimizer.episode import EpisodeConfig, EpisodeResult, EpisodeRunner, ServerAddress, Start
 from optimizer.episode.real_server import RealServerProcess
 from optimizer.episode.runner import quiet_agent_logs
@@ -49,7 +50,8 @@ class EpisodeTask:
     run seed and the key), so its result does not depend on which worker runs it or when.
     ``start`` (x, y, heading) moves this episode's start point; None walks from the run's.
     ``kind`` goes into the episode's record (``optimizer.evaluation.record``). ``trace`` asks for
-    the walk's drift, turn and track (a walk card's material; ``EpisodeRunner.evaluate``)."""
+    the walk's drift, turn and track (a walk card's material; ``EpisodeRunner.evaluate``).
+    ``family`` names the genes' gait family where it is not the runner's (None)."""
 
     key: str
     genes: tuple[float, ...]
@@ -57,10 +59,12 @@ class EpisodeTask:
     start: Start | None = None
     kind: WalkKind = WalkKind.SEARCH
     trace: bool = False
+    family: str | None = None
 
     def run_on(self, runner: Runner) -> dict[str, Any]:
         """This episode on ``runner``, as the result dict a worker sends back."""
-        return dict(runner.evaluate(self.genes, seed=self.seed, start=self.start, trace=self.trace).to_dict())
+        gait = self.genes if self.family is None else family_named(self.family).gait(self.genes)
+        return dict(runner.evaluate(gait, seed=self.seed, start=self.start, trace=self.trace).to_dict())
 
 
 def failed_result(reason: str, wall: float) -> dict[str, Any]:
@@ -84,7 +88,9 @@ class EpisodeOutcome:
     def to_record(self) -> EpisodeRecord:
         """The episode log's record of this outcome."""
         task = self.task
-        return EpisodeRecord.of(task.key, task.genes, task.seed, task.start, task.kind, self.worker, self.result)
+        return EpisodeRecord.of(
+            task.key, task.genes, task.seed, task.start, task.kind, self.worker, self.result, task.family
+        )
 
 
 class Evaluator(Protocol):
@@ -106,7 +112,9 @@ class EvaluationError(RuntimeError):
 class Runner(Protocol):
     """What a worker needs from an episode runner (``optimizer.episode.EpisodeRunner``)."""
 
-    def evaluate(self, genes: Sequence[float], seed: int, start: Start | None = None, trace: bool = False) -> Any: ...
+    def evaluate(
+        self, genes: Sequence[float] | Gait, seed: int, start: Start | None = None, trace: bool = False
+    ) -> Any: ...
 
     def close(self) -> None: ...
 

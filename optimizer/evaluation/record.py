@@ -40,8 +40,9 @@ class EpisodeRecord:
     """One finished episode: which candidate (key, genes, its seed and start), what kind of walk,
     which worker ran it, and the runner's result (``optimizer.episode.EpisodeResult``).
 
-    ``start`` is None for a walk from the run's own start. ``seed`` and ``worker`` are None only
-    in records of logs that did not keep them."""
+    ``start`` is None for a walk from the run's own start, ``family`` None for a gait of the run's
+    own family (a run may walk gaits of another: the main job's refinement walks tfs-start gaits).
+    ``seed`` and ``worker`` are None only in records of logs that did not keep them."""
 
     key: str
     genes: tuple[float, ...]
@@ -62,6 +63,7 @@ class EpisodeRecord:
     drift: float | None = None
     heading_change: float | None = None
     track: tuple[tuple[float, ...], ...] | None = None
+    family: str | None = None
 
     @property
     def ran(self) -> bool:
@@ -80,6 +82,8 @@ class EpisodeRecord:
     def to_json(self) -> dict[str, Any]:
         """The log line's object: fields that are None are left out, as they always were."""
         document: dict[str, Any] = {"key": self.key, "genes": list(self.genes), "kind": self.kind.value}
+        if self.family is not None:
+            document["family"] = self.family
         if self.seed is not None:
             document["seed"] = self.seed
         if self.start is not None:
@@ -136,6 +140,7 @@ class EpisodeRecord:
             "seed": ("an integer", _is_int),
             "worker": ("an integer", _is_int),
             "kind": ("one of " + ", ".join(k.value for k in WalkKind), lambda v: v in {k.value for k in WalkKind}),
+            "family": ("a family's name", lambda v: isinstance(v, str) and bool(v)),
         }
         if "fitness" not in document:
             raise RecordError(f'"fitness" must be a finite number, found {_shown(None)}')
@@ -163,6 +168,7 @@ class EpisodeRecord:
             drift=_float_or_none(document.get("drift")),
             heading_change=_float_or_none(document.get("heading_change")),
             track=None if track is None else tuple(tuple(float(v) for v in p) for p in track),
+            family=document.get("family"),
         )
 
     @classmethod
@@ -175,6 +181,7 @@ class EpisodeRecord:
         kind: WalkKind,
         worker: int,
         result: Mapping[str, Any],
+        family: str | None = None,
     ) -> EpisodeRecord:
         """The record of a task run by ``worker``, from the runner's result dict
         (``EpisodeResult.to_dict()``)."""
@@ -196,6 +203,7 @@ class EpisodeRecord:
             drift=_float_or_none(result.get("drift")),
             heading_change=_float_or_none(result.get("heading_change")),
             track=None if result.get("track") is None else tuple(tuple(map(float, p)) for p in result["track"]),
+            family=family,
         )
 
 

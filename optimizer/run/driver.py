@@ -69,12 +69,13 @@ class Driver:
         #: episodes this driver evaluated (not replayed from the log)
         self.evaluated = 0
 
-    def run(self, search: AskTellSearch, race: Race | None = None) -> Any:
+    def run(self, search: AskTellSearch, race: Race | None = None, family: str | None = None) -> Any:
         """Drive ``search`` to the end and return its ``result()``; ``race``: the race it goes on
-        with (a search run in stages keeps its bar), else a fresh one."""
+        with (a search run in stages keeps its bar), else a fresh one; ``family``: its genes' gait
+        family, where it is not the run's."""
         race = self.race() if race is None else race
         while not search.done:
-            scored = self.score([(c.key, c.genes) for c in search.ask()], race)
+            scored = self.score([(c.key, c.genes) for c in search.ask()], race, family)
             search.tell({s.key: s.fitness for s in scored})
         return search.result()
 
@@ -82,32 +83,37 @@ class Driver:
         """A fresh race for one search."""
         return Race(self.scoring)
 
-    def score(self, candidates: Sequence[tuple[str, Sequence[float] | np.ndarray]], race: Race) -> list[ScoredGait]:
+    def score(
+        self,
+        candidates: Sequence[tuple[str, Sequence[float] | np.ndarray]],
+        race: Race,
+        family: str | None = None,
+    ) -> list[ScoredGait]:
         """Score a batch: every candidate walks once, then, round by round, those ``race``
         chooses walk the rest of their k walks (each round one more batch) and their scores join
         the race, until it chooses none."""
-        firsts = self.walk([self.task(key, genes) for key, genes in candidates])
+        firsts = self.walk([self.task(key, genes, family=family) for key, genes in candidates])
         walks = {key: [firsts[key]] for key, _ in candidates}
         genes_of = {key: genes for key, genes in candidates}
         while chosen := race.choose([(key, firsts[key]) for key, _ in candidates if len(walks[key]) == 1]):
-            more = self.walk([task for key in chosen for task in self._raced_tasks(key, genes_of[key])])
+            more = self.walk([task for key in chosen for task in self._raced_tasks(key, genes_of[key], family)])
             for key in chosen:
                 walks[key] += [more[extra_key(key, j)] for j in range(1, self.scoring.walks)]
                 race.enter(race.score(walks[key]))
         out = []
         for key, _ in candidates:
-            scored = ScoredGait(key, firsts[key].genes, race.score(walks[key]), tuple(walks[key]))
+            scored = ScoredGait(key, firsts[key].genes, race.score(walks[key]), tuple(walks[key]), family)
             self.scored[key] = scored
             out.append(scored)
             if self.progress is not None:
                 self.progress.scored(scored.fitness)
         return out
 
-    def _raced_tasks(self, key: str, genes: Sequence[float] | np.ndarray) -> list[EpisodeTask]:
+    def _raced_tasks(self, key: str, genes: Sequence[float] | np.ndarray, family: str | None) -> list[EpisodeTask]:
         """The other k - 1 walks of a raced candidate, from starts moved as its check's are."""
         seed = stable_seed(self.run_seed, "robust/" + key)
         starts = moved_starts(self.start, self.scoring.jitter, self.scoring.walks - 1, seed)
-        return [self.task(extra_key(key, j + 1), genes, start) for j, start in enumerate(starts)]
+        return [self.task(extra_key(key, j + 1), genes, start, family=family) for j, start in enumerate(starts)]
 
     def task(
         self,
@@ -116,13 +122,15 @@ class Driver:
         start: Start | None = None,
         kind: WalkKind = WalkKind.SEARCH,
         trace: bool = False,
+        family: str | None = None,
     ) -> EpisodeTask:
         """The episode ``key`` of this run, with its own seed (which also seeds its dither)."""
-        return EpisodeTask(key, tuple(float(g) for g in genes), stable_seed(self.run_seed, key), start, kind, trace)
+        genes = tuple(float(g) for g in genes)
+        return EpisodeTask(key, genes, stable_seed(self.run_seed, key), start, kind, trace, family)
 
     def walk(self, tasks: Sequence[EpisodeTask]) -> dict[str, EpisodeRecord]:
         """Each task's log record: from the log when it holds the key, else evaluated (as one
-        batch) and logged as it finishes. A logged key must have the task's genes and start."""
+        batch) and logged as it finishes. A logged key must have the task's genes, start and family."""
         records: dict[str, EpisodeRecord] = {}
         todo: list[EpisodeTask] = []
         for task in tasks:
@@ -130,12 +138,13 @@ class Driver:
             if record is None:
                 todo.append(task)
                 continue
-            asked = (task.genes, None if task.start is None else tuple(float(x) for x in task.start))
-            if (record.genes, record.start) != asked:
+            asked = (task.genes, None if task.start is None else tuple(float(x) for x in task.start), task.family)
+            if (record.genes, record.start, record.family) != asked:
                 raise ResumeMismatch(
-                    f"episode {task.key!r}: the log holds other genes or another start than the search "
-                    f"asks (genes {list(record.genes)}, start {record.start} vs genes {list(task.genes)}, start "
-                    f"{asked[1]}); was the run made with other settings or code?"
+                    f"episode {task.key!r}: the log holds other genes, another start or another family than "
+                    f"the search asks (genes {list(record.genes)}, start {record.start}, family {record.family} vs "
+                    f"genes {list(task.genes)}, start {asked[1]}, family {task.family}); was the run made with "
+                    "other settings or code?"
                 )
             records[task.key] = record
         if todo:

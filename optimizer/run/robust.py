@@ -58,12 +58,13 @@ def extra_key(key: str, walk: int) -> str:
 @dataclass(frozen=True)
 class ScoredGait:
     """A candidate as its search was told it: its key, genes, score and the walks behind it (one,
-    or k when it was raced)."""
+    or k when it was raced); ``family`` where its genes are not of the run's family."""
 
     key: str
     genes: tuple[float, ...]
     fitness: float
     walks: tuple[EpisodeRecord, ...]
+    family: str | None = None
 
     @property
     def raced(self) -> bool:

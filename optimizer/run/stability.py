@@ -129,7 +129,7 @@ def check(driver: Driver, gait: ScoredGait, base: Start, config: StabilityConfig
     key = gait.key
     starts = moved_starts(base, config.jitter, config.repeats, stable_seed(driver.run_seed, CHECK_PREFIX + key))
     tasks = [
-        driver.task(f"{CHECK_PREFIX}{key}/r{j:02d}", gait.genes, start, WalkKind.CHECK, trace=True)
+        driver.task(f"{CHECK_PREFIX}{key}/r{j:02d}", gait.genes, start, WalkKind.CHECK, trace=True, family=gait.family)
         for j, start in enumerate(starts)
     ]
     records = driver.walk(tasks)

@@ -77,18 +77,24 @@ def cmaes_program(
     candidates: int | None = None,
     population: int | None = None,
     patience: int | None = None,
+    held: Sequence[int] = (),
 ) -> SearchProgram:
     """CMA-ES from ``start`` (genes; None: a seeded random point) with step ``sigma0`` (a fraction
     of the box) and ``population`` gaits a generation (None: the library's 4 + 3 ln n), batches
     keyed ``gNNN``, for ``candidates`` candidates in all (None: for ever; the last batch is cut
     to fit); started again, with twice the gaits a generation, after ``patience`` generations
-    without a gain (None: only when ``cma`` stops it)."""
+    without a gain (None: only when ``cma`` stops it). The genes ``held`` (indices) keep the
+    start's values throughout (``GaitFamily.held``): the strategy searches only the others."""
+    if held and start is None:
+        raise ValueError("held genes need a start gait to hold them at")
     low, high = bounds[:, 0], bounds[:, 1]
     rng = np.random.default_rng(seed)
     own = _OwnRandom()
     x0 = None if start is None else np.clip((np.asarray(start, dtype=float) - low) / (high - low), 0.0, 1.0)
+    kept = sorted({int(k) for k in held})
+    free = [k for k in range(len(low)) if k not in kept]
     with own.active():
-        strategy = _strategy(rng, rng.uniform(0.0, 1.0, len(low)) if x0 is None else x0, sigma0, population)
+        strategy = _strategy(rng, rng.uniform(0.0, 1.0, len(low)) if x0 is None else x0[free], sigma0, population)
     generation, asked = 0, 0
     best: tuple[float, np.ndarray] | None = None
     mark: float | None = None  # the best score at the last gain of GAIN
@@ -98,7 +104,9 @@ def cmaes_program(
             unit = strategy.ask()
         if candidates is not None:
             unit = unit[: candidates - asked]
-        genes = np.array([repair(low + np.asarray(u) * (high - low)) for u in unit])
+        genes = np.array([repair(low + _whole(u, x0, free) * (high - low)) for u in unit])
+        if kept:  # exactly the start's values, not their round trip through the unit cube
+            genes[:, kept] = np.asarray(start, dtype=float)[kept]
         fitness = yield Batch(f"g{generation:03d}", genes)
         asked += len(unit)
         generation += 1
@@ -115,9 +123,19 @@ def cmaes_program(
         if strategy.stop() or stalled:  # a refinement starts again from the best it met, a search from anywhere
             if stalled:
                 population, marked = 2 * strategy.popsize, generation
-            restart = rng.uniform(0.0, 1.0, len(low)) if x0 is None else best[1]
+            restart = rng.uniform(0.0, 1.0, len(low)) if x0 is None else best[1][free]
             with own.active():
                 strategy = _strategy(rng, restart, sigma0, population)
+
+
+def _whole(unit: Sequence[float], x0: np.ndarray | None, free: list[int]) -> np.ndarray:
+    """A point the strategy asked (its free genes) as a point of the whole unit cube, the held
+    genes at the start's."""
+    if x0 is None or len(free) == len(x0):
+        return np.asarray(unit)
+    whole = x0.copy()
+    whole[free] = unit
+    return whole
 
 
 class CMAESRun(KeyedSearch):
@@ -134,10 +152,11 @@ class CMAESRun(KeyedSearch):
         prefix: str,
         population: int | None = None,
         patience: int | None = None,
+        held: Sequence[int] = (),
     ) -> None:
         self._best: tuple[float, np.ndarray] | None = None
         self._prefix = prefix
-        program = cmaes_program(bounds, repair, seed, start, sigma0, candidates, population, patience)
+        program = cmaes_program(bounds, repair, seed, start, sigma0, candidates, population, patience, held)
         super().__init__(self._run(program))
 
     def _run(self, program: SearchProgram) -> SearchProgram:
