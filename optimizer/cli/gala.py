@@ -45,7 +45,7 @@ from dataclasses import dataclass
 from functools import partial
 from typing import Any
 
-from gait import FAMILIES, TFS_START, GaitFamily, family_named
+from gait import FAMILIES, TFS, TFS_START, GaitFamily, family_named
 from optimizer.cli.common import (
     EvaluatorMaker,
     Run,
@@ -113,9 +113,18 @@ PAPER: dict[str, Any] = {
 #: 20 iterations (19 feedbacks to the automaton), a 6-generation final GA (515 gaits), then 1600
 #: gaits of refinement, each gait raced as the default scoring says, plus the checks (10 walks for
 #: the row's best and for each of the 10 best-scored gaits). Measured in bench/notebook-2026.md.
+#: Its refinement searches TFS gaits: a quick row's walks are slow, and a tfs-start refinement
+#: holding one as its start gait handed over less (seed 1: 7.33 m, against 7.77 m; bench/RESULTS.md).
 BUDGETS: dict[str, dict[str, Any]] = {
     "paper": {},
-    "quick": {"crossover": [0.8], "population": 20, "iterations": 20, "generations": 6, "refine": 1600},
+    "quick": {
+        "crossover": [0.8],
+        "population": 20,
+        "iterations": 20,
+        "generations": 6,
+        "refine": 1600,
+        "refine_family": TFS.name,
+    },
 }
 
 
