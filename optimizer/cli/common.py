@@ -300,9 +300,12 @@ def run_family(settings: Mapping[str, Any]) -> str:
     return str(settings.get("family", DEFAULT_FAMILY))
 
 
-def search_box(settings: Mapping[str, Any]) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]]:
-    """The run's gene bounds and the repair that keeps a chromosome inside them."""
-    family = family_named(run_family(settings))
+def search_box(
+    settings: Mapping[str, Any], family: GaitFamily | None = None
+) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]]:
+    """The run's gene bounds and the repair that keeps a chromosome inside them: of the run's own
+    family, or of ``family`` (the refinement's), in the run's named box."""
+    family = family_named(run_family(settings)) if family is None else family
     bounds = family.boxes[settings.get("bounds", "legacy")]
     return bounds, functools.partial(family.repair, bounds=bounds)
 

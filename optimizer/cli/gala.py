@@ -42,7 +42,6 @@ import argparse
 import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from functools import partial
 from typing import Any
 
 from gait import FAMILIES, TFS, TFS_START, GaitFamily, family_named
@@ -389,11 +388,9 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         if run.settings.get("refine", 0) and fastest is not None:  # a run from before it: none
             starts = refine_starts(driver, fastest) if run.settings.get("refine_race") else [fastest.gait.genes]
             lifted = [refined.from_gait(run.family.gait(start)).genes for start in starts]
-            box = refined.boxes[run.settings.get("bounds", "legacy")]
+            box, box_repair = search_box(run.settings, refined)
             named = None if refined is run.family else refined.name
-            refine(
-                driver, run.settings, run.seed, box, partial(refined.repair, bounds=box), lifted, refined.held, named
-            )
+            refine(driver, run.settings, run.seed, box, box_repair, lifted, refined.held, named)
             fastest = fastest_walk(driver, run.setup.start, stability)
             write_outputs(run, rows, fastest)
         falling = [f"{row.result.crossover:g}" for row in rows if row.check is not None and not row.check.stable]
