@@ -141,9 +141,12 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
     episodes = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
     searched = [r for r in episodes if not r["key"].startswith("check/")]
     assert len(searched) == 2 * gala_command.planned_episodes(gala_command.gala_config(manifest["settings"]))
+    by_key = {r["key"]: r for r in episodes}
     for row, result in zip(rows, results):  # each row's best walked 10 times from moved starts
-        repeats = [r for r in episodes if r["key"].startswith(f"check/{result['best_episode']['key']}/")]
-        assert len(repeats) == row.repeats == 10 and row.repeat_falls == 0
+        key = result["best_episode"]["key"]
+        assert [w["key"] for w in result["check"]["walks"]] == [f"check/{key}/r{j:02d}" for j in range(10)]
+        repeats = [by_key[w["key"]] for w in result["check"]["walks"]]
+        assert row.repeats == 10 and row.repeat_falls == 0
         distances = [r["distance"] for r in repeats]
         assert row.repeat_min_distance_m == min(distances) and row.repeat_max_distance_m == max(distances)
         assert row.repeat_mean_distance_m == pytest.approx(sum(distances) / len(distances))
@@ -154,7 +157,8 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
     for gait in ("best_gait.json", "best_gait-pc0.8.json", "best_gait-pc0.3.json", "fastest_gait.json"):
         card = read_card(out / gait)
         assert card is not None and card.genes == load_gait(out / gait).genes
-        assert card.summary(REAL_SERVER)["walks"] == 10  # the run walked on servers given as --server
+        # the run walked on servers given as --server; the fastest walk was confirmed by 20 more
+        assert card.summary(REAL_SERVER)["walks"] == (30 if gait == "fastest_gait.json" else 10)
     printed = capsys.readouterr().out
     assert "| 0.80 |" in printed and "| 0/10 |" in printed
 
@@ -210,12 +214,12 @@ def test_fastest_gait_is_the_fastest_walk_that_passes_its_check(tmp_path: Path, 
     runner_up = max((r for r in searched if not r["fell"] and r["genes"] != first["genes"]), key=lambda r: r["fitness"])
     results = json.loads((out / "results.json").read_text())
     assert results["fastest_episode"]["key"] == results["fastest_check"]["key"] == runner_up["key"]
-    assert results["fastest_check"]["falls"] == 0
+    assert results["fastest_check"]["falls"] == 0 and results["fastest_check"]["repeats"] == 30  # 10 + 20 confirming
     assert list(load_gait(out / "fastest_gait.json").genes) == runner_up["genes"]
     fragile_checks = [r for r in records if r["key"].startswith(f"check/{first['key']}/")]
-    assert len(fragile_checks) == 10 and all(r["fell"] for r in fragile_checks)
+    assert len(fragile_checks) == 10 and all(r["fell"] for r in fragile_checks)  # not confirmed: it fell
     d = runner_up["distance"]
-    assert f"fastest walk that held: fell in 0 of 10 check walks, {d:.2f}-{d:.2f} m" in capsys.readouterr().out
+    assert f"fastest walk that held: fell in 0 of 30 check walks, {d:.2f}-{d:.2f} m" in capsys.readouterr().out
 
 
 def test_without_checks_the_table_has_no_check_figures(tmp_path: Path) -> None:
@@ -459,7 +463,7 @@ def test_the_refinement_phase_searches_on_from_the_best_and_leaves_table_i_alone
     after = json.loads((refined / "results.json").read_text())["fastest_score"]
     assert after["score"] >= before and after["key"].startswith("refine")
     card = read_card(refined / "fastest_gait.json")
-    assert card is not None and card.summary(STAND_IN)["walks"] == 3
+    assert card is not None and card.summary(STAND_IN)["walks"] == 3 + 20  # its check and its confirmation
     # two CMA-ES runs (steps 0.05 and 0.1), 20 gaits each: one generation of the default 20
     generations = Counter("/".join(r["key"].split("/")[:2]) for r in tried)
     assert generations == {"refine0/g000": 20, "refine1/g000": 20}
@@ -533,8 +537,42 @@ def test_the_refinement_holds_a_rows_walk_as_the_start_and_searches_the_cruise_g
     results = json.loads((out / "results.json").read_text())
     assert results["fastest_episode"]["family"] == "tfs-start"
     checks = [e for e in episodes if e["key"].startswith("check/" + results["fastest_score"]["key"])]
-    assert len(checks) == 2 and all(e["family"] == "tfs-start" for e in checks)
+    assert len(checks) == 2 + 20 and all(e["family"] == "tfs-start" for e in checks)
     assert json.loads((out / "fastest_gait.card.json").read_text())["family"] == "tfs-start"
+
+
+class WalkToWalk(FakeEvaluator):
+    """The synthetic hill, each walk a little off it by its own seed: walks of one gait differ."""
+
+    def evaluate(self, tasks):
+        for outcome in super().evaluate(tasks):
+            fitness = outcome.result["fitness"] + outcome.task.seed % 97 / 10
+            yield EpisodeOutcome(outcome.task, 0, {**outcome.result, "fitness": fitness, "distance": fitness / 10})
+
+
+def _raced_walks(fitness: dict[str, float], score: dict) -> list[float]:
+    """The fitness of the 5 walks behind a raced gait's score (results.json's ``*_score``)."""
+    assert score["walks"] == 5
+    return [fitness[score["key"]], *(fitness[f"{score['key']}/k{j}"] for j in range(1, 5))]
+
+
+def test_the_refinement_scores_a_gait_by_its_worst_walk_and_the_rows_by_their_quantile(tmp_path: Path) -> None:
+    """The walk handed over comes from the refinement, which forgives no bad walk; the rows keep
+    --robust-quantile (0.25: the second-worst of 5). --refine-quantile changes the refinement's."""
+    for name, flags, stored in (("worst", [], 0.0), ("mean", ["--refine-quantile", "mean"], "mean")):
+        out = tmp_path / name
+        argv = ["--crossover", "0.8", "--population", "6", "--iterations", "3", "--generations", "2", "--quiet"]
+        argv += ["--seed", "4", "--check-repeats", "2", "--check-confirm", "1", "--refine", "40", *flags]
+        assert gala_command.main([*argv, "--out", str(out)], make_evaluator=lambda s: WalkToWalk()) == 0
+        fitness = {e["key"]: e["fitness"] for e in _episodes(out)}
+        results = json.loads((out / "results.json").read_text())
+        row, fastest = results["rows"][0]["best_score"], results["fastest_score"]
+        assert row["score"] == pytest.approx(np.quantile(_raced_walks(fitness, row), 0.25))
+        assert fastest["key"].startswith("refine")
+        scored = _raced_walks(fitness, fastest)
+        assert fastest["score"] == pytest.approx(min(scored) if stored == 0.0 else np.mean(scored))
+        assert min(scored) < np.quantile(scored, 0.25) < np.mean(scored)  # the three differ here
+        assert json.loads((out / "manifest.json").read_text())["settings"]["refine_quantile"] == stored
 
 
 def test_the_refinement_can_search_the_runs_own_family(tmp_path: Path) -> None:

@@ -73,6 +73,28 @@ def test_a_tfs_walk_starts_a_tfs_start_search_that_holds_it_as_the_start_gait(tm
     assert handed.family is TFS_START and list(handed.genes[7:]) == shipped
 
 
+def test_a_refined_gait_is_scored_by_its_worst_walk_unless_told_and_a_resumed_run_keeps_its_own(
+    tmp_path: Path,
+) -> None:
+    """The command's whole run is a refinement: by default its gaits are scored by their worst walk
+    (``--robust-quantile 0``); a run made with another quantile resumes with it."""
+    start = _start_file(tmp_path)
+    for name, flags, quantile in (("worst", [], 0.0), ("second", ["--robust-quantile", "0.25"], 0.25)):
+        out = tmp_path / name
+        assert (
+            refine_command.main(
+                [str(start), *SMALL, *flags, "--out", str(out)], make_evaluator=lambda s: FakeEvaluator()
+            )
+            == 0
+        )
+        assert json.loads((out / "manifest.json").read_text())["settings"]["robust_quantile"] == quantile
+    assert (
+        refine_command.main(["--resume", str(tmp_path / "second"), "--quiet"], make_evaluator=lambda s: FakeEvaluator())
+        == 0
+    )
+    assert json.loads((tmp_path / "second" / "manifest.json").read_text())["settings"]["robust_quantile"] == 0.25
+
+
 def test_a_refinement_killed_midway_resumes_to_the_same_result(tmp_path: Path) -> None:
     start = _start_file(tmp_path)
     whole, cut = tmp_path / "whole", tmp_path / "cut"

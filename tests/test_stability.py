@@ -5,6 +5,7 @@ check has no fall. A fake evaluator decides falls from the start, no physics."""
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -177,6 +178,46 @@ def test_when_no_candidate_passes_the_one_that_fell_least_is_kept(tmp_path: Path
     assert report.walk.key == f"s/i{least:03d}" and report.falls == falls[least]
 
 
+class FallsLate(StartSensitive):
+    """As ``StartSensitive``, and a gait whose first gene is in ``late`` falls in its check walks
+    from the seventh on (r06 ...): it holds a 6-walk check and fails its confirmation."""
+
+    def __init__(self, late: Sequence[float]) -> None:
+        super().__init__()
+        self.late = set(late)
+
+    def evaluate(self, tasks: Sequence[EpisodeTask]) -> Iterator[EpisodeOutcome]:
+        for outcome in super().evaluate(tasks):
+            task = outcome.task
+            late = task.kind is WalkKind.CHECK and task.genes[0] in self.late and int(task.key[-2:]) >= 6
+            yield EpisodeOutcome(task, 0, {**outcome.result, "fell": late or outcome.result["fell"]})
+
+
+def test_candidates_that_held_their_check_walk_the_confirmation_and_the_luckiest_is_not_handed_over(
+    tmp_path: Path,
+) -> None:
+    """The fastest candidate holds its 6 check walks and then falls: the confirmation walks of the
+    same check (the same seeds and starts, r06 ... r09) find it, and the slower one that holds all 10
+    is handed over. A candidate that fell in its check walks no confirmation."""
+    config = StabilityConfig(repeats=6, jitter=(0.05, 0.05, 10.0), candidates=3, confirm=4)
+    evaluator = FallsLate(late=[9.0])
+    evaluator.fragile = {8.0}
+    with EpisodeLog(tmp_path / "episodes.jsonl") as log:
+        driver = Driver(evaluator, log, run_seed=1)
+        for key, first_gene in (("s/i000", 9.0), ("s/i001", 8.0), ("s/i002", 7.0)):
+            search_walk(driver, key, first_gene)
+        report = fastest_stable(driver, driver.scored, BASE, config)
+        plain = check(driver, driver.scored["s/i002"], BASE, CONFIG)
+        unconfirmed = fastest_stable(driver, driver.scored, BASE, replace(config, confirm=0))
+    assert report is not None and report.stable and report.walk.key == "s/i002" and len(report.repeats) == 10
+    assert report.repeats[:6] == plain.repeats  # the confirmation goes on with the check it had
+    walked = [t.key for t in evaluator.tasks if t.kind is WalkKind.CHECK]
+    assert len(walked) == len(set(walked)) == 6 + 4 + 6 + 6 + 4  # no walk asked twice
+    assert not any(k.startswith("check/s/i001/") and int(k[-2:]) >= 6 for k in walked)  # fell in its check
+    assert sum(1 for k in walked if k.startswith("check/s/i000/")) == 10
+    assert unconfirmed is not None and unconfirmed.walk.key == "s/i000" and len(unconfirmed.repeats) == 6
+
+
 def test_every_walk_fell_gives_no_fastest(tmp_path: Path) -> None:
     with EpisodeLog(tmp_path / "episodes.jsonl") as log:
         driver = Driver(StartSensitive(), log, run_seed=1)
@@ -209,6 +250,7 @@ def test_a_stability_config_refuses_impossible_values() -> None:
         {"jitter": (0.1, -0.1, 0.0)},
         {"jitter": (0.1, float("inf"), 0.0)},
         {"candidates": 0},
+        {"confirm": -1},
     ):
         with pytest.raises(ValueError, match="StabilityConfig"):
             StabilityConfig(**bad)

@@ -130,10 +130,20 @@ def add_check_arguments(parser: argparse.ArgumentParser) -> None:
         help="move the start of each check walk, and of each raced walk but a gait's first, within "
         "+-DX, +-DY (m) and +-DEG (heading) (default 0.05 0.05 10, the real server's beam noise)",
     )
+    parser.add_argument(
+        "--check-confirm",
+        type=count,
+        default=None,
+        metavar="N",
+        help="walk each candidate for the fastest walk that held its check N more times before it may be "
+        f"handed over, so that the best of several is not the luckiest (default {StabilityConfig().confirm}; "
+        "0: hand over on the checks alone)",
+    )
 
 
-def add_scoring_arguments(parser: argparse.ArgumentParser) -> None:
-    """How candidates are scored (``optimizer.run.robust``) and the dither every walk gets."""
+def add_scoring_arguments(parser: argparse.ArgumentParser, quantile: float | None = ScoringConfig().quantile) -> None:
+    """How candidates are scored (``optimizer.run.robust``) and the dither every walk gets;
+    ``quantile`` is the command's default, for its help."""
     parser.add_argument(
         "--robust-walks",
         type=positive_int,
@@ -156,8 +166,9 @@ def add_scoring_arguments(parser: argparse.ArgumentParser) -> None:
         type=quantile_or_mean,
         default=None,
         metavar="Q",
-        help=f"score K walks by this quantile of their eq. 9 fitness (default {ScoringConfig().quantile:g}: with "
-        "K 5 the second-worst walk), or by their mean with 'mean'",
+        help="score K walks by this quantile of their eq. 9 fitness (default "
+        f"{MEAN if quantile is None else format(quantile, 'g')}; with K 5, 0 is "
+        "the worst walk and 0.25 the second-worst), or by their mean with 'mean'",
     )
     parser.add_argument(
         "--command-noise",
@@ -182,6 +193,7 @@ def add_scoring_arguments(parser: argparse.ArgumentParser) -> None:
 CHECK_DEFAULTS: dict[str, Any] = {
     "check_repeats": StabilityConfig().repeats,
     "check_jitter": list(StabilityConfig().jitter),
+    "check_confirm": StabilityConfig().confirm,
 }
 
 #: Defaults of the scoring settings the commands store.
@@ -200,9 +212,12 @@ _LEGACY_JITTER = (0.05, 0.05, 10.0)
 
 
 def stability_config(settings: Mapping[str, Any]) -> StabilityConfig:
-    """The run's check; a run made before checks existed has none."""
+    """The run's check; a run made before checks existed has none, one made before confirming walks
+    hands over on its candidates' checks alone."""
     return StabilityConfig(
-        repeats=settings.get("check_repeats", 0), jitter=tuple(settings.get("check_jitter", _LEGACY_JITTER))
+        repeats=settings.get("check_repeats", 0),
+        jitter=tuple(settings.get("check_jitter", _LEGACY_JITTER)),
+        confirm=settings.get("check_confirm", 0),
     )
 
 
@@ -231,9 +246,10 @@ def add_run_arguments(parser: argparse.ArgumentParser, population: int = 100) ->
     add_walk_run_arguments(parser)
 
 
-def add_walk_run_arguments(parser: argparse.ArgumentParser) -> None:
+def add_walk_run_arguments(parser: argparse.ArgumentParser, quantile: float | None = ScoringConfig().quantile) -> None:
     """Flags of every search command: the family and box, the episodes, scoring and checks, the
-    seed, where episodes run, the run folder and the workers."""
+    seed, where episodes run, the run folder and the workers; ``quantile``: the command's default
+    ``--robust-quantile``, for its help."""
     parser.add_argument(
         "--family",
         choices=list(FAMILIES),
@@ -249,7 +265,7 @@ def add_walk_run_arguments(parser: argparse.ArgumentParser) -> None:
         "cycle; the default) or legacy (tfs only: the narrower box of earlier versions)",
     )
     add_episode_arguments(parser)
-    add_scoring_arguments(parser)
+    add_scoring_arguments(parser, quantile)
     add_check_arguments(parser)
     parser.add_argument(
         "--seed", type=int, default=None, help="fixes every random choice of the run (default: a random seed, recorded)"

@@ -13,8 +13,9 @@ reached. ``--robust-walks 1 --command-noise 0`` is the paper's single undithered
 
 After the rows, a refinement phase (beyond the paper; ``--refine N``, 0 to skip) runs CMA-ES from
 the fastest gait of the rows that held its check and from the best-scored gait, its runs raced
-(``--refine-race``), for N more gaits, scored the same way
-(``optimizer.cli.refine``, which ``python -m optimizer.refine`` runs on a gait file of your own):
+(``--refine-race``), for N more gaits, scored the same way but by the worst of a gait's walks
+(``--refine-quantile``, default 0: its walk is the one handed over) (``optimizer.cli.refine``,
+which ``python -m optimizer.refine`` runs on a gait file of your own):
 GALA's population levels off below what the gait family holds. By default it refines them as
 tfs-start walks (``--refine-family``, ``gait.tfs_start``): each begun by itself, its start gait
 held and its cruise gait searched, because what decides whether a fast TFS gait walks at all is
@@ -25,9 +26,10 @@ walk handed over is then a tfs-start gait file. Table I is the same with or with
 Each row's best gait is then checked (``optimizer.run.stability``): walked ``--check-repeats``
 more times (default 10), each with its own dither draw; Table I gives its falls, spread and
 verdict (**FALLS** where a check walk fell). The ten best-scored gaits of the whole run (learning
-phase and refinement included) are checked the same way: of those that held, the one whose worst
-check walk went farthest becomes fastest_gait.json; when none held, the steadiest, marked as
-falling in its notes and in the summary.
+phase and refinement included) are checked the same way, and those that held walk
+``--check-confirm`` more (default 20, so that the best of ten is not merely the luckiest): of
+those that held them all, the one whose worst check walk went farthest becomes fastest_gait.json;
+when none held, the steadiest, marked as falling in its notes and in the summary.
 
 Writes, as each row finishes and after the refinement: table1.csv and table1.md, gala-pc0.8.png
 (Fig. 6), ga-pc0.8.png (Fig. 7), best_gait-pc0.8.json and best_gait.json (the final GAs' best:
@@ -55,6 +57,7 @@ from optimizer.cli.common import (
     hand_over,
     pool_evaluator,
     prepare_run,
+    quantile_or_mean,
     run_family,
     run_session,
     search_box,
@@ -62,7 +65,7 @@ from optimizer.cli.common import (
     write_gait,
 )
 from optimizer.cli.refine import DEFAULTS as REFINE_DEFAULTS
-from optimizer.cli.refine import refine, refine_starts
+from optimizer.cli.refine import REFINE_QUANTILE, refine, refine_starts
 from optimizer.evaluation.pool import stable_seed
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
@@ -106,6 +109,7 @@ PAPER: dict[str, Any] = {
     **REFINE_DEFAULTS,
     "refine": 4000,
     "refine_family": TFS_START.name,
+    "refine_quantile": REFINE_QUANTILE,
 }
 
 #: A first look on a 2-core machine: one row (the paper's best crossover rate), population 20,
@@ -234,6 +238,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="race the refinement's CMA-ES runs (from the fastest gait that held and the best-scored "
         "one, each step) and give the winner half the gaits (default); --no-refine-race: "
         "one start, the gaits shared evenly among the steps, as before the race",
+    )
+    p.add_argument(
+        "--refine-quantile",
+        type=quantile_or_mean,
+        default=None,
+        metavar="Q",
+        help="score a raced gait of the refinement by this quantile of its walks' fitness, or 'mean' "
+        f"(default {PAPER['refine_quantile']:g}: the worst walk, since the refinement's walk is the one "
+        "handed over; --robust-quantile scores the rows' gaits)",
     )
     p.add_argument(
         "--refine-family",
@@ -404,7 +417,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
 
     # the racing walks and how many candidates the checks walk are not known ahead: an estimate
     planned = len(rates) * planned_episodes(config, stability.repeats) + run.settings.get("refine", 0)
-    planned += stability.candidates * stability.repeats
+    planned += stability.candidates * (stability.repeats + stability.confirm)
     return run_session(
         run,
         planned,

@@ -15,7 +15,7 @@ seed and the checked key, so a resumed run asks the same walks.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -146,16 +146,24 @@ def fastest_stable(
     driver: Driver, scored: Mapping[str, ScoredGait], base: Start, config: StabilityConfig
 ) -> StabilityReport | None:
     """The fastest stable gait of the run so far: the ``config.candidates`` best-scored gaits
-    (``ranked_gaits``) are each checked, and of those that fell least (none, when one holds) the
-    one whose worst check walk scored highest is it (then the higher on average; a walk's score is
-    10 x its distance, less the run's drift penalty where it has one). Checking all of them, not
-    stopping at the first that passes, lets a gait scored a little lower but steadier win. The
-    worst walk, not the mean, because a wide spread on the stand-in is a margin the real
-    server can cross: a gait that held 10 checks at 11.73-12.84 m (mean 12.51) fell once in 10
-    real walks, one that held at 12.02 m in every walk walked 11.98-12.01 m in 20 real ones
-    (docs/optimizer.md). None when every gait fell."""
+    (``ranked_gaits``) are each checked, those that held walk ``config.confirm`` more walks (their
+    check goes on: the same seeds and starts, more of them), and of all the candidates the one that
+    fell in the smallest share of its walks (none, when one holds) and whose worst walk scored
+    highest is it (then the higher on average; a walk's score is 10 x its distance, less the run's
+    drift penalty where it has one). Checking all of them, not stopping at the first that passes,
+    lets a gait scored a little lower but steadier win. The worst walk, not the mean, because a
+    wide spread on the stand-in is a margin the real server can cross: a gait that held 10 checks
+    at 11.73-12.84 m (mean 12.51) fell once in 10 real walks, one that held at 12.02 m in every
+    walk walked 11.98-12.01 m in 20 real ones (docs/optimizer.md). None when every gait fell."""
     reports = [check(driver, gait, base, config) for gait in ranked_gaits(scored)[: config.candidates]]
-    return min(reports, key=lambda r: (r.falls + r.failed, *(-f for f in r.fitness_spread()), r.gait.key), default=None)
+    if config.confirm:
+        longer = replace(config, repeats=config.repeats + config.confirm)
+        reports = [check(driver, r.gait, base, longer) if r.stable else r for r in reports]
+    return min(
+        reports,
+        key=lambda r: ((r.falls + r.failed) / len(r.repeats), *(-f for f in r.fitness_spread()), r.gait.key),
+        default=None,
+    )
 
 
 def scored_summary(gait: ScoredGait) -> dict[str, Any]:
