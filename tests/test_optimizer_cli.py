@@ -59,11 +59,19 @@ def refused(main, argv: list[str], capsys) -> str:
         (["--check-repeats", "2.5"], "--check-repeats", "whole number"),
         (["--check-jitter", "0.1", "0.1"], "--check-jitter", "expected 3 arguments"),
         (["--check-jitter", "0.1", "0.1", "-2"], "--check-jitter", ">= 0"),
+        (["--check-confirm", "-1"], "--check-confirm", ">= 0"),
+        (["--refine-quantile", "1.5"], "--refine-quantile", "[0, 1]"),
     ],
 )
 def test_gala_refuses_a_wrong_value_naming_the_flag(argv, flag, why, capsys) -> None:
     err = refused(gala_command.main, argv, capsys)
     assert flag in err and why in err
+
+
+def test_only_a_command_that_hands_over_a_fastest_walk_takes_check_confirm(capsys) -> None:
+    """The GA hands over its best gait, checked, and no fastest walk: a confirmation flag would do
+    nothing there, so it has none."""
+    assert "unrecognized arguments: --check-confirm" in refused(ga_command.main, ["--check-confirm", "5"], capsys)
 
 
 def test_resume_needs_a_run_folder_and_the_same_settings(tmp_path: Path, capsys) -> None:

@@ -110,9 +110,10 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def add_check_arguments(parser: argparse.ArgumentParser) -> None:
+def add_check_arguments(parser: argparse.ArgumentParser, hand_over: bool = False) -> None:
     """``--check-repeats`` and ``--check-jitter``: the stability check of the gaits a run finds
-    (``optimizer.run.stability``)."""
+    (``optimizer.run.stability``); ``--check-confirm`` where the command hands over a fastest walk
+    (``hand_over``; its settings then need ``HAND_OVER_DEFAULTS``)."""
     parser.add_argument(
         "--check-repeats",
         type=count,
@@ -130,6 +131,8 @@ def add_check_arguments(parser: argparse.ArgumentParser) -> None:
         help="move the start of each check walk, and of each raced walk but a gait's first, within "
         "+-DX, +-DY (m) and +-DEG (heading) (default 0.05 0.05 10, the real server's beam noise)",
     )
+    if not hand_over:
+        return
     parser.add_argument(
         "--check-confirm",
         type=count,
@@ -193,8 +196,10 @@ def add_scoring_arguments(parser: argparse.ArgumentParser, quantile: float | Non
 CHECK_DEFAULTS: dict[str, Any] = {
     "check_repeats": StabilityConfig().repeats,
     "check_jitter": list(StabilityConfig().jitter),
-    "check_confirm": StabilityConfig().confirm,
 }
+
+#: Defaults of the settings of a command that hands over a fastest walk (``fastest_walk``).
+HAND_OVER_DEFAULTS: dict[str, Any] = {"check_confirm": StabilityConfig().confirm}
 
 #: Defaults of the scoring settings the commands store.
 SCORING_DEFAULTS: dict[str, Any] = {
@@ -232,7 +237,7 @@ def scoring_config(settings: Mapping[str, Any]) -> ScoringConfig:
     )
 
 
-def add_run_arguments(parser: argparse.ArgumentParser, population: int = 100) -> None:
+def add_run_arguments(parser: argparse.ArgumentParser, population: int = 100, hand_over: bool = False) -> None:
     """Flags of the population searches (GA, GALA, the comparison): the GA numbers they share,
     then every search command's (``add_walk_run_arguments``); ``population`` is the command's own
     default, for its help."""
@@ -243,13 +248,15 @@ def add_run_arguments(parser: argparse.ArgumentParser, population: int = 100) ->
         default=None,
         help="carry the best individual into the next generation (default on)",
     )
-    add_walk_run_arguments(parser)
+    add_walk_run_arguments(parser, hand_over=hand_over)
 
 
-def add_walk_run_arguments(parser: argparse.ArgumentParser, quantile: float | None = ScoringConfig().quantile) -> None:
+def add_walk_run_arguments(
+    parser: argparse.ArgumentParser, quantile: float | None = ScoringConfig().quantile, hand_over: bool = False
+) -> None:
     """Flags of every search command: the family and box, the episodes, scoring and checks, the
     seed, where episodes run, the run folder and the workers; ``quantile``: the command's default
-    ``--robust-quantile``, for its help."""
+    ``--robust-quantile``, for its help; ``hand_over``: whether it hands over a fastest walk."""
     parser.add_argument(
         "--family",
         choices=list(FAMILIES),
@@ -266,7 +273,7 @@ def add_walk_run_arguments(parser: argparse.ArgumentParser, quantile: float | No
     )
     add_episode_arguments(parser)
     add_scoring_arguments(parser, quantile)
-    add_check_arguments(parser)
+    add_check_arguments(parser, hand_over)
     parser.add_argument(
         "--seed", type=int, default=None, help="fixes every random choice of the run (default: a random seed, recorded)"
     )

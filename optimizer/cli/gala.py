@@ -48,6 +48,7 @@ from typing import Any
 
 from gait import FAMILIES, TFS, TFS_START, GaitFamily, family_named
 from optimizer.cli.common import (
+    HAND_OVER_DEFAULTS,
     EvaluatorMaker,
     Run,
     add_run_arguments,
@@ -110,6 +111,7 @@ PAPER: dict[str, Any] = {
     "refine": 4000,
     "refine_family": TFS_START.name,
     "refine_quantile": REFINE_QUANTILE,
+    **HAND_OVER_DEFAULTS,
 }
 
 #: A first look on a 2-core machine: one row (the paper's best crossover rate), population 20,
@@ -256,7 +258,7 @@ def build_parser() -> argparse.ArgumentParser:
         f"{PAPER['refine_family']}: the rows' walk begun by itself, its start held and its cruise gait "
         'searched; docs/optimizer.md, "The start-up decides")',
     )
-    add_run_arguments(p)
+    add_run_arguments(p, hand_over=True)
     return p
 
 

@@ -1,15 +1,16 @@
 """``python -m optimizer.refine GAIT``: make a walk you already have faster, and keep it standing.
 
-    python -m optimizer.refine runs/gala-.../fastest_gait.json                 # 3000 gaits of CMA-ES
+    python -m optimizer.refine runs/gala-.../fastest_gait.json                 # 8000 gaits of CMA-ES
     python -m optimizer.refine fastest_gait.json --family tfs-plus             # the TFS walk, then the additions
     python -m optimizer.refine my_walk.json --budget 800 --real 2              # on real servers
 
 CMA-ES (the main job's refinement phase, ``optimizer.cli.gala``) starts from the gait in the file,
 scored as every search of the project scores (robustly: ``--robust-walks`` dithered walks of the
-gaits that could enter the top, ``optimizer.run.robust``). The start itself is scored first, so a
-refinement never hands over less than it was given. The best-scored gaits are then checked
-(``--check-repeats`` walks each, dithered, from moved starts) and the fastest that held becomes
-fastest_gait.json, with its walk card.
+gaits that could enter the top, ``optimizer.run.robust``), but by the worst of a gait's walks
+(``--robust-quantile``, default 0 here: what it finds is handed over). The start itself is scored
+first, so a refinement never hands over less than it was given. The best-scored gaits are then
+checked (``--check-repeats`` walks each, dithered, from moved starts; ``--check-confirm`` more for
+those that held) and the fastest that held becomes fastest_gait.json, with its walk card.
 
 ``--family`` searches a larger family than the file's: a TFS walk starts a tfs-plus search as the
 tfs-plus gait with its additions at 0, the walk it already is (``GaitFamily.from_gait``), and a
@@ -33,6 +34,7 @@ import numpy as np
 
 from gait import FAMILIES, GaitFileError, load_gait
 from optimizer.cli.common import (
+    HAND_OVER_DEFAULTS,
     MEAN,
     EvaluatorMaker,
     add_walk_run_arguments,
@@ -299,7 +301,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="race the CMA-ES runs (one per step) and give the winner half the gaits (default); "
         "--no-race: the gaits shared evenly among the steps",
     )
-    add_walk_run_arguments(p, REFINE_QUANTILE)
+    add_walk_run_arguments(p, REFINE_QUANTILE, hand_over=True)
     return p
 
 
@@ -326,7 +328,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         parser.error("GAIT: --resume continues from the run's own start gait; give no file")
     if args.resume is None:  # a resumed run keeps the quantile it was made with
         apply_preset(args, {"robust_quantile": REFINE_QUANTILE})
-    run = prepare_run(parser, args, "refine", {**DEFAULTS, "start_gait": None}, argv)
+    run = prepare_run(parser, args, "refine", {**DEFAULTS, **HAND_OVER_DEFAULTS, "start_gait": None}, argv)
     stability = stability_config(run.settings)
     bounds, repair = search_box(run.settings)
     start_genes = run.settings["start_gait"]
