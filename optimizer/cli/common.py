@@ -76,6 +76,12 @@ def quantile_or_mean(text: str) -> float | str:
 MEAN = "mean"
 
 
+def stored_quantile(value: float | str | None) -> float | None:
+    """A quantile setting as ``ScoringConfig`` takes it: the stored ``MEAN`` (the one text a quantile
+    setting holds, ``quantile_or_mean``) is None, the mean."""
+    return None if isinstance(value, str) else value
+
+
 def existing_run(text: str) -> RunFolder:
     try:
         return RunFolder.open(Path(text))
@@ -232,7 +238,7 @@ def scoring_config(settings: Mapping[str, Any]) -> ScoringConfig:
     return ScoringConfig(
         walks=settings.get("robust_walks", _LEGACY_SCORING["robust_walks"]),
         top=settings.get("robust_top", ScoringConfig().top),
-        quantile=None if quantile == MEAN else quantile,
+        quantile=stored_quantile(quantile),
         jitter=stability_config(settings).jitter,
     )
 

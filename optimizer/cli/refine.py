@@ -35,7 +35,6 @@ import numpy as np
 from gait import FAMILIES, GaitFileError, load_gait
 from optimizer.cli.common import (
     HAND_OVER_DEFAULTS,
-    MEAN,
     EvaluatorMaker,
     add_walk_run_arguments,
     apply_preset,
@@ -45,6 +44,7 @@ from optimizer.cli.common import (
     run_session,
     search_box,
     stability_config,
+    stored_quantile,
 )
 from optimizer.evaluation.pool import stable_seed
 from optimizer.run.driver import Driver
@@ -109,7 +109,7 @@ def refine_scoring(settings: Mapping[str, Any], scoring: ScoringConfig) -> Scori
     time in four (the seed-1 default row: 16.1 m on the stand-in, then 3 falls in 10 real walks);
     by the worst, to 15.5 m, 1 fall in 20 real walks (docs/optimizer.md, "The hand-over")."""
     quantile = settings.get("refine_quantile", scoring.quantile)
-    return replace(scoring, quantile=None if quantile == MEAN else quantile)
+    return replace(scoring, quantile=stored_quantile(quantile))
 
 
 def heat_gaits(settings: Mapping[str, Any], arms: int, genes: int) -> int:
