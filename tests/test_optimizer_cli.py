@@ -60,6 +60,8 @@ def refused(main, argv: list[str], capsys) -> str:
         (["--check-jitter", "0.1", "0.1"], "--check-jitter", "expected 3 arguments"),
         (["--check-jitter", "0.1", "0.1", "-2"], "--check-jitter", ">= 0"),
         (["--check-confirm", "-1"], "--check-confirm", ">= 0"),
+        (["--hand-over-walks", "-1"], "--hand-over-walks", ">= 0"),
+        (["--hand-over-walks", "1.5"], "--hand-over-walks", "whole number"),
         (["--refine-quantile", "1.5"], "--refine-quantile", "[0, 1]"),
     ],
 )
@@ -72,6 +74,7 @@ def test_only_a_command_that_hands_over_a_fastest_walk_takes_check_confirm(capsy
     """The GA hands over its best gait, checked, and no fastest walk: a confirmation flag would do
     nothing there, so it has none."""
     assert "unrecognized arguments: --check-confirm" in refused(ga_command.main, ["--check-confirm", "5"], capsys)
+    assert "unrecognized arguments: --hand-over-walks" in refused(ga_command.main, ["--hand-over-walks", "50"], capsys)
 
 
 def test_resume_needs_a_run_folder_and_the_same_settings(tmp_path: Path, capsys) -> None:
@@ -165,8 +168,8 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
     for gait in ("best_gait.json", "best_gait-pc0.8.json", "best_gait-pc0.3.json", "fastest_gait.json"):
         card = read_card(out / gait)
         assert card is not None and card.genes == load_gait(out / gait).genes
-        # the run walked on servers given as --server; the fastest walk was confirmed by 20 more
-        assert card.summary(REAL_SERVER)["walks"] == (30 if gait == "fastest_gait.json" else 10)
+        # the run walked on servers given as --server; the fastest walk was handed over after 200
+        assert card.summary(REAL_SERVER)["walks"] == (200 if gait == "fastest_gait.json" else 10)
     printed = capsys.readouterr().out
     assert "| 0.80 |" in printed and "| 0/10 |" in printed
 
@@ -222,12 +225,12 @@ def test_fastest_gait_is_the_fastest_walk_that_passes_its_check(tmp_path: Path, 
     runner_up = max((r for r in searched if not r["fell"] and r["genes"] != first["genes"]), key=lambda r: r["fitness"])
     results = json.loads((out / "results.json").read_text())
     assert results["fastest_episode"]["key"] == results["fastest_check"]["key"] == runner_up["key"]
-    assert results["fastest_check"]["falls"] == 0 and results["fastest_check"]["repeats"] == 30  # 10 + 20 confirming
+    assert results["fastest_check"]["falls"] == 0 and results["fastest_check"]["repeats"] == 200  # handed over
     assert list(load_gait(out / "fastest_gait.json").genes) == runner_up["genes"]
     fragile_checks = [r for r in records if r["key"].startswith(f"check/{first['key']}/")]
     assert len(fragile_checks) == 10 and all(r["fell"] for r in fragile_checks)  # not confirmed: it fell
     d = runner_up["distance"]
-    assert f"fastest walk that held: fell in 0 of 30 check walks, {d:.2f}-{d:.2f} m" in capsys.readouterr().out
+    assert f"fastest walk that held: fell in 0 of 200 check walks, {d:.2f}-{d:.2f} m" in capsys.readouterr().out
 
 
 def test_without_checks_the_table_has_no_check_figures(tmp_path: Path) -> None:
@@ -471,7 +474,7 @@ def test_the_refinement_phase_searches_on_from_the_best_and_leaves_table_i_alone
     after = json.loads((refined / "results.json").read_text())["fastest_score"]
     assert after["score"] >= before and after["key"].startswith("refine")
     card = read_card(refined / "fastest_gait.json")
-    assert card is not None and card.summary(STAND_IN)["walks"] == 3 + 20  # its check and its confirmation
+    assert card is not None and card.summary(STAND_IN)["walks"] == 200  # its check, its confirmation, its hand-over
     # two CMA-ES runs (steps 0.05 and 0.1), 20 gaits each: one generation of the default 20
     generations = Counter("/".join(r["key"].split("/")[:2]) for r in tried)
     assert generations == {"refine0/g000": 20, "refine1/g000": 20}
@@ -545,7 +548,7 @@ def test_the_refinement_holds_a_rows_walk_as_the_start_and_searches_the_cruise_g
     results = json.loads((out / "results.json").read_text())
     assert results["fastest_episode"]["family"] == "tfs-start"
     checks = [e for e in episodes if e["key"].startswith("check/" + results["fastest_score"]["key"])]
-    assert len(checks) == 2 + 20 and all(e["family"] == "tfs-start" for e in checks)
+    assert len(checks) == 200 and all(e["family"] == "tfs-start" for e in checks)
     assert json.loads((out / "fastest_gait.card.json").read_text())["family"] == "tfs-start"
 
 

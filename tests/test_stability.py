@@ -180,16 +180,18 @@ def test_when_no_candidate_passes_the_one_that_fell_least_is_kept(tmp_path: Path
 
 class FallsLate(StartSensitive):
     """As ``StartSensitive``, and a gait whose first gene is in ``late`` falls in its check walks
-    from the seventh on (r06 ...): it holds a 6-walk check and fails its confirmation."""
+    from the seventh on (r06 ...): it holds a 6-walk check and fails its confirmation. ``later``
+    maps a first gene to the first check walk it falls in."""
 
-    def __init__(self, late: Sequence[float]) -> None:
+    def __init__(self, late: Sequence[float], later: dict[float, int] | None = None) -> None:
         super().__init__()
-        self.late = set(late)
+        self.late = {gene: 6 for gene in late} | (later or {})
 
     def evaluate(self, tasks: Sequence[EpisodeTask]) -> Iterator[EpisodeOutcome]:
         for outcome in super().evaluate(tasks):
             task = outcome.task
-            late = task.kind is WalkKind.CHECK and task.genes[0] in self.late and int(task.key[-2:]) >= 6
+            walk = int(task.key.rsplit("/r", 1)[1]) if task.kind is WalkKind.CHECK else -1
+            late = task.genes[0] in self.late and walk >= self.late[task.genes[0]]
             yield EpisodeOutcome(task, 0, {**outcome.result, "fell": late or outcome.result["fell"]})
 
 
@@ -216,6 +218,43 @@ def test_candidates_that_held_their_check_walk_the_confirmation_and_the_luckiest
     assert not any(k.startswith("check/s/i001/") and int(k[-2:]) >= 6 for k in walked)  # fell in its check
     assert sum(1 for k in walked if k.startswith("check/s/i000/")) == 10
     assert unconfirmed is not None and unconfirmed.walk.key == "s/i000" and len(unconfirmed.repeats) == 6
+
+
+def test_the_hand_over_walks_the_confirmed_candidates_on_until_one_holds_them_all(tmp_path: Path) -> None:
+    """The fastest candidate holds its check and its confirmation (10 walks) and falls in its 13th
+    walk: the hand-over walks it on to 16 (a batch of 6), then the next, which holds them all and is
+    handed over;
+    the third is not walked on. Without ``hand_over`` the fastest is still the pick."""
+    config = StabilityConfig(repeats=6, jitter=(0.05, 0.05, 10.0), candidates=3, confirm=4, hand_over=16)
+    evaluator = FallsLate(late=[], later={9.0: 12})
+    with EpisodeLog(tmp_path / "episodes.jsonl") as log:
+        driver = Driver(evaluator, log, run_seed=1)
+        for key, first_gene in (("s/i000", 9.0), ("s/i001", 8.0), ("s/i002", 7.0)):
+            search_walk(driver, key, first_gene)
+        confirmed = fastest_stable(driver, driver.scored, BASE, config)
+        handed = fastest_stable(driver, driver.scored, BASE, config, hand_over=True)
+    assert confirmed is not None and confirmed.walk.key == "s/i000" and len(confirmed.repeats) == 10
+    assert handed is not None and handed.stable and handed.walk.key == "s/i001" and len(handed.repeats) == 16
+    assert handed.repeats[:10] == check(driver, driver.scored["s/i001"], BASE, replace(config, repeats=10)).repeats
+    walked = [t.key for t in evaluator.tasks if t.kind is WalkKind.CHECK]
+    assert len(walked) == len(set(walked)) == 3 * 10 + 6 + 6  # no walk asked twice
+    assert sum(1 for k in walked if k.startswith("check/s/i002/")) == 10
+
+
+def test_when_no_candidate_holds_the_hand_over_the_one_that_fell_least_is_handed_over(tmp_path: Path) -> None:
+    """Both confirmed candidates fall in the hand-over's walks, the faster in more of them: the
+    slower is handed over, marked as falling."""
+    config = StabilityConfig(repeats=6, jitter=(0.05, 0.05, 10.0), candidates=2, confirm=4, hand_over=20)
+    evaluator = FallsLate(late=[], later={9.0: 12, 8.0: 17})
+    with EpisodeLog(tmp_path / "episodes.jsonl") as log:
+        driver = Driver(evaluator, log, run_seed=1)
+        for key, first_gene in (("s/i000", 9.0), ("s/i001", 8.0)):
+            search_walk(driver, key, first_gene)
+        handed = fastest_stable(driver, driver.scored, BASE, config, hand_over=True)
+    assert handed is not None and handed.walk.key == "s/i001" and (handed.falls, len(handed.repeats)) == (3, 20)
+    walked = [t.key for t in evaluator.tasks if t.kind is WalkKind.CHECK]
+    # in batches of the check's 6: the faster stopped after the batch it fell in (r10-r15)
+    assert sum(1 for k in walked if k.startswith("check/s/i000/")) == 16
 
 
 def test_every_walk_fell_gives_no_fastest(tmp_path: Path) -> None:
@@ -251,6 +290,7 @@ def test_a_stability_config_refuses_impossible_values() -> None:
         {"jitter": (0.1, float("inf"), 0.0)},
         {"candidates": 0},
         {"confirm": -1},
+        {"hand_over": -1},
     ):
         with pytest.raises(ValueError, match="StabilityConfig"):
             StabilityConfig(**bad)

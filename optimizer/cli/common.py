@@ -148,6 +148,15 @@ def add_check_arguments(parser: argparse.ArgumentParser, hand_over: bool = False
         f"handed over, so that the best of several is not the luckiest (default {StabilityConfig().confirm}; "
         "0: hand over on the checks alone)",
     )
+    parser.add_argument(
+        "--hand-over-walks",
+        type=count,
+        default=None,
+        metavar="N",
+        help="before the run's fastest walk is handed over at its end, its confirmed candidates walk on, "
+        "best first, towards N walks each (stopped once one falls), and the first that holds them all "
+        f"is it (default {StabilityConfig().hand_over}; at most the check and confirming walks: no more walks)",
+    )
 
 
 def add_scoring_arguments(parser: argparse.ArgumentParser, quantile: float | None = ScoringConfig().quantile) -> None:
@@ -205,7 +214,10 @@ CHECK_DEFAULTS: dict[str, Any] = {
 }
 
 #: Defaults of the settings of a command that hands over a fastest walk (``fastest_walk``).
-HAND_OVER_DEFAULTS: dict[str, Any] = {"check_confirm": StabilityConfig().confirm}
+HAND_OVER_DEFAULTS: dict[str, Any] = {
+    "check_confirm": StabilityConfig().confirm,
+    "hand_over_walks": StabilityConfig().hand_over,
+}
 
 #: Defaults of the scoring settings the commands store.
 SCORING_DEFAULTS: dict[str, Any] = {
@@ -224,11 +236,12 @@ _LEGACY_JITTER = (0.05, 0.05, 10.0)
 
 def stability_config(settings: Mapping[str, Any]) -> StabilityConfig:
     """The run's check; a run made before checks existed has none, one made before confirming walks
-    hands over on its candidates' checks alone."""
+    hands over on its candidates' checks alone, one made before hand-over walks on its confirmed ones."""
     return StabilityConfig(
         repeats=settings.get("check_repeats", 0),
         jitter=tuple(settings.get("check_jitter", _LEGACY_JITTER)),
         confirm=settings.get("check_confirm", 0),
+        hand_over=settings.get("hand_over_walks", 0),
     )
 
 

@@ -10,7 +10,9 @@ gaits that could enter the top, ``optimizer.run.robust``), but by the worst of a
 (``--robust-quantile``, default 0 here: what it finds is handed over). The start itself is scored
 first, so a refinement never hands over less than it was given. The best-scored gaits are then
 checked (``--check-repeats`` walks each, dithered, from moved starts; ``--check-confirm`` more for
-those that held) and the fastest that held becomes fastest_gait.json, with its walk card.
+those that held), those that held walk on towards ``--hand-over-walks`` walks, best first, each
+stopped once it fell, and the first that holds them all becomes fastest_gait.json, with its walk
+card.
 
 ``--family`` searches a larger family than the file's: a TFS walk starts a tfs-plus search as the
 tfs-plus gait with its additions at 0, the walk it already is (``GaitFamily.from_gait``), and a
@@ -338,7 +340,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     def body(driver: Driver) -> str:
         driver.run(StartGait(start_genes))
         refine(driver, run.settings, run.seed, bounds, repair, [start_genes], run.family.held)
-        fastest = fastest_walk(driver, run.setup.start, stability)
+        fastest = fastest_walk(driver, run.setup.start, stability, hand_over=True)
         write_json(run.folder.path / "results.json", {"settings": run.settings, **hand_over(run, fastest, "refined")})
         start = driver.scored.get(f"{START_KEY}/i000")
         lines = []
@@ -350,4 +352,5 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         return "\n".join(lines)
 
     planned = 1 + run.settings["refine"] + stability.candidates * (stability.repeats + stability.confirm)
+    planned += stability.hand_over
     return run_session(run, planned, body, make_evaluator=make_evaluator, quiet=args.quiet)
