@@ -17,7 +17,7 @@ from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.driver import Driver, ResumeMismatch
 from optimizer.run.folder import EpisodeLog, read_episode_log
 from optimizer.run.robust import ScoredGait, jittered_starts
-from optimizer.run.stability import check, check_best, fastest_stable
+from optimizer.run.stability import check, check_best, fastest_stable, fastest_walk
 from optimizer.search.config import StabilityConfig
 
 BASE = (-3.0, 1.0, 30.0)
@@ -255,6 +255,28 @@ def test_when_no_candidate_holds_the_hand_over_the_one_that_fell_least_is_handed
     walked = [t.key for t in evaluator.tasks if t.kind is WalkKind.CHECK]
     # in batches of the check's 6: the faster stopped after the batch it fell in (r10-r15)
     assert sum(1 for k in walked if k.startswith("check/s/i000/")) == 16
+
+
+def test_when_no_candidate_holds_the_hand_over_the_gait_the_search_started_from_may(tmp_path: Path) -> None:
+    """Both candidates fall in the hand-over's walks; the fallback (a slower gait the search
+    started from, scored but not among the candidates) holds them all and is handed over, with
+    the steadiest faster one named as passed over. A run made before hand-over walks
+    (``hand_over`` 0) walks no fallback."""
+    config = StabilityConfig(repeats=6, jitter=(0.05, 0.05, 10.0), candidates=2, confirm=4, hand_over=20)
+    evaluator = FallsLate(late=[], later={9.0: 12, 8.0: 17})
+    with EpisodeLog(tmp_path / "episodes.jsonl") as log:
+        driver = Driver(evaluator, log, run_seed=1)
+        for key, first_gene in (("s/i000", 9.0), ("s/i001", 8.0), ("s/i002", 5.0)):
+            search_walk(driver, key, first_gene)
+        start = driver.scored["s/i002"]
+        old = fastest_walk(driver, BASE, replace(config, hand_over=0), hand_over=True, fallback=[start])
+        assert old is not None and old.gait.key == "s/i000" and old.faster is None
+        assert not any(t.key.startswith("check/s/i002/") for t in evaluator.tasks)
+        fastest = fastest_walk(driver, BASE, config, hand_over=True, fallback=[start])
+    assert fastest is not None and fastest.gait.key == "s/i002" and fastest.check is not None
+    assert fastest.check.stable and len(fastest.check.repeats) == 20
+    assert fastest.faster is not None and fastest.faster.gait.key == "s/i001" and fastest.faster.falls == 3
+    assert "faster, but it fell in 3 of 20 check walks" in fastest.describe()
 
 
 def test_every_walk_fell_gives_no_fastest(tmp_path: Path) -> None:

@@ -403,14 +403,16 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             rows.append(Row(result, best, check_best(driver, best, run.setup.start, stability), walk_time))
             fastest = fastest_walk(driver, run.setup.start, stability)
             write_outputs(run, rows, fastest)
+        fallback: list[ScoredGait] = []
         if run.settings.get("refine", 0) and fastest is not None:  # a run from before it: none
             starts = refine_starts(driver, fastest) if run.settings.get("refine_race") else [fastest.gait.genes]
             lifted = [refined.from_gait(run.family.gait(start)).genes for start in starts]
             box, box_repair = search_box(run.settings, refined)
             named = None if refined is run.family else refined.name
             refine(driver, run.settings, run.seed, box, box_repair, lifted, refined.held, named)
+            fallback.append(fastest.gait)  # when no refined walk holds, the rows' may
         if fastest is not None:  # the walk handed over: its candidates walk on (--hand-over-walks)
-            fastest = fastest_walk(driver, run.setup.start, stability, hand_over=True)
+            fastest = fastest_walk(driver, run.setup.start, stability, hand_over=True, fallback=fallback)
             write_outputs(run, rows, fastest)
         falling = [f"{row.result.crossover:g}" for row in rows if row.check is not None and not row.check.stable]
         lines = [(run.folder.path / "table1.md").read_text().rstrip("\n")]

@@ -340,9 +340,10 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     def body(driver: Driver) -> str:
         driver.run(StartGait(start_genes))
         refine(driver, run.settings, run.seed, bounds, repair, [start_genes], run.family.held)
-        fastest = fastest_walk(driver, run.setup.start, stability, hand_over=True)
-        write_json(run.folder.path / "results.json", {"settings": run.settings, **hand_over(run, fastest, "refined")})
         start = driver.scored.get(f"{START_KEY}/i000")
+        fallback = [] if start is None else [start]  # when no refined walk holds, the given one may
+        fastest = fastest_walk(driver, run.setup.start, stability, hand_over=True, fallback=fallback)
+        write_json(run.folder.path / "results.json", {"settings": run.settings, **hand_over(run, fastest, "refined")})
         lines = []
         if start is not None:
             lines.append(f"start gait: scored {start.describe()}")

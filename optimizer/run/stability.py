@@ -143,7 +143,12 @@ def check_best(driver: Driver, best: ScoredGait | None, base: Start, config: Sta
 
 
 def fastest_stable(
-    driver: Driver, scored: Mapping[str, ScoredGait], base: Start, config: StabilityConfig, hand_over: bool = False
+    driver: Driver,
+    scored: Mapping[str, ScoredGait],
+    base: Start,
+    config: StabilityConfig,
+    hand_over: bool = False,
+    fallback: Sequence[ScoredGait] = (),
 ) -> StabilityReport | None:
     """The fastest stable gait of the run so far: the ``config.candidates`` best-scored gaits
     (``ranked_gaits``) are each checked, those that held walk ``config.confirm`` more walks (their
@@ -160,20 +165,42 @@ def fastest_stable(
     order, towards ``config.hand_over`` walks each, ``config.repeats`` at a time and no further once
     one fell, and the first that holds them all is it: a fall one walk in 30 hides in 30 walks
     a third of the time, and the stand-in shows such a gait's falls as often as the real server does
-    (docs/optimizer.md, "The hand-over"). When none holds, the one that fell in the smallest share."""
+    (docs/optimizer.md, "The hand-over"). When none holds, the ``fallback`` gaits (what the search
+    started from) walk the same, in order; when none of those holds either, the gait that fell in
+    the smallest share of its walks is it."""
+    return _pick(driver, scored, base, config, hand_over, fallback)[0]
+
+
+def _pick(
+    driver: Driver,
+    scored: Mapping[str, ScoredGait],
+    base: Start,
+    config: StabilityConfig,
+    hand_over: bool,
+    fallback: Sequence[ScoredGait],
+) -> tuple[StabilityReport | None, list[StabilityReport]]:
+    """``fastest_stable``'s pick, and the candidates' reports."""
     reports = [check(driver, gait, base, config) for gait in ranked_gaits(scored)[: config.candidates]]
     if config.confirm:
         longer = replace(config, repeats=config.repeats + config.confirm)
         reports = [check(driver, r.gait, base, longer) if r.stable else r for r in reports]
     reports.sort(key=_steadiest_first)
-    if hand_over:
-        for i, report in enumerate(reports):
-            if not report.stable:
-                break
-            reports[i] = _walk_on(driver, report, base, config)
-            if reports[i].stable:
-                return reports[i]
-    return min(reports, key=_steadiest_first, default=None)
+    if not (hand_over and config.hand_over):  # a run made before hand-over walks: as it was made
+        return min(reports, key=_steadiest_first, default=None), reports
+    for i, report in enumerate(reports):
+        if not report.stable:
+            break
+        reports[i] = _walk_on(driver, report, base, config)
+        if reports[i].stable:
+            return reports[i], reports
+    walked = {(r.gait.genes, r.gait.family) for r in reports}
+    tried = []
+    for gait in fallback:
+        if (gait.genes, gait.family) not in walked:
+            tried.append(_walk_on(driver, check(driver, gait, base, config), base, config))
+            if tried[-1].stable:
+                return tried[-1], reports
+    return min(reports + tried, key=_steadiest_first, default=None), reports
 
 
 def _walk_on(driver: Driver, report: StabilityReport, base: Start, config: StabilityConfig) -> StabilityReport:
@@ -207,10 +234,12 @@ def scored_summary(gait: ScoredGait) -> dict[str, Any]:
 @dataclass
 class Fastest:
     """The fastest gait of a run so far and its check (None when checks are off): what the run
-    hands over as fastest_gait.json."""
+    hands over as fastest_gait.json. ``faster``: when the hand-over fell back to a gait the search
+    started from, the steadiest of the faster candidates that did not hold."""
 
     gait: ScoredGait
     check: StabilityReport | None
+    faster: StabilityReport | None = None
 
     def describe(self) -> str:
         gait, check = self.gait, self.check
@@ -218,14 +247,24 @@ class Fastest:
         if check is None:
             return f"best-scored gait (unchecked): {text}"
         verdict = "fastest walk that held" if check.stable else "NO FAST WALK HELD; the steadiest, which FALLS"
-        return f"{verdict}: {check.summary()}; scored {text}"
+        passed = ""
+        if self.faster is not None:
+            faster = self.faster
+            passed = f"; faster, but it {faster.summary()} ({faster.gait.key}), so not handed over"
+        return f"{verdict}: {check.summary()}; scored {text}{passed}"
 
 
-def fastest_walk(driver: Driver, base: Start, config: StabilityConfig, hand_over: bool = False) -> Fastest | None:
+def fastest_walk(
+    driver: Driver, base: Start, config: StabilityConfig, hand_over: bool = False, fallback: Sequence[ScoredGait] = ()
+) -> Fastest | None:
     """The run's fastest walk: ``fastest_stable`` over everything it scored (``hand_over``: the one
-    the run ends with), or with checks off the best-scored gait. None before any gait was scored."""
+    the run ends with, ``fallback`` the gaits its search started from), or with checks off the
+    best-scored gait. None before any gait was scored."""
     if config.repeats == 0:
         ranked = ranked_gaits(driver.scored)
         return Fastest(ranked[0], None) if ranked else None
-    report = fastest_stable(driver, driver.scored, base, config, hand_over)
-    return None if report is None else Fastest(report.gait, report)
+    report, candidates = _pick(driver, driver.scored, base, config, hand_over, fallback)
+    if report is None:
+        return None
+    fell_back = bool(candidates) and report.stable and not any(report is r for r in candidates)
+    return Fastest(report.gait, report, min(candidates, key=_steadiest_first) if fell_back else None)

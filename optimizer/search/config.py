@@ -142,13 +142,13 @@ class StabilityConfig:
     ``hand_over`` walks in all are asked of the gait a run hands over at its end: the confirmed
     candidates walk on towards that many, best first, ``repeats`` at a time and no further once one
     fell, until one holds them all. Thirty walks cannot tell a walk that falls once in 30 from one
-    that does not, and the stand-in shows such rare falls as often as the real server does (five
+    that does not, and the stand-in shows such rare falls as often as the real server does (six
     handed-over walks, 70-500 fresh walks on each server: 0.6% and 0.8%, 3.7% and 3.2%, 0.3% and
-    0.4%, 0 and 0, 4% and 4%; docs/optimizer.md, "The hand-over"). A hundred walks were not enough
-    either: trying the candidates one after another until one holds favours the luckiest again
-    (one held 100 walks and then fell in 11 of 300 more). Two hundred walks without a fall pass a
-    gait that falls one walk in 30 once in 900 tries (0.967^200), one that falls once in 200 a
-    third of the time.
+    0.4%, 0 and 0, 4% and 4%, 0.7% and 0.6%; docs/optimizer.md, "The hand-over"). A hundred walks
+    were not enough either: trying the candidates one after another until one holds favours the
+    luckiest again (one held 100 walks and then fell in 11 of 300 more). Two hundred walks without
+    a fall pass a gait that falls one walk in 30 once in 900 tries (0.967^200), one that falls once
+    in 200 a third of the time.
     """
 
     repeats: int = 10
