@@ -155,7 +155,8 @@ def add_check_arguments(parser: argparse.ArgumentParser, hand_over: bool = False
         metavar="N",
         help="before the run's fastest walk is handed over at its end, its confirmed candidates walk on, "
         "best first, towards N walks each (stopped once one falls), and the first that holds them all "
-        f"is it (default {StabilityConfig().hand_over}; at most the check and confirming walks: no more walks)",
+        "is it; when none does, the walk the refinement started from, if it holds them "
+        f"(default {StabilityConfig().hand_over}; at most the check and confirming walks: no more walks)",
     )
 
 

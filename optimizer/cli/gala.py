@@ -31,8 +31,10 @@ phase and refinement included) are checked the same way, and those that held wal
 those that held them all, the one whose worst check walk went farthest is the run's fastest walk.
 At the run's end those walk on towards ``--hand-over-walks`` walks in all (default 200), best
 first, each stopped once it fell, and the first that holds them all becomes fastest_gait.json (a
-fall one walk in 30 hides in 30 walks a third of the time); when none held, the steadiest, marked
-as falling in its notes and in the summary.
+fall one walk in 30 hides in 30 walks a third of the time). When none holds, the rows' walk the
+refinement started from walks the same, and is handed over if it holds (the summary names the
+faster walk passed over); when it falls too, the steadiest, marked as falling in its notes and in
+the summary.
 
 Writes, as each row finishes and after the refinement: table1.csv and table1.md, gala-pc0.8.png
 (Fig. 6), ga-pc0.8.png (Fig. 7), best_gait-pc0.8.json and best_gait.json (the final GAs' best:

@@ -12,7 +12,7 @@ first, so a refinement never hands over less than it was given. The best-scored 
 checked (``--check-repeats`` walks each, dithered, from moved starts; ``--check-confirm`` more for
 those that held), those that held walk on towards ``--hand-over-walks`` walks, best first, each
 stopped once it fell, and the first that holds them all becomes fastest_gait.json, with its walk
-card.
+card; when none does, the given walk, if it holds them.
 
 ``--family`` searches a larger family than the file's: a TFS walk starts a tfs-plus search as the
 tfs-plus gait with its additions at 0, the walk it already is (``GaitFamily.from_gait``), and a
