@@ -56,12 +56,16 @@ def measured_state(pos, quat, vel, spin, parents, joint_of, local_axes):
     angles, rates = measure(quat, spin, parents, joint_of, local_axes)
     nj = angles.shape[0]
     out = np.empty(13 + 2 * nj)
-    out[0:3] = pos[0]
-    out[3:7] = quat[0]
-    out[7:10] = vel[0]
-    out[10:13] = spin[0]
-    out[13 : 13 + nj] = angles
-    out[13 + nj :] = rates
+    # element by element: a slice copied from an array compiles numba's shape error (~4 s cold)
+    for a in range(3):
+        out[a] = pos[0, a]
+        out[7 + a] = vel[0, a]
+        out[10 + a] = spin[0, a]
+    for a in range(4):
+        out[3 + a] = quat[0, a]
+    for j in range(nj):
+        out[13 + j] = angles[j]
+        out[13 + nj + j] = rates[j]
     return out
 
 

@@ -110,7 +110,8 @@ def ground_contacts(shape_body, shape_kind, shape_size, coms, quats, max_points)
             bp, bd = box_plane(c, r, shape_size[s], max_points)
             for i in range(bd.shape[0]):
                 bodies[count] = k
-                points[count] = bp[i]
+                for d in range(3):  # not points[count] = bp[i]: a row copy compiles numba's shape error, ~4 s
+                    points[count, d] = bp[i, d]
                 depths[count] = bd[i]
                 count += 1
         elif kind == SPHERE:

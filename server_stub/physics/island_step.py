@@ -46,6 +46,7 @@ from server_stub.physics.rows import (
 )
 from server_stub.physics.solver import (
     BLOCK_PIVOT_ROWS,
+    FIRST_BODY,
     block_pivot,
     box_qp,
     contact_forces,
@@ -170,8 +171,9 @@ def _prepare(model, state, forces, motors, contacts, pairs, params):
         k2 = p_body2[i]
         normal = p_normal[i].copy()
         t1, t2 = plane_space(normal)
-        p_tangents[i, 0] = t1
-        p_tangents[i, 1] = t2
+        for a in range(3):  # not p_tangents[i, 0] = t1: a row copy compiles numba's shape error
+            p_tangents[i, 0, a] = t1[a]
+            p_tangents[i, 1, a] = t2[a]
         arm1 = p_point[i] - pos[k1]
         arm2 = p_point[i] - pos[k2]
         sf = p_surface[i]
@@ -211,7 +213,7 @@ def _prepare(model, state, forces, motors, contacts, pairs, params):
     yj = bj.copy()
     yf = bf.copy()
     tree = (parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact)
-    tree_solve(0, nb, *tree, yb, yj, yf)
+    tree_solve(FIRST_BODY, nb, *tree, yb, yj, yf)
     return free, gb, gj, bb, lo, hi, cfm_b, yb, bj, bf, tree, tangents, p_tangents
 
 
@@ -230,7 +232,7 @@ def _finish(model, pos, quat, free, gb, gj, lam_b, bj, bf, tree, tangents, p_tan
             if k >= 0:
                 for a in range(6):
                     rb[k, a] += gj[r, x, a] * lam_b[r]
-    tree_solve(0, nb, *tree, rb, bj, bf)
+    tree_solve(FIRST_BODY, nb, *tree, rb, bj, bf)
     out_pos, out_quat, out_vel, out_spin = advance(pos, quat, free + rb, h)
     forces = contact_forces(lam_b, nj, bf)
     p_forces = np.empty((npc, 3))

@@ -115,6 +115,10 @@ def box_qp(a, b, lo, hi, state):
     return x, it
 
 
+#: Where ``tree_solve`` starts on a whole forest, as an int64: called with a literal 0 it would be
+#: compiled a second time, for that literal (about 1.5 s of a cold start).
+FIRST_BODY = np.int64(0)
+
 #: Islands with more bounded rows than this are solved by block principal pivoting first
 #: (``block_pivot``), the active-set ``box_qp`` only finishing; smaller ones by ``box_qp`` alone.
 BLOCK_PIVOT_ROWS = 100
@@ -231,15 +235,18 @@ def tree_solve(
             j = joint_of[k]
             mv_sub(jp[j], rb[p], rj[j])
             mv(dinv_joint[j], rj[j], t5)
-            rj[j, :] = t5
+            for a in range(5):  # not rj[j, :] = t5: a slice copy compiles numba's shape error
+                rj[j, a] = t5[a]
             mtv_sub(jc[j], rj[j], rb[k])
         mv(dinv_body[k], rb[k], t6)
-        rb[k, :] = t6
+        for a in range(6):
+            rb[k, a] = t6[a]
         c = contact_first[k]
         while c >= 0:
             mv_sub(jf[c], rb[k], rf[c])
             mv(dinv_contact[c], rf[c], t2)
-            rf[c, :] = t2
+            for a in range(2):
+                rf[c, a] = t2[a]
             c = contact_next[c]
 
 

@@ -40,7 +40,15 @@ from numba import njit
 
 from server_stub.physics.integrate import advance, free_velocities, robot_body_terms
 from server_stub.physics.rows import bounded_rows, contact_c, contact_nodes, hinge_nodes
-from server_stub.physics.solver import box_qp, contact_forces, factor, schur_complement, tree_solve, unbounded_rhs
+from server_stub.physics.solver import (
+    FIRST_BODY,
+    box_qp,
+    contact_forces,
+    factor,
+    schur_complement,
+    tree_solve,
+    unbounded_rhs,
+)
 
 
 @njit(cache=True)
@@ -107,7 +115,21 @@ def step_tree(model, state, forces, ground, motors, params):
     yj = bj.copy()
     yf = bf.copy()
     tree_solve(
-        0, nb, roots, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, yb, yj, yf
+        FIRST_BODY,
+        nb,
+        roots,
+        joint_of,
+        contact_first,
+        contact_next,
+        jc,
+        jp,
+        jf,
+        dinv_body,
+        dinv_joint,
+        dinv_contact,
+        yb,
+        yj,
+        yf,
     )
     # the bounded rows' Jacobians on their bodies and their paths to the torso
     path_b = np.empty((nbd, nb), dtype=np.int64)
@@ -156,7 +178,21 @@ def step_tree(model, state, forces, ground, motors, params):
         for a in range(6):
             rb[contact_body[i], a] += jn[i, a] * lam_b[nj + i]
     tree_solve(
-        0, nb, roots, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact, rb, bj, bf
+        FIRST_BODY,
+        nb,
+        roots,
+        joint_of,
+        contact_first,
+        contact_next,
+        jc,
+        jp,
+        jf,
+        dinv_body,
+        dinv_joint,
+        dinv_contact,
+        rb,
+        bj,
+        bf,
     )
     out_pos, out_quat, out_vel, out_spin = advance(pos, quat, free + rb, h)
     forces = contact_forces(lam_b, nj, bf)
