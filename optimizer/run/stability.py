@@ -186,7 +186,7 @@ def _pick(
         reports = [check(driver, r.gait, base, longer) if r.stable else r for r in reports]
     reports.sort(key=_steadiest_first)
     if not (hand_over and config.hand_over):  # a run made before hand-over walks: as it was made
-        return min(reports, key=_steadiest_first, default=None), reports
+        return (reports[0] if reports else None), reports
     for i, report in enumerate(reports):
         if not report.stable:
             break

@@ -114,23 +114,8 @@ def step_tree(model, state, forces, ground, motors, params):
     yb = np.zeros((nb, 6))
     yj = bj.copy()
     yf = bf.copy()
-    tree_solve(
-        FIRST_BODY,
-        nb,
-        roots,
-        joint_of,
-        contact_first,
-        contact_next,
-        jc,
-        jp,
-        jf,
-        dinv_body,
-        dinv_joint,
-        dinv_contact,
-        yb,
-        yj,
-        yf,
-    )
+    tree = (roots, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact)
+    tree_solve(FIRST_BODY, nb, *tree, yb, yj, yf)
     # the bounded rows' Jacobians on their bodies and their paths to the torso
     path_b = np.empty((nbd, nb), dtype=np.int64)
     len_b = np.zeros(nbd, dtype=np.int64)
@@ -177,23 +162,7 @@ def step_tree(model, state, forces, ground, motors, params):
     for i in range(nc):
         for a in range(6):
             rb[contact_body[i], a] += jn[i, a] * lam_b[nj + i]
-    tree_solve(
-        FIRST_BODY,
-        nb,
-        roots,
-        joint_of,
-        contact_first,
-        contact_next,
-        jc,
-        jp,
-        jf,
-        dinv_body,
-        dinv_joint,
-        dinv_contact,
-        rb,
-        bj,
-        bf,
-    )
+    tree_solve(FIRST_BODY, nb, *tree, rb, bj, bf)
     out_pos, out_quat, out_vel, out_spin = advance(pos, quat, free + rb, h)
     forces = contact_forces(lam_b, nj, bf)
     torques = lam_b[:nj].copy()
