@@ -39,6 +39,8 @@ TINY = [
     "8",
     "--robust-walks",
     "3",
+    "--refine-lead-walks",
+    "5",
     "--refine",
     "8",
     "--quiet",
@@ -95,7 +97,12 @@ def test_tiny_gala_on_the_stub_writes_every_output(tmp_path: Path) -> None:
     checks = [r for r in logged if r["key"].startswith("check/")]
     firsts = [r for r in records if "/k" not in r["key"]]
     walks = {r["key"]: [r] + [e for e in records if e["key"].startswith(r["key"] + "/k")] for r in firsts}
-    assert len(firsts) == _planned() and {len(w) for w in walks.values()} <= {1, 3}
+    assert len(firsts) == _planned()
+    assert {len(w) for k, w in walks.items() if not k.startswith("refine")} <= {1, 3}
+    refined = {k: w for k, w in walks.items() if k.startswith("refine")}
+    assert {len(w) for w in refined.values()} <= {1, 3, 5}
+    # a refinement's best (scored by its worst walk) is a leader: it walked on to 5 walks
+    assert len(max(refined.values(), key=lambda w: min(e["fitness"] for e in w) if len(w) > 1 else -1e9)) == 5
     assert all("start" not in w[0] and all(len(e["start"]) == 3 for e in w[1:]) for w in walks.values())
     assert len({r["seed"] for r in logged}) == len(logged)  # every walk its own dither draw
     assert len(checks) % 3 == 0 and checks

@@ -562,9 +562,10 @@ class WalkToWalk(FakeEvaluator):
 
 
 def _raced_walks(fitness: dict[str, float], score: dict) -> list[float]:
-    """The fitness of the 5 walks behind a raced gait's score (results.json's ``*_score``)."""
-    assert score["walks"] == 5
-    return [fitness[score["key"]], *(fitness[f"{score['key']}/k{j}"] for j in range(1, 5))]
+    """The fitness of the walks behind a raced gait's score (results.json's ``*_score``): 5, or
+    the refinement's 20 of a leader."""
+    assert score["walks"] in (5, 20)
+    return [fitness[score["key"]], *(fitness[f"{score['key']}/k{j}"] for j in range(1, score["walks"]))]
 
 
 def test_the_refinement_scores_a_gait_by_its_worst_walk_and_the_rows_by_their_quantile(tmp_path: Path) -> None:
@@ -584,6 +585,32 @@ def test_the_refinement_scores_a_gait_by_its_worst_walk_and_the_rows_by_their_qu
         assert fastest["score"] == pytest.approx(min(scored) if stored == 0.0 else np.mean(scored))
         assert min(scored) < np.quantile(scored, 0.25) < np.mean(scored)  # the three differ here
         assert json.loads((out / "manifest.json").read_text())["settings"]["refine_quantile"] == stored
+
+
+def test_the_refinements_best_walks_on_as_its_leader_and_bad_lead_walks_are_refused(tmp_path: Path, capsys) -> None:
+    """By default a refined gait that would be the refinement's best walks on to 20 walks and is
+    scored by all of them; --refine-lead-walks 0 walks none on; a count not above the gait's
+    --robust-walks is refused, naming both."""
+    argv = ["--crossover", "0.8", "--population", "6", "--iterations", "3", "--generations", "2", "--quiet"]
+    argv += ["--seed", "4", "--check-repeats", "2", "--check-confirm", "1", "--refine", "40"]
+    for name, flags, stored, most in (("lead", [], 20, 20), ("none", ["--refine-lead-walks", "0"], 0, 5)):
+        out = tmp_path / name
+        assert gala_command.main([*argv, *flags, "--out", str(out)], make_evaluator=lambda s: WalkToWalk()) == 0
+        episodes = _episodes(out)
+        walks: dict[str, int] = {}
+        for e in episodes:
+            if e["key"].startswith("refine"):
+                walks[e["key"].split("/k")[0]] = walks.get(e["key"].split("/k")[0], 0) + 1
+        assert max(walks.values()) == most
+        assert json.loads((out / "manifest.json").read_text())["settings"]["refine_lead_walks"] == stored
+    for bad, message in (
+        ("3", "lead walks 3: a leader walks on past its --robust-walks 5"),
+        ("1", "1 is not more walks"),
+    ):
+        with pytest.raises(SystemExit) as exit_info:
+            gala_command.main([*argv, "--refine-lead-walks", bad, "--out", str(tmp_path / f"bad{bad}")])
+        assert exit_info.value.code == 2
+        assert message in capsys.readouterr().err
 
 
 def test_the_refinement_can_search_the_runs_own_family(tmp_path: Path) -> None:

@@ -69,8 +69,17 @@ def test_the_first_round_races_only_the_best_first_walks_and_a_failed_walk_never
     assert Race(ScoringConfig(walks=1)).choose(firsts) == []
 
 
+def test_only_a_score_above_every_leader_walks_on() -> None:
+    race = Race(ScoringConfig(walks=3, lead_walks=6))
+    assert race.leaders([("a", 10.0), ("b", 30.0)]) == ["a", "b"]  # no leader yet: both could be the best
+    race.lead(20.0)
+    race.lead(12.0)  # a leader that fell in its later walks does not lower the bar
+    assert race.leaders([("a", 10.0), ("b", 30.0), ("c", 20.0)]) == ["b"]
+    assert Race(ScoringConfig(walks=3)).leaders([("b", 30.0)]) == []
+
+
 def test_a_scoring_config_refuses_impossible_values() -> None:
-    for bad in ({"walks": 0}, {"top": 0}, {"quantile": 1.5}):
+    for bad in ({"walks": 0}, {"top": 0}, {"quantile": 1.5}, {"walks": 5, "lead_walks": 5}):
         with pytest.raises(ValueError):
             ScoringConfig(**bad)  # type: ignore[arg-type]
 
@@ -125,3 +134,40 @@ def test_with_one_walk_nothing_is_raced(tmp_path: Path) -> None:
         driver = Driver(NoisyEvaluator(3.0), log, run_seed=1)  # type: ignore[arg-type]
         scored = driver.score([(f"s/i{i:03d}", np.array([float(i), 0.0])) for i in range(6)], driver.race())
     assert all(not g.raced for g in scored) and len(log.records) == 6
+
+
+@settings(deadline=None, max_examples=25)
+@given(
+    st.lists(
+        st.lists(st.tuples(st.floats(0.0, 10.0), st.floats(0.0, 1.0)), min_size=1, max_size=6),
+        min_size=1,
+        max_size=4,
+    ),
+    st.integers(2, 4),
+    st.integers(1, 4),
+)
+def test_a_search_best_is_always_a_leader_walked_on_from_the_same_first_walks(
+    tmp_path_factory: pytest.TempPathFactory, batches: list, walks: int, more: int
+) -> None:
+    """With leaders' walks: after every batch the best score of the search is a gait's over all its
+    ``lead_walks`` walks; each gait has 1, k or ``lead_walks`` walks; and a leader's first k walks
+    are the very walks (keys, seeds, starts) the race without leaders gives it."""
+    lead = walks + more
+    folder = tmp_path_factory.mktemp("lead")
+    with EpisodeLog(folder / "lead.jsonl") as log, EpisodeLog(folder / "plain.jsonl") as plain_log:
+        driver = Driver(NoisyEvaluator(4.0), log, run_seed=9, scoring=ScoringConfig(walks=walks, lead_walks=lead))  # type: ignore[arg-type]
+        plain = Driver(NoisyEvaluator(4.0), plain_log, run_seed=9, scoring=ScoringConfig(walks=walks))  # type: ignore[arg-type]
+        race, plain_race = driver.race(), plain.race()
+        for b, batch in enumerate(batches):
+            candidates = [(f"s/b{b}/i{i:03d}", np.array(genes)) for i, genes in enumerate(batch)]
+            scored = driver.score(candidates, race)
+            plain.score(candidates, plain_race)
+            assert all(len(g.walks) in (1, walks, lead) for g in scored)
+            best = max(driver.scored.values(), key=lambda g: g.fitness)
+            assert len(best.walks) == lead and best.fitness == race.score(best.walks)
+            for gait in scored:
+                assert [w.key for w in gait.walks] == [gait.key] + [
+                    extra_key(gait.key, j) for j in range(1, len(gait.walks))
+                ]
+                if len(gait.walks) == lead:
+                    assert gait.walks[:walks] == plain.scored[gait.key].walks

@@ -552,6 +552,12 @@ def prepare_run(
     family = family_named(run_family(settings))
     if settings.get("bounds", "legacy") not in family.boxes:
         parser.error(f"--bounds {settings['bounds']}: the {family.name} family has the boxes {', '.join(family.boxes)}")
+    lead, walks = settings.get("refine_lead_walks", 0), scoring_config(settings).walks
+    if lead and lead <= walks:
+        parser.error(
+            f"lead walks {lead}: a leader walks on past its --robust-walks {walks}, "
+            "so give more than that, or 0 for none"
+        )
     servers = tuple(args.server or ())
     if servers and args.workers is not None and args.workers != len(servers):
         parser.error(

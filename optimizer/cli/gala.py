@@ -71,7 +71,7 @@ from optimizer.cli.common import (
     write_gait,
 )
 from optimizer.cli.refine import DEFAULTS as REFINE_DEFAULTS
-from optimizer.cli.refine import REFINE_QUANTILE, refine, refine_starts
+from optimizer.cli.refine import LEAD_WALKS_HELP, REFINE_QUANTILE, lead_walks, refine, refine_starts
 from optimizer.evaluation.pool import stable_seed
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
@@ -254,6 +254,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="score a raced gait of the refinement by this quantile of its walks' fitness, or 'mean' "
         f"(default {PAPER['refine_quantile']:g}: the worst walk, since the refinement's walk is the one "
         "handed over; --robust-quantile scores the rows' gaits)",
+    )
+    p.add_argument(
+        "--refine-lead-walks",
+        type=lead_walks,
+        default=None,
+        metavar="N",
+        help=LEAD_WALKS_HELP,
     )
     p.add_argument(
         "--refine-family",

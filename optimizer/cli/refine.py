@@ -56,7 +56,7 @@ from optimizer.run.stability import Fastest, fastest_walk, ranked_gaits
 from optimizer.search.cmaes import CMAESRun, population_size
 from optimizer.search.config import ScoringConfig
 from optimizer.search.ga import Batch, Candidate, KeyedSearch, Repair, SearchProgram
-from protocol.cli_values import positive_float, positive_int
+from protocol.cli_values import count, positive_float, positive_int
 
 #: Keys of the refinement's episodes start with this (in the main job too).
 REFINE_PREFIX = "refine"
@@ -74,7 +74,24 @@ DEFAULTS: dict[str, Any] = {
     "refine_population": 20,
     "refine_race": True,
     "refine_patience": None,
+    "refine_lead_walks": 20,
 }
+
+#: The help of the refinement's leaders' walks, in the main job and here.
+LEAD_WALKS_HELP = (
+    "a refined gait that would be its run's best walks on to N walks in all first, and is scored by all "
+    f"of them, so that a walk that falls once in 30 is seldom the best (default {DEFAULTS['refine_lead_walks']}; "
+    "0: none; more than --robust-walks)"
+)
+
+
+def lead_walks(text: str) -> int:
+    """``--lead-walks``'s value: 0 or a whole number of walks above 1."""
+    value = count(text)
+    if value == 1:
+        raise argparse.ArgumentTypeError("1 is not more walks than a gait's first: give 0 (none) or at least 2")
+    return value
+
 
 #: The quantile of its walks a refined gait is scored by: the worst (``refine_scoring``).
 REFINE_QUANTILE = 0.0
@@ -109,9 +126,14 @@ def refine_scoring(settings: Mapping[str, Any], scoring: ScoringConfig) -> Scori
     towards walking. The refinement starts from walks that hold, and what it finds is handed over,
     so it forgives none: scored by the second-worst of 5, it climbed to where the walk falls one
     time in four (the seed-1 default row: 16.1 m on the stand-in, then 3 falls in 10 real walks);
-    by the worst, to 15.5 m, 1 fall in 20 real walks (docs/optimizer.md, "The hand-over")."""
+    by the worst, to 15.5 m, 1 fall in 20 real walks (docs/optimizer.md, "The hand-over").
+
+    A gait that would be the refinement's best walks on to ``refine_lead_walks`` walks first
+    (``ScoringConfig.lead_walks``): the best is where a CMA-ES run starts again, which run wins the
+    race, and the hand-over's first candidate."""
     quantile = settings.get("refine_quantile", scoring.quantile)
-    return replace(scoring, quantile=stored_quantile(quantile))
+    lead = settings.get("refine_lead_walks", 0)  # a run from before leaders' walks: none, as it was made
+    return replace(scoring, quantile=stored_quantile(quantile), lead_walks=lead)
 
 
 def heat_gaits(settings: Mapping[str, Any], arms: int, genes: int) -> int:
@@ -302,6 +324,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="race the CMA-ES runs (one per step) and give the winner half the gaits (default); "
         "--no-race: the gaits shared evenly among the steps",
+    )
+    p.add_argument(
+        "--lead-walks",
+        dest="refine_lead_walks",
+        type=lead_walks,
+        default=None,
+        metavar="N",
+        help=LEAD_WALKS_HELP,
     )
     add_walk_run_arguments(p, REFINE_QUANTILE, hand_over=True)
     return p

@@ -95,11 +95,15 @@ class Driver:
         firsts = self.walk([self.task(key, genes, family=family) for key, genes in candidates])
         walks = {key: [firsts[key]] for key, _ in candidates}
         genes_of = {key: genes for key, genes in candidates}
+        k, lead = race.config.walks, race.config.lead_walks
         while chosen := race.choose([(key, firsts[key]) for key, _ in candidates if len(walks[key]) == 1]):
-            more = self.walk([task for key in chosen for task in self._raced_tasks(key, genes_of[key], family)])
+            walks.update(self._walk_on(chosen, walks, genes_of, k, race.config.jitter, family))
             for key in chosen:
-                walks[key] += [more[extra_key(key, j)] for j in range(1, self.scoring.walks)]
                 race.enter(race.score(walks[key]))
+        while chosen := race.leaders([(key, race.score(w)) for key, w in walks.items() if len(w) == k]):
+            walks.update(self._walk_on(chosen, walks, genes_of, lead, race.config.jitter, family))
+            for key in chosen:
+                race.lead(race.score(walks[key]))
         out = []
         for key, _ in candidates:
             scored = ScoredGait(key, firsts[key].genes, race.score(walks[key]), tuple(walks[key]), family)
@@ -109,11 +113,26 @@ class Driver:
                 self.progress.scored(scored.fitness)
         return out
 
-    def _raced_tasks(self, key: str, genes: Sequence[float] | np.ndarray, family: str | None) -> list[EpisodeTask]:
-        """The other k - 1 walks of a raced candidate, from starts moved as its check's are."""
-        seed = stable_seed(self.run_seed, "robust/" + key)
-        starts = moved_starts(self.start, self.scoring.jitter, self.scoring.walks - 1, seed)
-        return [self.task(extra_key(key, j + 1), genes, start, family=family) for j, start in enumerate(starts)]
+    def _walk_on(
+        self,
+        keys: Sequence[str],
+        walks: dict[str, list[EpisodeRecord]],
+        genes_of: dict[str, Sequence[float] | np.ndarray],
+        total: int,
+        jitter: Sequence[float],
+        family: str | None,
+    ) -> dict[str, list[EpisodeRecord]]:
+        """The walks of these candidates gone on to ``total`` each, walked as one batch: their walks
+        after the first from starts moved as their check's are, the same starts however far a
+        candidate goes."""
+        tasks = {}
+        for key in keys:
+            seed = stable_seed(self.run_seed, "robust/" + key)
+            starts = moved_starts(self.start, jitter, total - 1, seed)
+            for j in range(len(walks[key]), total):
+                tasks[j, key] = self.task(extra_key(key, j), genes_of[key], starts[j - 1], family=family)
+        done = self.walk(list(tasks.values()))
+        return {key: walks[key] + [done[extra_key(key, j)] for j in range(len(walks[key]), total)] for key in keys}
 
     def task(
         self,

@@ -16,6 +16,11 @@ asked again after each round of scores until no candidate left could enter). A c
 does not qualify keeps its one walk's value, which lies at or below the bar, so it is never taken
 for one of the search's best.
 
+A search may also race its leaders (``ScoringConfig.lead_walks``; the main job's refinement does):
+a candidate whose score over k walks would make it the search's best walks on to ``lead_walks``
+walks first, and is scored over all of them. k walks cannot see a gait that falls once in 30
+walks; twenty catch it half the time, at the cost of the few gaits that ever lead.
+
 The extra walks of a candidate are episodes of the run like any other, keyed ``<key>/kN``: a
 resumed run replays the race from the log and reaches the same scores.
 """
@@ -51,7 +56,8 @@ def moved_starts(base: Sequence[float], jitter: Sequence[float], count: int, see
 
 
 def extra_key(key: str, walk: int) -> str:
-    """The key of walk ``walk`` (1 ... k - 1) of the candidate ``key``; walk 0 is ``key`` itself."""
+    """The key of walk ``walk`` (1 ... k - 1, then a leader's on to ``lead_walks`` - 1) of the
+    candidate ``key``; walk 0 is ``key`` itself."""
     return f"{key}/k{walk}"
 
 
@@ -95,6 +101,7 @@ class Race:
     def __init__(self, config: ScoringConfig) -> None:
         self.config = config
         self._best: list[float] = []  # the top raced scores, ascending
+        self._lead = -math.inf  # the best score over ``lead_walks`` walks
 
     def score(self, walks: Sequence[EpisodeRecord]) -> float:
         """What the search is told: a single walk's eq. 9 fitness (the paper's, unchanged), else
@@ -127,3 +134,16 @@ class Race:
         """A raced score joins the bar."""
         bisect.insort(self._best, fitness)
         del self._best[: max(0, len(self._best) - self.config.top)]
+
+    def leaders(self, raced: Sequence[tuple[str, float]]) -> list[str]:
+        """Of these candidates' scores over k walks, the keys that walk on to ``lead_walks``: every
+        one that would be its search's best (above the best score over ``lead_walks`` walks so
+        far). Asked again after their scores enter (``lead``), until it names none; so a search's
+        best is always a gait scored over ``lead_walks`` walks."""
+        if not self.config.lead_walks:
+            return []
+        return [key for key, fitness in raced if fitness > self._lead]
+
+    def lead(self, fitness: float) -> None:
+        """A score over ``lead_walks`` walks joins the leaders' bar."""
+        self._lead = max(self._lead, fitness)

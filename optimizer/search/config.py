@@ -196,10 +196,19 @@ class ScoringConfig:
     #: of the run's start, as its check walks are (``StabilityConfig.jitter``); its first walk,
     #: the one racing judges, starts at the run's start.
     jitter: tuple[float, float, float] = (0.05, 0.05, 10.0)
+    #: Walks in all of a gait whose score of k walks would make it its search's best (0: none
+    #: more): its score is then taken over all of them. k walks scored by the worst cannot see a
+    #: gait that falls once in 30 walks (it passes five 84% of the time), and a search's best is
+    #: where it restarts from and what its hand-over checks first (docs/optimizer.md, "Leaders").
+    lead_walks: int = 0
 
     def __post_init__(self) -> None:
         if self.walks < 1:
             raise ValueError(f"ScoringConfig.walks must be >= 1, got {self.walks}")
+        if self.lead_walks and self.lead_walks <= self.walks:
+            raise ValueError(
+                f"ScoringConfig.lead_walks must be 0 or more than walks ({self.walks}), got {self.lead_walks}"
+            )
         if self.top < 1:
             raise ValueError(f"ScoringConfig.top must be >= 1, got {self.top}")
         if self.quantile is not None and not 0.0 <= self.quantile <= 1.0:
