@@ -628,12 +628,13 @@ def test_a_refinement_family_that_cannot_refine_the_runs_walks_is_refused(tmp_pa
 
 
 def test_the_quick_budget_refines_tfs_gaits_and_the_paper_budget_tfs_start_walks(tmp_path: Path) -> None:
-    """A quick row's walks are too slow to hold as start gaits: its refinement searches TFS gaits."""
-    for budget, family, refine in (("quick", "tfs", 1600), ("paper", "tfs-start", 4000)):
+    """A quick row's walks are too slow to hold as start gaits: its refinement searches TFS gaits,
+    and races no leaders."""
+    for budget, family, refine, lead in (("quick", "tfs", 1600, 0), ("paper", "tfs-start", 4000, 20)):
         out = tmp_path / budget
         with pytest.raises(Killed):
             gala_command.main(
                 ["--budget", budget, "--out", str(out), "--quiet"], make_evaluator=lambda s: FakeEvaluator(1)
             )
         settings = json.loads((out / "manifest.json").read_text())["settings"]
-        assert (settings["refine_family"], settings["refine"]) == (family, refine)
+        assert (settings["refine_family"], settings["refine"], settings["refine_lead_walks"]) == (family, refine, lead)

@@ -125,6 +125,9 @@ PAPER: dict[str, Any] = {
 #: the row's best and for each of the 10 best-scored gaits). Measured in bench/notebook-2026.md.
 #: Its refinement searches TFS gaits: a quick row's walks are slow, and a tfs-start refinement
 #: holding one as its start gait handed over less (seed 1: 7.33 m, against 7.77 m; bench/RESULTS.md).
+#: It races no leaders: its walks are slow and hold without them (three seeds, none fell in 200
+#: walks or on the real server), and seed 1's leaders cost it 1,200 walks (a third of its
+#: refinement) and 0.8 m (7.28 m handed over, against 8.08 m; docs/optimizer.md, "Leaders").
 BUDGETS: dict[str, dict[str, Any]] = {
     "paper": {},
     "quick": {
@@ -134,6 +137,7 @@ BUDGETS: dict[str, dict[str, Any]] = {
         "generations": 6,
         "refine": 1600,
         "refine_family": TFS.name,
+        "refine_lead_walks": 0,
     },
 }
 
