@@ -597,10 +597,7 @@ def test_the_refinements_best_walks_on_as_its_leader_and_bad_lead_walks_are_refu
         out = tmp_path / name
         assert gala_command.main([*argv, *flags, "--out", str(out)], make_evaluator=lambda s: WalkToWalk()) == 0
         episodes = _episodes(out)
-        walks: dict[str, int] = {}
-        for e in episodes:
-            if e["key"].startswith("refine"):
-                walks[e["key"].split("/k")[0]] = walks.get(e["key"].split("/k")[0], 0) + 1
+        walks = Counter(e["key"].split("/k")[0] for e in episodes if e["key"].startswith("refine"))
         assert max(walks.values()) == most
         assert json.loads((out / "manifest.json").read_text())["settings"]["refine_lead_walks"] == stored
     for bad, message in (

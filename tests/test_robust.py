@@ -46,6 +46,13 @@ class NoisyEvaluator:
             yield EpisodeOutcome(task, 0, result)
 
 
+def _batches(gaits: int, batches: int) -> st.SearchStrategy[list[list[tuple[float, float]]]]:
+    """Up to ``batches`` batches of up to ``gaits`` gaits each, genes (distance, fall chance) for
+    ``NoisyEvaluator``."""
+    gait = st.tuples(st.floats(0.0, 10.0), st.floats(0.0, 1.0))
+    return st.lists(st.lists(gait, min_size=1, max_size=gaits), min_size=1, max_size=batches)
+
+
 def _record(fitness: float, fell: bool = False, status: str = "ok") -> EpisodeRecord:
     return EpisodeRecord("k", (0.0,), fitness, distance=fitness / 10, fell=fell, status=status)
 
@@ -86,11 +93,7 @@ def test_a_scoring_config_refuses_impossible_values() -> None:
 
 @settings(deadline=None, max_examples=30)
 @given(
-    st.lists(
-        st.lists(st.tuples(st.floats(0.0, 10.0), st.floats(0.0, 1.0)), min_size=1, max_size=8),
-        min_size=1,
-        max_size=5,
-    ),
+    _batches(gaits=8, batches=5),
     st.integers(2, 5),
     st.integers(1, 3),
     st.floats(0.0, 5.0),
@@ -138,11 +141,7 @@ def test_with_one_walk_nothing_is_raced(tmp_path: Path) -> None:
 
 @settings(deadline=None, max_examples=25)
 @given(
-    st.lists(
-        st.lists(st.tuples(st.floats(0.0, 10.0), st.floats(0.0, 1.0)), min_size=1, max_size=6),
-        min_size=1,
-        max_size=4,
-    ),
+    _batches(gaits=6, batches=4),
     st.integers(2, 4),
     st.integers(1, 4),
 )

@@ -125,13 +125,13 @@ class Driver:
         """The walks of these candidates gone on to ``total`` each, walked as one batch: their walks
         after the first from starts moved as their check's are, the same starts however far a
         candidate goes."""
-        tasks = {}
+        tasks = []
         for key in keys:
             seed = stable_seed(self.run_seed, "robust/" + key)
             starts = moved_starts(self.start, jitter, total - 1, seed)
             for j in range(len(walks[key]), total):
-                tasks[j, key] = self.task(extra_key(key, j), genes_of[key], starts[j - 1], family=family)
-        done = self.walk(list(tasks.values()))
+                tasks.append(self.task(extra_key(key, j), genes_of[key], starts[j - 1], family=family))
+        done = self.walk(tasks)
         return {key: walks[key] + [done[extra_key(key, j)] for j in range(len(walks[key]), total)] for key in keys}
 
     def task(
