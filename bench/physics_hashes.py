@@ -13,8 +13,9 @@ and after a redesign mean the same numbers, bit for bit, at every step.
 
 Scenarios: the shipped walker, the fast gait (``gait/walks/fastest.json``), the ball (rolled,
 bounced off a post, walked into), two robots (beamed into each other, walking into each other),
-four robots flailing in a heap, the calibration walk, and the 50 gaits of the fidelity sets plus
-the shipped gait, each from two starts. The hashes depend on the machine's floating-point
+four robots flailing in a heap, a robot in a goal's side box and one walking into a border wall,
+six robots in a pile, the calibration walk, and the 50 gaits of the fidelity sets plus the
+shipped gait, each from two starts. The hashes depend on the machine's floating-point
 (numba compiles for the CPU it runs on): compare on one machine.
 """
 
@@ -177,6 +178,41 @@ def heap(digest: Digest) -> None:
             world.step()
 
 
+def goal(digest: Digest) -> None:
+    """A robot beamed with its chest into the right goal's side box, flailing, and another
+    walking into the border wall (0.5 m thick, its face at x -24.49): a robot's contacts with the field's boxes."""
+    rng = np.random.default_rng(7)
+    with World() as world:
+        post, wall = world.add_robot(), world.add_robot()
+        world.step()
+        post.beam(15.0 - 0.03, 1.07, 0.0)
+        wall.beam(-24.35, 3.0, 180.0)
+        for step in range(150):
+            if step % 10 == 0:
+                for joint, speed in zip(JOINTS, rng.normal(size=22) * 3.0):
+                    post.command(joint.effector, float(speed))
+            calibration_walk._act(wall, step * 0.02)
+            world.step()
+
+
+def pile(digest: Digest) -> None:
+    """Six robots beamed onto one spot around the ball, random motor speeds (``bench_pile.py``'s
+    pile): islands large enough for the block Gauss-Seidel solve."""
+    rng = np.random.default_rng(1)
+    with World() as world:
+        robots = [world.add_robot() for _ in range(6)]
+        for k, robot in enumerate(robots):
+            angle = 2.0 * np.pi * k / 6
+            robot.beam(0.15 * np.cos(angle), 0.15 * np.sin(angle), float(np.degrees(angle)) + 180.0)
+        world.set_ball((0.0, 0.0, 0.042))
+        for step in range(60):
+            if step % 10 == 0:
+                for robot in robots:
+                    for joint, speed in zip(JOINTS, rng.normal(size=22) * 3.0):
+                        robot.command(joint.effector, float(speed))
+            world.step()
+
+
 def calibration(digest: Digest) -> None:
     """The real-server calibration walk, replayed."""
     with World() as world:
@@ -196,6 +232,8 @@ SCENARIOS: dict[str, Callable[[Digest], None]] = {
     "ball": ball,
     "two_robots": two_robots,
     "heap": heap,
+    "goal": goal,
+    "pile": pile,
     "calibration": calibration,
     "gait_sets": gait_sets,
 }

@@ -72,40 +72,57 @@ def _rotation(q) -> np.ndarray:
     return np.array(pb.getMatrixFromQuaternion(q)).reshape(3, 3)
 
 
-class _Entity:
-    """A dynamic thing of this step: a robot (its prepared bodies) or the ball."""
+class _Frames:
+    """Contacts Bullet found on pybullet's links, carried onto the island's own bodies (which may
+    have drifted off the exact joints by millimetres): a point is rotated back into its link's
+    frame and out of its body's, from the link's centre to the body's; a direction only rotated.
+    The ball's points are its own. Each link's frames are read from pybullet once, when a contact
+    first needs them; all the points go through one stacked product, which has the same operands
+    and layouts, hence the same bits, as a product a point."""
 
-    def __init__(self, index: int, robot=None) -> None:
-        self.index = index
-        self.robot = robot
-        #: link -> (centre, transposed rotation) in pybullet, and the rotation of its body here
-        self.frames: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
-        self.ground: tuple | None = None
-        self.static: list = []  # (body, point, normal, depth, surface)
+    def __init__(self, state: State, members: list[tuple[Robot | None, int, int]]) -> None:
+        """``members``: each member's robot (None: the ball), first body and number of bodies."""
+        n = state.pos.shape[0]
+        self.state = state
+        self.robot_body = np.zeros(n, dtype=bool)
+        self._link: list[tuple[Robot, int] | None] = [None] * n
+        for robot, first, count in members:
+            if robot is not None:
+                self.robot_body[first : first + count] = True
+                self._link[first : first + count] = [(robot, link) for link in range(-1, count - 1)]
+        self._known = np.zeros(n, dtype=bool)
+        self._centres = np.zeros((n, 3))
+        self._rotations = np.zeros((n, 3, 3))
+        self._body_rotations = np.zeros((n, 3, 3))
 
-    def map_point(self, link: int, point, body_pos, body_quat) -> np.ndarray:
-        """A world point on pybullet's link carried to the same place on our body."""
-        if self.robot is None:
-            return np.asarray(point, dtype=float)
-        centre, rot_t, body_rot = self._frame(link, body_quat)
-        local = rot_t @ (np.asarray(point) - centre)
-        return body_pos + body_rot @ local
+    def carry(self, bodies: np.ndarray, vectors: np.ndarray, points: bool) -> np.ndarray:
+        """``vectors`` (world points if ``points``, else directions; one a row, on the link of
+        body ``bodies[i]``) where they are on the island's bodies."""
+        on_robot = self.robot_body[bodies]
+        if on_robot.all():
+            return self._turn(bodies, vectors, points)
+        out = vectors.copy()
+        rows = np.flatnonzero(on_robot)
+        if rows.size:
+            out[rows] = self._turn(bodies[rows], vectors[rows], points)
+        return out
 
-    def map_dir(self, link: int, d, body_quat) -> np.ndarray:
-        if self.robot is None:
-            return np.asarray(d, dtype=float)
-        _, rot_t, body_rot = self._frame(link, body_quat)
-        return body_rot @ (rot_t @ np.asarray(d))
-
-    def _frame(self, link: int, body_quat) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The link's centre and transposed rotation in pybullet, and its body's rotation: made
-        once a step per link (a pile has hundreds of points on a few dozen links)."""
-        if self.frames is None:
-            self.frames = {}
-        if link not in self.frames:
-            c, q = self.robot.link_frame(link)
-            self.frames[link] = (np.asarray(c, dtype=float), _rotation(q).T, _rotation(body_quat))
-        return self.frames[link]
+    def _turn(self, bodies: np.ndarray, vectors: np.ndarray, points: bool) -> np.ndarray:
+        if not self._known[bodies].all():
+            for k in set(bodies[~self._known[bodies]].tolist()):
+                robot, link = self._link[k]
+                centre, quat = robot.link_frame(link)
+                self._centres[k] = centre
+                self._rotations[k] = _rotation(quat)
+                self._body_rotations[k] = _rotation(self.state.quat[k])
+                self._known[k] = True
+        # a C-ordered stack turned round by a view: a copied transpose changes the bits
+        to_link = self._rotations[bodies].transpose(0, 2, 1)
+        to_world = self._body_rotations[bodies]
+        if not points:
+            return np.matmul(to_world, np.matmul(to_link, vectors[:, :, None]))[:, :, 0]
+        local = np.matmul(to_link, (vectors - self._centres[bodies])[:, :, None])
+        return self.state.pos[bodies] + np.matmul(to_world, local)[:, :, 0]
 
 
 class _Island:
@@ -192,8 +209,8 @@ class Stepper:
         ground = self.ground
         statics = [self._model(robot) for robot in robots]
         preps = [robot_step.prepare(robot, self._robots[robot], model, cfg) for robot, model in zip(robots, statics)]
-        entities = [_Entity(i, robot) for i, robot in enumerate(robots)]
-        entities.append(_Entity(len(robots)))  # the ball
+        # each robot's and the ball's contacts with the field's boxes (pybullet's tuples)
+        on_boxes: list[list] = [[] for _ in range(len(robots) + 1)]
         by_body = {robot.body_id: i for i, robot in enumerate(robots)}
         by_body[self.ball] = len(robots)
         # the ball's state; placed by the trainer or the referee since the last step, SimSpark
@@ -207,9 +224,9 @@ class Stepper:
             pb.performCollisionDetection(physicsClientId=c)
             touching = [pt for pt in pb.getContactPoints(physicsClientId=c) if pt[8] <= 0.0]
         if touching:
-            groups, pairs = self._islands(touching, entities, by_body)
+            groups, pairs = self._islands(touching, on_boxes, by_body)
         else:  # every robot and the ball on its own (the usual cycle of a lone walker)
-            groups, pairs = [[i] for i in range(len(entities))], []
+            groups, pairs = [[i] for i in range(len(on_boxes))], []
         if placed:
             self._wake_ball()
         ball_index = len(robots)
@@ -218,13 +235,13 @@ class Stepper:
                 continue  # ODE's auto-disable: a resting ball is not stepped until touched or moved
             if ball_index in group and self._ball_asleep:
                 self._wake_ball()  # touched by an enabled body
-            if len(group) == 1 and group[0] < len(robots) and not entities[group[0]].static:
+            if len(group) == 1 and group[0] < len(robots) and not on_boxes[group[0]]:
                 i = group[0]
                 robot = robots[i]
                 solved = robot_step.solve_prepared(robot, statics[i], preps[i], ground, cfg, self.params)
                 robot_step.apply(robot, solved)
                 continue
-            self._solve_island(group, robots, statics, preps, entities, pairs, ball_now, by_body)
+            self._solve_island(group, robots, statics, preps, on_boxes, pairs, ball_now, by_body)
 
     def _far_apart(self, robot_bodies: list[np.ndarray], ball: tuple) -> bool:
         """Whether no two of the robots, the ball and the goals and walls can touch: their boxes
@@ -250,11 +267,12 @@ class Stepper:
             )
         )
 
-    def _islands(self, touching: list, entities: list, by_body: dict) -> tuple[list[list[int]], list]:
-        """The touching points sorted out: each one-body contact (a goal, a wall) to its entity,
-        the two-body ones (at most ``MAX_PAIR_POINTS`` a pair, the deepest) returned, and the
-        entities joined by them grouped into islands (in order of their first member)."""
-        parent = list(range(len(entities)))
+    def _islands(self, touching: list, on_boxes: list[list], by_body: dict) -> tuple[list[list[int]], list]:
+        """The touching points sorted out: each one-body contact (a goal, a wall) to its robot's or
+        the ball's ``on_boxes``, the two-body ones (at most ``MAX_PAIR_POINTS`` a pair, the
+        deepest) returned, and the robots and the ball joined by them grouped into islands (in
+        order of their first member)."""
+        parent = list(range(len(on_boxes)))
 
         def find(i: int) -> int:
             while parent[i] != i:
@@ -274,14 +292,14 @@ class Stepper:
                 if ra != rb:
                     parent[ra] = rb
             elif pt[1] == self.static or pt[2] == self.static:
-                entities[max(a, b)].static.append(pt)
+                on_boxes[max(a, b)].append(pt)
         pairs: list = []
         for points in per_pair.values():
             if len(points) > MAX_PAIR_POINTS:
                 points = sorted(points, key=lambda pt: pt[8])[:MAX_PAIR_POINTS]
             pairs.extend(points)
         members: dict[int, list[int]] = {}
-        for i in range(len(entities)):
+        for i in range(len(on_boxes)):
             members.setdefault(find(i), []).append(i)
         return list(members.values()), pairs
 
@@ -300,13 +318,15 @@ class Stepper:
         velocity, spin = pb.getBaseVelocity(self.ball, physicsClientId=c)
         return (position, orientation, velocity, spin)
 
-    def _solve_island(self, group, robots, statics, preps, entities, pairs, ball_now, by_body) -> None:
+    def _solve_island(self, group, robots, statics, preps, on_boxes, pairs, ball_now, by_body) -> None:
         """Robots and the ball touching each other (``group``), solved as one LCP: their bodies and
         contacts gathered into the island's arrays, stepped, and the results handed back."""
         island = _Island(group, len(robots))
         model, state, forces, motors = self._gather_bodies(island, statics, preps, ball_now)
-        contacts = self._gather_contacts(island, statics, preps, entities, ball_now, state, by_body)
-        pair_contacts = self._gather_pairs(island, entities, pairs, state, by_body)
+        members = [(robots[i], statics[i].masses.shape[0]) if island.is_robot(i) else (None, 1) for i in group]
+        frames = _Frames(state, [(robot, island.offsets[i], count) for i, (robot, count) in zip(group, members)])
+        contacts = self._gather_contacts(island, statics, preps, on_boxes, ball_now, frames, by_body)
+        pair_contacts = self._gather_pairs(island, pairs, frames, by_body)
         out = island_step.step_island(
             model, state, forces, motors, contacts, pair_contacts, self.params, self.island_solve
         )
@@ -401,7 +421,9 @@ class Stepper:
         )
         return model, state, forces, motors
 
-    def _gather_contacts(self, island: _Island, statics, preps, entities, ball_now, state: State, by_body) -> Contacts:
+    def _gather_contacts(
+        self, island: _Island, statics, preps, on_boxes, ball_now, frames: _Frames, by_body
+    ) -> Contacts:
         """Every member's contacts with something static: its ground contacts first (a robot's as
         ``robot_step`` makes them, the ball's ODE's sphere-plane one), then goals and walls."""
         cfg = self.config
@@ -436,19 +458,24 @@ class Stepper:
                     depth.append(ball_depth)
                     surface.append(s.ball_ground)
                 surf = s.ball_static
-            entity = entities[i]
-            island.static_count[i] = len(entity.static)
-            for pt in entity.static:
+            boxes = on_boxes[i]
+            island.static_count[i] = len(boxes)
+            if not boxes:
+                continue
+            robot = island.is_robot(i)
+            links, mids, towards = [], [], []
+            for pt in boxes:
                 mine_a = by_body.get(pt[contact.BODY_A]) == i
-                link = pt[contact.LINK_A] if mine_a else pt[contact.LINK_B]
-                k = off + link + 1 if island.is_robot(i) else off
-                mid = 0.5 * (np.asarray(pt[contact.POSITION_ON_A]) + np.asarray(pt[contact.POSITION_ON_B]))
-                towards = np.asarray(pt[contact.NORMAL_ON_B])
-                body.append(k)
-                point.append(entity.map_point(link, mid, state.pos[k], state.quat[k]))
-                normal.append(entity.map_dir(link, towards if mine_a else -towards, state.quat[k]))
+                links.append(pt[contact.LINK_A] if mine_a else pt[contact.LINK_B])
+                mids.append(0.5 * (np.asarray(pt[contact.POSITION_ON_A]) + np.asarray(pt[contact.POSITION_ON_B])))
+                normal_on_b = np.asarray(pt[contact.NORMAL_ON_B])
+                towards.append(normal_on_b if mine_a else -normal_on_b)
                 depth.append(-pt[contact.DISTANCE])
                 surface.append(surf)
+            on = off + np.array(links, dtype=np.int64) + 1 if robot else np.full(len(links), off, dtype=np.int64)
+            body.extend(on.tolist())
+            point.extend(frames.carry(on, np.array(mids), points=True))
+            normal.extend(frames.carry(on, np.array(towards), points=False))
         return Contacts(
             np.array(body, dtype=np.int64),
             _rows(point, 3),
@@ -457,35 +484,38 @@ class Stepper:
             _rows(surface, 5),
         )
 
-    def _gather_pairs(self, island: _Island, entities, pairs, state: State, by_body) -> PairContacts:
+    def _gather_pairs(self, island: _Island, pairs, frames: _Frames, by_body) -> PairContacts:
         """The contacts between two members: each point carried from Bullet's links into the
         bodies, the normal from body 2 into body 1."""
         members = set(island.group)
+        kept = [pt for pt in pairs if by_body[pt[contact.BODY_A]] in members]
+        n = len(kept)
+        fields = list(zip(*kept)) if kept else [()] * (contact.DISTANCE + 1)
+        a = [by_body[body] for body in fields[contact.BODY_A]]
+        b = [by_body[body] for body in fields[contact.BODY_B]]
+        island.pairs = list(zip(a, b, fields[contact.LINK_A], fields[contact.LINK_B]))
+
+        def bodies(who: list[int], links: tuple) -> np.ndarray:
+            return np.array(
+                [island.offsets[m] + (link + 1 if island.is_robot(m) else 0) for m, link in zip(who, links)],
+                dtype=np.int64,
+            )
+
+        body1, body2 = bodies(a, fields[contact.LINK_A]), bodies(b, fields[contact.LINK_B])
+        on_a = np.array(fields[contact.POSITION_ON_A], dtype=float).reshape(n, 3)
+        on_b = np.array(fields[contact.POSITION_ON_B], dtype=float).reshape(n, 3)
+        # both bodies' points in one product
+        carried = frames.carry(np.concatenate([body1, body2]), np.concatenate([on_a, on_b]), points=True)
+        normal_on_b = np.array(fields[contact.NORMAL_ON_B], dtype=float).reshape(n, 3)
         s = self.surfaces
-        body1, body2, point, normal, depth, surface = [], [], [], [], [], []
-        for pt in pairs:
-            a, b = by_body[pt[contact.BODY_A]], by_body[pt[contact.BODY_B]]
-            if a not in members:
-                continue
-            la, lb = pt[contact.LINK_A], pt[contact.LINK_B]
-            ka = island.offsets[a] + (la + 1 if island.is_robot(a) else 0)
-            kb = island.offsets[b] + (lb + 1 if island.is_robot(b) else 0)
-            pa = entities[a].map_point(la, pt[contact.POSITION_ON_A], state.pos[ka], state.quat[ka])
-            pbb = entities[b].map_point(lb, pt[contact.POSITION_ON_B], state.pos[kb], state.quat[kb])
-            body1.append(ka)
-            body2.append(kb)
-            point.append(0.5 * (pa + pbb))
-            normal.append(entities[b].map_dir(lb, pt[contact.NORMAL_ON_B], state.quat[kb]))
-            depth.append(-pt[contact.DISTANCE])
-            surface.append(s.robot_robot if (island.is_robot(a) and island.is_robot(b)) else s.robot_ball)
-            island.pairs.append((a, b, la, lb))
+        surfaces = [s.robot_robot if island.is_robot(i) and island.is_robot(j) else s.robot_ball for i, j in zip(a, b)]
         return PairContacts(
-            np.array(body1, dtype=np.int64),
-            np.array(body2, dtype=np.int64),
-            _rows(point, 3),
-            _rows(normal, 3),
-            np.array(depth, dtype=float).reshape(-1),
-            _rows(surface, 5),
+            body1,
+            body2,
+            0.5 * (carried[:n] + carried[n:]),
+            frames.carry(body2, normal_on_b, points=False),
+            -np.array(fields[contact.DISTANCE], dtype=float),
+            _rows(surfaces, 5),
         )
 
     def _scatter(
@@ -523,13 +553,13 @@ class Stepper:
                         tangents[ci],
                     )
                 )
-        for m, (a, b, la, lb) in enumerate(island.pairs):
-            f, t = p_forces[m], p_tangents[m]
-            p = tuple(pairs.point[m])
-            towards = tuple(pairs.normal[m])
-            depth = -pairs.depth[m]
+        # as lists of floats: the same numbers as the arrays' own, hundreds of points a pile
+        points, normals = pairs.point.tolist(), pairs.normal.tolist()
+        depths, solved, along = (-pairs.depth).tolist(), p_forces.tolist(), p_tangents.tolist()
+        for (a, b, la, lb), p, towards, depth, f, t in zip(island.pairs, points, normals, depths, solved, along):
+            p = tuple(p)
             if island.is_robot(a):
-                extra[a].append(contact.point(robots[a].body_id, bodies[b], la, lb, p, p, towards, depth, f, t))
+                extra[a].append(contact.point(robots[a].body_id, bodies[b], la, lb, p, p, tuple(towards), depth, f, t))
             if island.is_robot(b):
                 away = tuple(-x for x in towards)
                 extra[b].append(contact.point(robots[b].body_id, bodies[a], lb, la, p, p, away, depth, f, t, sign=-1.0))

@@ -311,7 +311,12 @@ def warm_up() -> None:
     anchors = np.array([[0.0, 0.0, 0.1]])
     vel, spin = kinematics.body_velocities(*two, axes, centres, quats, anchors, np.zeros(3), np.zeros(3), np.ones(1))
     child, parent = kinematics.local_anchors(*two, centres, quats, anchors)
-    kinematics.measured_state(centres, quats, vel, spin, *two, axes)
+    written = kinematics.measured_state(centres, quats, vel, spin, *two, axes)
+    # a beam's rigid move (``prepare``), with the argument types it is given there: compiled at a
+    # game's first beam it would stall that cycle by seconds on a fresh clone
+    kinematics.move_rigidly(
+        centres.copy(), quats.copy(), written[0:3], written[3:7], np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0])
+    )
     step_tree(
         Model(np.ones(2), np.full((2, 3), 0.01), *two, axes, child, parent),
         State(centres, quats, vel, spin),
