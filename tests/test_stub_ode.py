@@ -23,25 +23,31 @@ from server_stub.physics.bundles import (
     State,
 )
 from server_stub.physics.integrate import gyroscopic_torque
-from server_stub.physics.solver import box_qp
+from server_stub.physics.solver import BLOCK_PIVOT_PASSES, block_pivot, box_qp
 from server_stub.physics.world import World
 from tests.dense_step import dense_step
 
 MAX = PhysicsConfig()
 
 
-@pytest.mark.parametrize("seed", range(20))
-def test_box_qp_solves_the_boxed_lcp_exactly(seed):
+def _boxed_lcp(seed: int, most: int = 40, crowded: bool = False):
+    """A random boxed LCP (A symmetric positive definite, rows unbounded, >= 0 or boxed) and a
+    guess of each row's state, even a wrong one. ``crowded``: 100 rows or more, all bounded, A
+    near a third of full rank, as a pile's Schur complement of its bounded rows is (hundreds of
+    contact rows on a few dozen bodies)."""
     rng = np.random.default_rng(seed)
-    n = int(rng.integers(1, 40))
-    g = rng.normal(size=(n, n))
-    a = g @ g.T + 1e-3 * np.eye(n)
+    n = int(rng.integers(100 if crowded else 1, most))
+    g = rng.normal(size=(n, n // 3 if crowded else n))
+    a = g @ g.T + (1e-2 if crowded else 1e-3) * np.eye(n)
     b = rng.normal(size=n) * 10
-    kind = rng.integers(0, 3, size=n)  # 0 unbounded, 1 >= 0, 2 boxed
+    kind = rng.integers(1 if crowded else 0, 3, size=n)  # 0 unbounded, 1 >= 0, 2 boxed
     lo = np.where(kind == 0, -np.inf, np.where(kind == 1, 0.0, -rng.uniform(0.1, 2, size=n)))
     hi = np.where(kind == 0, np.inf, np.where(kind == 1, np.inf, rng.uniform(0.1, 2, size=n)))
-    state = rng.integers(-1, 2, size=n).astype(np.int64)  # any guess, even a wrong one
-    x, _ = box_qp(a, b, lo, hi, state)
+    return a, b, lo, hi, rng.integers(-1, 2, size=n).astype(np.int64)
+
+
+def _assert_solves(a, b, lo, hi, x) -> None:
+    """x is the boxed LCP's solution: within the box, w = Ax - b zero inside, >= 0 at lo, <= 0 at hi."""
     w = a @ x - b
     tol = 1e-7 * (1 + np.abs(b).max())
     assert np.all(x >= lo - 1e-12) and np.all(x <= hi + 1e-12)
@@ -49,6 +55,29 @@ def test_box_qp_solves_the_boxed_lcp_exactly(seed):
     assert np.all(np.abs(w[inside]) < tol)
     assert np.all(w[(x <= lo + 1e-9) & ~inside] > -tol)
     assert np.all(w[(x >= hi - 1e-9) & ~inside] < tol)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_box_qp_solves_the_boxed_lcp_exactly(seed):
+    a, b, lo, hi, state = _boxed_lcp(seed)
+    x, _ = box_qp(a, b, lo, hi, state)
+    _assert_solves(a, b, lo, hi, x)
+
+
+@pytest.mark.parametrize("crowded", [False, True])
+@pytest.mark.parametrize("seed", range(15))
+def test_block_pivoting_solves_it_or_hands_box_qp_a_guess_it_finishes(seed, crowded):
+    """What a large island's exact solve does (``island_step.step_island``): block pivoting,
+    and where it has not converged in ``BLOCK_PIVOT_PASSES`` (a crowded A, mostly), ``box_qp``
+    from its last guess; either way the LCP's one solution (A is positive definite)."""
+    a, b, lo, hi, state = _boxed_lcp(seed, most=200, crowded=crowded)
+    x, converged, passes = block_pivot(a, b, lo, hi, state)
+    assert 1 <= passes <= BLOCK_PIVOT_PASSES
+    if not converged:
+        x, _ = box_qp(a, b, lo, hi, state)
+    _assert_solves(a, b, lo, hi, x)
+    fresh, _ = box_qp(a, b, lo, hi, np.zeros_like(state))
+    assert np.allclose(x, fresh, rtol=1e-6, atol=1e-6 * (1 + np.abs(fresh).max()))
 
 
 def _contacts(kind, size, centre, quat=(0.0, 0.0, 0.0, 1.0)):

@@ -125,7 +125,7 @@ BLOCK_PIVOT_ROWS = 100
 
 
 #: Most block-pivoting passes before ``box_qp`` takes over from the last guess.
-BLOCK_PIVOT_PASSES = 20
+BLOCK_PIVOT_PASSES = 12
 
 
 @njit(cache=True)
