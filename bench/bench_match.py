@@ -66,9 +66,9 @@ def start_server(times: Path) -> tuple[subprocess.Popen, int, int]:
     return server, int(found.group(1)), int(found.group(2))
 
 
-def start_players(port: int, players: int, seconds: float) -> list[subprocess.Popen]:
+def start_players(port: int, players: int, seconds: float, extra: tuple[str, ...] = ()) -> list[subprocess.Popen]:
     """``players`` agents a side: beamed in two lines on their own half (each team's beam is in
-    its own frame, its goal at -x), facing the other half."""
+    its own frame, its goal at -x), facing the other half; ``extra``: more flags for each."""
     agents = []
     for team in ("Home", "Away"):
         for unum in range(1, players + 1):
@@ -93,6 +93,7 @@ def start_players(port: int, players: int, seconds: float) -> list[subprocess.Po
                         "--start-now",
                         "--duration",
                         f"{seconds:.0f}",
+                        *extra,
                     ],
                     cwd=ROOT,
                     stdout=subprocess.DEVNULL,

@@ -1,0 +1,137 @@
+"""How often the real server's fouls fire in a game of the project's agents.
+
+Starts the real server's sync wrapper of the shared build (``RCSSSERVER3D``, which takes
+AGENT_PORT MONITOR_PORT: ``/opt/rcss/bin/rcss-sync``; a server started the optimizer's way, with
+its own sync profile, stalled at game time 0 with 8 agents connecting) and ``--players`` agents
+a side beamed and walking at each other as in ``bench/bench_match.py``, kicks off, and reads the
+monitor stream for ``--seconds`` of game time. The real server sends each foul it records as
+``(foul INDEX TYPE TEAM UNUM)`` (SimSpark's soccerruleitem.cpp), again every cycle while it holds
+the player in the air; this counts one event per player and type (a new one after 0.5 s without
+a record) and prints them by type. The stand-in has none of these fouls (docs/robot_and_server.md
+section 8): this is what that leaves out.
+
+    RCSSSERVER3D=/opt/rcss/bin/rcss-sync python bench/real_fouls.py            # 4 a side, 60 s
+    RCSSSERVER3D=/opt/rcss/bin/rcss-sync python bench/real_fouls.py --players 2 --seconds 20
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import re
+import socket
+import struct
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from bench_match import start_players  # noqa: E402
+
+from optimizer.episode.real_server import find_rcssserver3d, free_port, kill_sim  # noqa: E402
+from optimizer.episode.servers import ServerAddress  # noqa: E402
+from protocol.framing import encode_frame  # noqa: E402
+
+#: SimSpark 0.7.3's EFoulType, in order (soccerruleaspect.h).
+FOULS = (
+    "crowding",
+    "touching",
+    "illegal defence",
+    "illegal attack",
+    "incapable",
+    "kick-off",
+    "charging",
+    "self-collision",
+)
+_FOUL = re.compile(r"\(foul (\d+) (\d+) (\d+) (\d+)\)")
+_TIME = re.compile(r"\(time ([0-9.]+)\)")
+
+
+def monitor_frames(sock: socket.socket):
+    """The monitor stream's messages, as text, until the server closes it or goes quiet 180 s (in sync
+    mode it waits for every agent that has connected, and the players take a while to)."""
+    sock.settimeout(180.0)
+    buffer = b""
+    while True:
+        try:
+            data = sock.recv(1 << 16)
+        except TimeoutError:
+            return
+        if not data:
+            return
+        buffer += data
+        while len(buffer) >= 4:
+            size = struct.unpack(">I", buffer[:4])[0]
+            if len(buffer) < 4 + size:
+                break
+            yield buffer[4 : 4 + size].decode("latin-1")
+            buffer = buffer[4 + size :]
+
+
+def fouls(messages, seconds: float) -> tuple[list[tuple[float, str, int, int]], float]:
+    """The foul events (game time, type, team 1 left / 2 right, unum) until ``seconds`` of game
+    time, and the last game time seen."""
+    records: dict[int, tuple[float, int, int, int]] = {}
+    now = 0.0
+    for message in messages:
+        found = _TIME.search(message)
+        if found:
+            now = float(found.group(1))
+        for foul in _FOUL.finditer(message):
+            index, kind, team, unum = map(int, foul.groups())
+            records.setdefault(index, (now, kind, team, unum))
+        if now >= seconds:
+            break
+    events, last = [], {}
+    for index in sorted(records):
+        t, kind, team, unum = records[index]
+        key = (kind, team, unum)
+        if key not in last or t - last[key] > 0.5:
+            events.append((t, FOULS[kind], team, unum))
+        last[key] = t
+    return events, now
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--players", type=int, default=4, help="agents a side (default 4)")
+    parser.add_argument("--seconds", type=float, default=60.0, help="game seconds after kick-off (default 60)")
+    args = parser.parse_args(argv)
+    if not 1 <= args.players <= 11 or args.seconds <= 0.0:
+        parser.error("--players must be 1-11 and --seconds > 0")
+    address = ServerAddress("127.0.0.1", free_port(), free_port())
+    server = subprocess.Popen(
+        [find_rcssserver3d(), str(address.agent_port), str(address.monitor_port)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    agents: list[subprocess.Popen] = []
+    try:
+        time.sleep(3.0)  # the server's start
+        monitor = socket.create_connection((address.host, address.monitor_port))
+        started = time.monotonic()
+        agents = start_players(address.agent_port, args.players, args.seconds + 60.0, ("--sync", "--timeout", "180"))
+        monitor.sendall(encode_frame("(kickOff Left)"))
+        events, reached = fouls(monitor_frames(monitor), args.seconds)
+        monitor.close()
+        print(
+            f"{2 * args.players} agents, {reached:.1f} s of game time in {time.monotonic() - started:.0f} s: "
+            f"{len(events)} fouls, by type {dict(collections.Counter(e[1] for e in events))}"
+        )
+        for t, kind, team, unum in events:
+            print(f"  {t:7.2f} s  {kind}  {'left' if team == 1 else 'right'} {unum}")
+    finally:
+        for agent in agents:
+            agent.kill()
+            agent.wait()
+        kill_sim(address)
+        server.kill()
+        server.wait()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
