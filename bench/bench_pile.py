@@ -2,7 +2,8 @@
 
 A real game has piles (robots falling over each other at the ball); the stand-in solves every group
 of touching bodies as one island (``server_stub.physics.driver``), so a pile is its worst cycle.
-Robots are beamed around one spot (a ring of radius ``--spread``, facing its centre, the ball in
+Robots are added and stepped once apart (each one's model read: that step is printed on its
+own), then beamed around one spot (a ring of radius ``--spread``, facing its centre, the ball in
 the middle) and driven with random joint speeds, changed every 10 cycles, so they flail into a
 tangle. Prints the percentiles of the wall time of ``World.step`` per cycle and the most touching
 points a cycle had; issue 28's target is <= 20 ms a cycle for a pile of 6.
