@@ -160,6 +160,13 @@ def two_robots(digest: Digest) -> None:
                 world.step()
 
 
+def _random_speeds(robots, rng: np.random.Generator) -> None:
+    """Every hinge of every robot told a random speed (3 rad/s spread): a robot flailing."""
+    for robot in robots:
+        for joint, speed in zip(JOINTS, rng.normal(size=22) * 3.0):
+            robot.command(joint.effector, float(speed))
+
+
 def heap(digest: Digest) -> None:
     """Four robots beamed 0.3 m apart around the ball, random motor speeds: a tangle."""
     rng = np.random.default_rng(5)
@@ -172,15 +179,14 @@ def heap(digest: Digest) -> None:
         world.set_ball((0.0, 0.0, 0.042))
         for step in range(120):
             if step % 10 == 0:
-                for robot in robots:
-                    for joint, speed in zip(JOINTS, rng.normal(size=22) * 3.0):
-                        robot.command(joint.effector, float(speed))
+                _random_speeds(robots, rng)
             world.step()
 
 
 def goal(digest: Digest) -> None:
     """A robot beamed with its chest into the right goal's side box, flailing, and another
-    walking into the border wall (0.5 m thick, its face at x -24.49): a robot's contacts with the field's boxes."""
+    walking into the border wall (0.5 m thick, its face at x -24.49): a robot's contacts with the
+    field's boxes."""
     rng = np.random.default_rng(7)
     with World() as world:
         post, wall = world.add_robot(), world.add_robot()
@@ -189,8 +195,7 @@ def goal(digest: Digest) -> None:
         wall.beam(-24.35, 3.0, 180.0)
         for step in range(150):
             if step % 10 == 0:
-                for joint, speed in zip(JOINTS, rng.normal(size=22) * 3.0):
-                    post.command(joint.effector, float(speed))
+                _random_speeds([post], rng)
             calibration_walk._act(wall, step * 0.02)
             world.step()
 
@@ -207,9 +212,7 @@ def pile(digest: Digest) -> None:
         world.set_ball((0.0, 0.0, 0.042))
         for step in range(60):
             if step % 10 == 0:
-                for robot in robots:
-                    for joint, speed in zip(JOINTS, rng.normal(size=22) * 3.0):
-                        robot.command(joint.effector, float(speed))
+                _random_speeds(robots, rng)
             world.step()
 
 
