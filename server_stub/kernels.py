@@ -7,8 +7,10 @@ server would miss its pace); the optimizer's in-process episodes call it for the
 takes (``WALK``) before their first episode. On a fresh clone, compiling is most of a first run's
 time (``bench/bench_cold_start.py``), and it is one core's work: so a helper process
 (``python -m server_stub.kernels PART...``) compiles the other parts into the cache while this
-process compiles a robot's step, then this process loads them. The solver's kernels, which both
-halves need, are compiled in both; the halves take about as long.
+process compiles a robot's step, then this process loads them. The solver's and integrator's
+kernels, which both halves call, would be compiled in both: the helper compiles them first, from
+the one a robot's step calls last, while this process meets them from the first; each loads what
+the other has put in the cache, and they meet in the middle.
 """
 
 from __future__ import annotations
@@ -19,14 +21,17 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
+from numba import types
 
 from server_stub.physics import (
     collision,
     gauss_seidel,
+    integrate,
     island_step,
     motors,
     robot_step,
     rotations,
+    rows,
     solver,
     tree_step,
 )
@@ -46,6 +51,48 @@ def _field() -> None:
     collision.far_apart(np.zeros((1, 3)), np.zeros(1, dtype=np.int64), 1, np.ones(3), 0.25, 0.3, lo, lo + 1.0)
 
 
+#: Argument types by short name: float64 (f) or int64 (i) scalars and C arrays of 1-3 dimensions,
+#: and a bool (b).
+_TYPES: dict[str, types.Type] = {
+    "f": types.float64,
+    "i": types.int64,
+    "b": types.boolean,
+    "f1": types.float64[::1],
+    "f2": types.float64[:, ::1],
+    "f3": types.float64[:, :, ::1],
+    "i1": types.int64[::1],
+    "i2": types.int64[:, ::1],
+}
+#: The kernels both a robot's step and an island's call, with the argument types they call them
+#: with, in the order a robot's step first calls them (``tests/test_kernels.py`` checks both).
+SHARED: tuple[tuple[Callable[[], Any], str], ...] = (
+    (lambda: integrate.body_terms, "f1 f2 f2 f2 f1 f1 f1 f2 f2 f b"),
+    (lambda: rows.hinge_nodes, "i1 i1 i f3 f2 f2 f2 f2 f1 f2 f f"),
+    (lambda: rows.contact_nodes, "i i1 f2 f2 f2"),
+    (lambda: integrate.free_velocities, "f2 f2 f2 f1 f3 f"),
+    (lambda: solver.factor, "i1 i1 i1 i1 f3 f3 f3 f3 f1 f"),
+    (lambda: solver.unbounded_rhs, "i1 i1 i1 f3 f3 f3 f2 f2"),
+    (lambda: rows.bounded_rows, "i f1 f1 f1 f"),
+    (lambda: solver.tree_solve, "i i i1 i1 i1 i1 f3 f3 f3 f3 f3 f3 f2 f2 f2"),
+    (lambda: solver.schur_complement, "i1 i1 f3 f3 f3 f3 i2 i1 f3 f1"),
+    (lambda: solver.box_qp, "f2 f1 f1 f1 i1"),
+    (lambda: integrate.advance, "f2 f2 f2 f"),
+    (lambda: solver.contact_forces, "f1 i f2"),
+)
+
+
+def shared_signature(spec: str) -> tuple[types.Type, ...]:
+    """The numba argument types a ``SHARED`` entry's spec names."""
+    return tuple(_TYPES[name] for name in spec.split())
+
+
+def _shared_backwards() -> None:
+    """Compile (or load) the shared kernels from the one a robot's step calls last, by their
+    signatures: nothing is run."""
+    for kernel, spec in reversed(SHARED):
+        kernel().compile(shared_signature(spec))
+
+
 #: What each part compiles: a robot's step against the ground (its kinematics and colliders too),
 #: a small island's (a lone ball's, on every walk), the motor rule, the large islands' solvers,
 #: the monitor's poses with vision and the numbers of perceptions, and the field's collision
@@ -57,14 +104,15 @@ PARTS: dict[str, Callable[[], None]] = {
     "large_islands": island_step.warm_up_large,
     "sensors": _sensors,
     "field": _field,
+    "shared": _shared_backwards,
 }
 #: The parts an in-process walk takes (``optimizer.episode.direct``).
 WALK: tuple[str, ...] = ("robot", "island", "motors", "field")
-#: The parts a server takes: all.
-SERVER: tuple[str, ...] = tuple(PARTS)
-#: With two processes, the part compiled here while a helper compiles the others: the two halves
-#: of a walk's compile take about as long, though the solver's kernels are in both.
-_HERE = "robot"
+#: The parts a server takes: all (the shared kernels are a robot's and an island's).
+SERVER: tuple[str, ...] = tuple(name for name in PARTS if name != "shared")
+#: With two processes, the parts compiled here while a helper compiles the others (the shared
+#: kernels first, then the island's): the halves of a walk's compile then take about as long.
+_HERE: tuple[str, ...] = ("robot", "motors", "field")
 #: One kernel of each part: a part whose kernel numba's cache holds is taken as compiled.
 _PROBES: dict[str, Callable[[], Any]] = {
     "robot": lambda: tree_step.step_tree,
@@ -73,6 +121,7 @@ _PROBES: dict[str, Callable[[], Any]] = {
     "large_islands": lambda: gauss_seidel.block_gauss_seidel,
     "sensors": lambda: number_text.format_rows,
     "field": lambda: collision.far_apart,
+    "shared": lambda: solver.contact_forces,
 }
 
 
@@ -87,9 +136,10 @@ def _cached(part: str) -> bool:
 
 def warm_up(parts: Sequence[str] = SERVER, processes: int = 2, eager: bool = True) -> None:
     """Compile (or load) the kernels of ``parts`` (names in ``PARTS``), in that order with one
-    process. With two, when a part is not in the cache, a helper process compiles all parts but
-    ``_HERE`` while this one compiles that; this one then loads the helper's from the cache (or
-    compiles them, if the helper failed). Not ``eager`` (an in-process walk, which may wait for a
+    process. With two, when a part is not in the cache, a helper process compiles the parts not
+    in ``_HERE`` (after the shared kernels, when both a robot and an island are asked for) while
+    this one compiles those in it; this one then loads the helper's from the cache (or compiles
+    them, if the helper failed). Not ``eager`` (an in-process walk, which may wait for a
     load): nothing is done when every part is in the cache, each kernel is loaded when first
     called; a server is eager, so that no agent's cycle waits."""
     unknown = [name for name in parts if name not in PARTS]
@@ -98,16 +148,18 @@ def warm_up(parts: Sequence[str] = SERVER, processes: int = 2, eager: bool = Tru
     cached = all(_cached(name) for name in parts)
     if cached and not eager:
         return
-    delegated = [name for name in parts if name != _HERE]
+    here = [name for name in parts if name in _HERE]
+    delegated = [name for name in parts if name not in _HERE]
     if processes > 1 and delegated and not cached:
+        first = ["shared"] if "robot" in parts and "island" in parts else []
         helper = subprocess.Popen(
-            [sys.executable, "-m", "server_stub.kernels", *delegated],
+            [sys.executable, "-m", "server_stub.kernels", *first, *delegated],
             stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
         )
-        if _HERE in parts:
-            PARTS[_HERE]()
+        for name in here:
+            PARTS[name]()
         helper.wait()
         parts = delegated
     for name in parts:

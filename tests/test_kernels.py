@@ -21,7 +21,8 @@ def test_an_unknown_part_is_refused_with_the_known_ones():
 
 
 def test_the_walks_parts_are_a_servers_and_each_has_a_probe():
-    assert set(kernels.WALK) <= set(kernels.SERVER) == set(kernels.PARTS)
+    assert set(kernels.WALK) <= set(kernels.SERVER) == set(kernels.PARTS) - {"shared"}
+    assert set(kernels.PARTS) == set(kernels._PROBES)  # noqa: SLF001
     kernels.warm_up(["motors"], processes=1)
     assert kernels._cached("motors")  # noqa: SLF001 - the probe is what decides on the helper
 
@@ -51,3 +52,23 @@ def test_on_a_cold_cache_a_helper_process_compiles_the_later_parts(tmp_path):
     assert {"motors", "number_text", "vision", "rotations"} <= cached
     again = subprocess.run([sys.executable, "-c", script], cwd=ROOT, env=env, capture_output=True, text=True)
     assert again.stdout.split() == ["0", "True", "True"]
+
+
+@pytest.mark.slow
+def test_a_cold_walk_compile_finds_each_shared_kernel_with_the_listed_types_only(tmp_path):
+    """A walk's warm-up on an empty cache (two processes: the helper compiles ``SHARED`` by the
+    listed types, this process a robot's step, and each loads the other's). Had a robot's step or
+    an island's called a shared kernel with other types, its cache index would hold a second
+    signature; had the helper not compiled it, none."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    script = (
+        "from server_stub import kernels\n"
+        "kernels.warm_up(kernels.WALK)\n"
+        "for kernel, spec in kernels.SHARED:\n"
+        "    held = [key[0] for key in kernel()._cache._cache_file._load_index()]\n"
+        "    print(kernel().__name__, held == [kernels.shared_signature(spec)], len(held))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", script], cwd=ROOT, env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    lines = done.stdout.split("\n")[: len(kernels.SHARED)]
+    assert [line.split()[1:] for line in lines] == [["True", "1"]] * len(kernels.SHARED), done.stdout

@@ -143,4 +143,6 @@ def move_rigidly(pos, quat, old_position, old_orientation, new_position, new_ori
         for a in range(3):
             pos[k, a] = new_position[a] + moved[a]
         q = qmul(turn, quat[k])
-        quat[k] = q / np.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
+        norm = np.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
+        for a in range(4):  # written out: an array assignment would compile numba's shape-error text
+            quat[k, a] = q[a] / norm

@@ -311,12 +311,8 @@ def warm_up() -> None:
     anchors = np.array([[0.0, 0.0, 0.1]])
     vel, spin = kinematics.body_velocities(*two, axes, centres, quats, anchors, np.zeros(3), np.zeros(3), np.ones(1))
     child, parent = kinematics.local_anchors(*two, centres, quats, anchors)
-    written = kinematics.measured_state(centres, quats, vel, spin, *two, axes)
-    # a beam's rigid move (``prepare``), with the argument types it is given there: compiled at a
-    # game's first beam it would stall that cycle by seconds on a fresh clone
-    kinematics.move_rigidly(
-        centres.copy(), quats.copy(), written[0:3], written[3:7], np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0])
-    )
+    # the step before the kernels it does not call: on a cold cache it meets the solver's kernels
+    # sooner, while a helper compiles them from the other end (``server_stub.kernels``)
     step_tree(
         Model(np.ones(2), np.full((2, 3), 0.01), *two, axes, child, parent),
         State(centres, quats, vel, spin),
@@ -324,4 +320,10 @@ def warm_up() -> None:
         GroundContacts(np.array([1], dtype=np.int64), np.array([[0.0, 0.0, 0.0]]), np.array([0.002])),
         Motors(np.zeros(1), np.full(1, -10.0), np.full(1, 10.0), np.zeros(1), np.zeros(1, dtype=np.int64)),
         Params(0.02, 0.2, 1e-5, MOTOR_CFM, 0.001, True, 0.4, 1e-4, 0.005),
+    )
+    written = kinematics.measured_state(centres, quats, vel, spin, *two, axes)
+    # a beam's rigid move (``prepare``), with the argument types it is given there: compiled at a
+    # game's first beam it would stall that cycle by seconds on a fresh clone
+    kinematics.move_rigidly(
+        centres.copy(), quats.copy(), written[0:3], written[3:7], np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0])
     )
