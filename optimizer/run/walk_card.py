@@ -27,15 +27,15 @@ import statistics
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
-
-from matplotlib.figure import Figure
-from matplotlib.lines import Line2D
+from typing import TYPE_CHECKING, Any
 
 from gait import DEFAULT_FAMILY, family_named
 from optimizer.episode.scoring import TRACK_FIELDS, TracePoint, heading_change, sideways_drift
 from optimizer.evaluation.record import EpisodeRecord
 from optimizer.run.folder import write_json
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 CARD_FORMAT = "walk-card/1"
 #: The sides a card knows; any other name is allowed too (and is drawn after these).
@@ -357,6 +357,9 @@ def card_figure(card: WalkCard) -> Figure:
     """One panel per side, same axes: each walk's track from above in its start's frame (forward
     right, left up), blue for a walk that stood, red ending in an x for one that fell. A walk's
     line has the gid ``walk:<key>``, its fall's x ``fall:<key>``, so a test can find them."""
+    from matplotlib.figure import Figure  # here: matplotlib costs every episode process ~0.8 s to import
+    from matplotlib.lines import Line2D
+
     sides = list(card.sides) or [""]
     fig = Figure(figsize=(5.4 * len(sides), 4.4), layout="constrained")
     axes = fig.subplots(1, len(sides), sharex=True, sharey=True, squeeze=False)[0]
