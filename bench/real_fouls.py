@@ -7,8 +7,8 @@ a side beamed and walking at each other as in ``bench/bench_match.py``, kicks of
 monitor stream for ``--seconds`` of game time. The real server sends each foul it records as
 ``(foul INDEX TYPE TEAM UNUM)`` (SimSpark's soccerruleitem.cpp), again every cycle while it holds
 the player in the air; this counts one event per player and type (a new one after 0.5 s without
-a record) and prints them by type. The stand-in has none of these fouls (docs/robot_and_server.md
-section 8): this is what that leaves out.
+a record) and prints them by type. Of these the stand-in has "incapable" only
+(docs/robot_and_server.md section 8): the others are what it leaves out.
 
     RCSSSERVER3D=/opt/rcss/bin/rcss-sync python bench/real_fouls.py            # 4 a side, 60 s
     RCSSSERVER3D=/opt/rcss/bin/rcss-sync python bench/real_fouls.py --players 2 --seconds 20

@@ -166,6 +166,22 @@ SCENARIOS: tuple[Scenario, ...] = (
         ),
     ),
     Scenario(
+        "incapable",
+        "Three robots fall before kick-off: two bend their knees and lie flat, one bends its hips "
+        "and lies with its hips up (torso centre between 0.15 and 0.25 m). From play on the "
+        "referee counts: the flat field player is lifted after 15 s on the ground, the flat "
+        "goalie after 30 s, the other after 30 s not standing; each is put outside the field "
+        "0.5 s later, on the side away from the ball.",
+        (
+            Player("Ref", 3, (-3.0, 2.0, 0.0)),
+            Player("Ref", 1, (-8.0, -2.0, 0.0), joins=4),
+            Player("Opp", 2, (-3.0, 2.0, 0.0), joins=8),
+        ),
+        ((200, "(playMode PlayOn)(ball (pos 0 3 0.042) (vel 0 0 0))"),),
+        1_850,
+        acts=((20, 0, "(lle4 -6)(rle4 -6)"), (24, 1, "(lle4 -6)(rle4 -6)"), (28, 2, "(lle3 6)(rle3 6)")),
+    ),
+    Scenario(
         "say",
         "Say and hear: two left robots and a right one joining one by one, standing still; "
         "messages at once and in turn, every cycle, too long, then from over 50 m and under.",
@@ -233,29 +249,75 @@ class _Connection:
         self.sock.close()
 
 
-def _drain(monitor: _Connection) -> None:
-    """Read the monitor stream and drop it: a monitor that does not read stalls the server."""
+_FOUL = re.compile(rb"\(foul (\d+) (\d+) (\d+) (\d+)\)")
+_MONITOR_TIME = re.compile(rb"\(time ([0-9.]+)\)")
+
+
+def _drain(monitor: _Connection, fouls: list[tuple[float, int, int, int]]) -> None:
+    """Read the monitor stream (a monitor that does not read stalls the server), keeping each foul
+    it reports: (game time of its message, foul type, team index, number)."""
     try:
         while True:
-            monitor.receive()
+            frame = monitor.receive()
+            if b"(foul " not in frame:
+                continue
+            now = _MONITOR_TIME.search(frame)
+            t = float(now.group(1)) if now else float("nan")
+            fouls.extend((t, int(m[2]), int(m[3]), int(m[4])) for m in _FOUL.finditer(frame))
     except (OSError, ConnectionError, struct.error):
         return
+
+
+def foul_runs(fouls: list[tuple[float, int, int, int]]) -> list[list]:
+    """The fouls as runs of one player's one type (the real server records a foul again every
+    cycle it holds the player; a run ends after 0.5 s without one): [type, team, unum, first t,
+    last t, count]. ``t`` is the game time of the monitor message that reported the foul, which
+    comes every second cycle."""
+    runs: list[list] = []
+    for t, kind, team, unum in fouls:
+        same = [r for r in runs if r[:3] == [kind, team, unum] and t - r[4] <= 0.5]
+        if same:
+            same[-1][4] = t
+            same[-1][5] += 1
+        else:
+            runs.append([kind, team, unum, t, t, 1])
+    return runs
+
+
+#: A robot whose head (``mypos``) is this high has been lifted by the referee.
+_LIFTED = 0.6
 
 
 @dataclass
 class _Log:
     segments: list[dict] = field(default_factory=list)
     hear: list[list[dict]] = field(default_factory=list)
+    #: per robot: the game times of its first and last vision messages of each run with its head
+    #: over ``_LIFTED``, and where its head was at its last vision message
+    lifted: list[list[list[float]]] = field(default_factory=list)
+    end: list[list[float] | None] = field(default_factory=list)
     _last_ball: list[float] | None = None
     _began = 0
 
     def read(self, cycle: int, index: int, perception: Perception) -> None:
         if index == 0:
             self._game(cycle, perception)
+        vision = perception.vision
+        if vision is not None and vision.mypos is not None:
+            self._track(index, perception.game.time, vision.mypos)
         for heard in perception.hear:
             self.hear[index].append(
                 {"cycle": cycle, "team": heard.team, "t": heard.time, "from": heard.direction, "said": heard.message}
             )
+
+    def _track(self, index: int, t: float, head: tuple[float, float, float]) -> None:
+        was_high = self.end[index] is not None and self.end[index][2] > _LIFTED
+        if head[2] > _LIFTED:
+            if was_high:
+                self.lifted[index][-1][1] = t
+            else:
+                self.lifted[index].append([t, t])
+        self.end[index] = [round(v, 2) for v in head]
 
     def _game(self, cycle: int, perception: Perception) -> None:
         gs = perception.game
@@ -280,12 +342,14 @@ def run(scenario: Scenario, address: ServerAddress, lead: int) -> dict:
     """Play ``scenario`` on the server at ``address`` (sync mode, ``mypos`` and ``ballpos`` on),
     sending trainer commands ``lead`` cycles ahead (``TRAINER_LEAD``)."""
     monitor = _Connection((address.host, address.monitor_port))
-    drain = threading.Thread(target=_drain, args=(monitor,), daemon=True)
+    fouls: list[tuple[float, int, int, int]] = []
+    drain = threading.Thread(target=_drain, args=(monitor, fouls), daemon=True)
     drain.start()
     agents: list[_Connection | None] = [None] * len(scenario.players)
     #: the cycle of each robot's first perception: robots there from the start have theirs at 1
     first: list[int | None] = [None if player.joins else 1 for player in scenario.players]
-    log = _Log(hear=[[] for _ in scenario.players])
+    robots = len(scenario.players)
+    log = _Log(hear=[[] for _ in range(robots)], lifted=[[] for _ in range(robots)], end=[None] * robots)
     trainer = dict(scenario.trainer)
 
     def join(index: int) -> None:
@@ -324,7 +388,16 @@ def run(scenario: Scenario, address: ServerAddress, lead: int) -> dict:
             if agent is not None:
                 agent.close()
         monitor.close()
-    return {"scenario": scenario.name, "about": scenario.about, "segments": log.segments, "hear": log.hear}
+        drain.join(timeout=5.0)
+    return {
+        "scenario": scenario.name,
+        "about": scenario.about,
+        "segments": log.segments,
+        "hear": log.hear,
+        "lifted": log.lifted,
+        "end": log.end,
+        "fouls": foul_runs(fouls),
+    }
 
 
 @contextmanager
@@ -368,6 +441,12 @@ def table(recording: dict) -> str:
             ball = "ball in {} {} {}, ".format(*s["ball_in"]) + ball
         me = "" if s["me"] is None else "  me {} {}".format(*s["me"][:2])
         lines.append(f"  {s['t']:8.2f}  {s['mode']:<18} {s['score'][0]}:{s['score'][1]}  {ball}{me}")
+    for index, (lifted, end) in enumerate(zip(recording.get("lifted", []), recording.get("end", []))):
+        if lifted:
+            runs = ", ".join(f"{a:.2f}-{b:.2f}" for a, b in lifted)
+            lines.append(f"  robot {index}: lifted {runs}; ends at {end}")
+    for kind, team, unum, t0, t1, count in recording.get("fouls", []):
+        lines.append(f"  foul type {kind} team {team} unum {unum}: {count} records, {t0:.2f}-{t1:.2f}")
     for index, heard in enumerate(recording["hear"]):
         for h in heard:
             lines.append(f"  robot {index} cycle {h['cycle']}: hear {h['team']} {h['t']:.2f} {h['from']} {h['said']}")

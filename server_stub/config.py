@@ -235,3 +235,13 @@ class RefereeConfig:
     kick_repel_dist: float = 0.5
     #: GoalKickDist: a goal kick's spot is this far in front of the goal's centre.
     goal_kick_dist: float = 1.0
+    #: The "incapable" foul (naosoccersim.rb's auto-referee values): a field player whose torso
+    #: centre has been below 0.25 m (not standing) this long while the game runs, or below
+    #: 0.15 m (on the ground) ``ground_max_time``, is lifted and then put outside the field.
+    not_standing_max_time: float = 30.0
+    ground_max_time: float = 15.0
+    #: The same for the goalie (number 1).
+    goalie_not_standing_max_time: float = 60.0
+    goalie_ground_max_time: float = 30.0
+    #: FoulHoldTime: how long a fouled player is held in the air before it is put outside.
+    foul_hold_time: float = 0.5

@@ -61,6 +61,8 @@ class Simulation:
         #: robots came or went, or one's team or number changed: the next monitor update is a full scene
         self.scene_changed = False
         self._last_beam: dict[tuple[str, int], tuple[float, float, float]] = {}
+        #: the referee's fouls the monitors have been told of
+        self._fouls_sent = 0
         # its own stream of the seed, so that beams do not shift the vision noise's draws
         self._beam_rng = np.random.default_rng([config.seed, 1])
 
@@ -246,7 +248,9 @@ class Simulation:
         if some monitor takes one. Each is made only when asked for: making one moves what the
         next delta is measured against."""
         views = self.sensing.monitor_views(self.agents)
-        header = self.sensing.monitor_header(self.game)
+        fouls = self.referee.incapable.fouls
+        header = self.sensing.monitor_header(self.game, [f.monitor_item() for f in fouls[self._fouls_sent :]])
+        self._fouls_sent = len(fouls)
         ball = self.world.ball_position()
         scene = self.sensing.scene
         everyone_full = self.scene_changed or scene.needs_full(views)

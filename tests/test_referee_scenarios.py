@@ -24,6 +24,10 @@ TIME_TOLERANCE = 0.02 + 1e-6
 #: ``ballpos`` / ``mypos`` are printed with 2 decimals; a held ball is exact, a robot a statue.
 BALL_TOLERANCE = 0.03
 ROBOT_TOLERANCE = 0.05
+#: A foul's time is that of the monitor message reporting it, which comes every second cycle; a
+#: lifted robot's, that of a vision message, every third.
+FOUL_TIME_TOLERANCE = 0.04 + 1e-6
+LIFT_TIME_TOLERANCE = 0.06 + 1e-6
 #: Modes in which the referee holds the ball on a spot (after their first second).
 _SET_PIECES = ("KickIn", "corner_kick", "goal_kick", "free_kick", "direct_free_kick")
 
@@ -61,6 +65,30 @@ def assert_same_game(real: dict, stand_in: dict) -> None:
         if theirs["me"] is not None:
             assert _close(ours["me"], theirs["me"], ROBOT_TOLERANCE, dims=2), f"robot in {mode}\n{table}"
         previous = mode
+    assert_same_fouls(real, stand_in, table)
+
+
+def _in_game(runs: list[list[float]]) -> list[list[float]]:
+    """Lifted runs once the game clock runs (before, a robot not yet beamed hangs where it was
+    made: high on the real server)."""
+    return [run for run in runs if run[0] > 0]
+
+
+def assert_same_fouls(real: dict, stand_in: dict, table: str) -> None:
+    """The same fouls (type, team, number, how many cycles recorded) starting and ending at the same
+    times; each robot lifted as often, at the same times, and left where the real one was."""
+    assert [f[:3] + f[5:] for f in stand_in["fouls"]] == [f[:3] + f[5:] for f in real["fouls"]], table
+    for ours, theirs in zip(stand_in["fouls"], real["fouls"]):
+        assert abs(ours[3] - theirs[3]) <= FOUL_TIME_TOLERANCE, f"foul from {ours[3]}, real {theirs[3]}\n{table}"
+        assert abs(ours[4] - theirs[4]) <= FOUL_TIME_TOLERANCE, f"foul to {ours[4]}, real {theirs[4]}\n{table}"
+    for index, (ours, theirs) in enumerate(zip(stand_in["lifted"], real["lifted"])):
+        ours, theirs = _in_game(ours), _in_game(theirs)
+        assert len(ours) == len(theirs), f"robot {index} lifted {ours}, real {theirs}\n{table}"
+        for (a0, a1), (b0, b1) in zip(ours, theirs):
+            assert abs(a0 - b0) <= LIFT_TIME_TOLERANCE and abs(a1 - b1) <= LIFT_TIME_TOLERANCE, table
+    if any(_in_game(runs) for runs in real["lifted"]):  # robots the referee put outside the field
+        for index, (ours, theirs) in enumerate(zip(stand_in["end"], real["end"])):
+            assert _close(ours, theirs, ROBOT_TOLERANCE, dims=2), f"robot {index} ends at {ours}\n{table}"
 
 
 def _recorded(name: str) -> dict:
@@ -72,7 +100,9 @@ def _on_the_stand_in(name: str) -> dict:
         return record_referee.run(SCENARIOS[name], address, record_referee.TRAINER_LEAD["stand-in"])
 
 
-@pytest.mark.parametrize("name", ["halves", "touch", "kick_in", "goal_line", "goal_right", "free_kick", "beams", "say"])
+@pytest.mark.parametrize(
+    "name", ["halves", "touch", "kick_in", "goal_line", "goal_right", "free_kick", "beams", "say", "incapable"]
+)
 def test_the_stand_in_referees_as_the_real_server_did(name: str) -> None:
     assert_same_game(_recorded(name), _on_the_stand_in(name))
 
@@ -106,6 +136,17 @@ def test_the_recordings_cover_every_rule_built() -> None:
         ("PlayOn", "GameOver"),
     ]:
         assert step in seen, step
+
+
+def test_the_incapable_recording_has_each_kind_of_call() -> None:
+    """The recording covers the rule's branches: a field player on the ground 15 s, the goalie on
+    the ground 30 s, a field player not standing 30 s (its torso between 0.15 and 0.25 m); each
+    recorded 26 cycles (0.5 s held, then put outside), on the side away from the ball."""
+    real = _recorded("incapable")
+    left, right = 1, 2
+    assert [(f[1], f[2], f[5]) for f in real["fouls"]] == [(left, 3, 26), (left, 1, 26), (right, 2, 26)]
+    assert [round(f[3]) for f in real["fouls"]] == [15, 30, 30]
+    assert all(abs(end[1]) == 10.5 for end in real["end"])  # own coordinates: all on the far side
 
 
 def _pairs(segments: list[dict]) -> list[tuple[dict, dict]]:

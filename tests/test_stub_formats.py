@@ -391,6 +391,18 @@ def test_delta_sends_only_what_moved():
     assert scene.needs_full([]) and not scene.needs_full([view])
 
 
+def test_fouls_follow_the_header_items_as_the_real_server_sends_them():
+    """A real delta with fouls began ``((time 15.0402)(foul 1 4 1 3)(foul 2 4 1 3))(RDS 0 1)``
+    (rcssserver3d 0.7.3, a robot called incapable; the stand-in prints its clock as %g)."""
+    scene = MonitorScene()
+    robot = _robot("left", 3, (-3.0, 2.0, 0.1))
+    fouls = ("(foul 1 4 1 3)", "(foul 2 4 1 3)")
+    full = scene.full(GameHeader(15.0, "PlayOn", team_left="Ref", fouls=fouls[:1]), [robot], (0, 0, 0.042))
+    assert full.split("(RSG 0 1)")[0].endswith("(play_mode 3)(foul 1 4 1 3))")
+    delta = scene.delta(GameHeader(15.04, "PlayOn", team_left="Ref", fouls=fouls), [robot], (0, 0, 0.042))
+    assert delta.startswith("((time 15.04)(foul 1 4 1 3)(foul 2 4 1 3))(RDS 0 1)(")
+
+
 def test_slt_numbers_print_like_the_server():
     scene = MonitorScene()
     m = np.eye(4)

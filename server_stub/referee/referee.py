@@ -16,6 +16,7 @@
   connected, and each side is cleared from the other half.
 - **Halves**: at ``half_time`` the first half ends in BeforeKickOff of the second (sides are not
   swapped); at twice it the game is over (GameOver: the clock stops; the server keeps running).
+- **A robot that stays down**, after the play mode's rules: ``fouls.IncapableRule``.
 
 Timeouts are compared on the game's float32 clock (``Game.clock32``), as the real server's runs.
 """
@@ -34,6 +35,7 @@ from server_stub.physics.world import World
 from server_stub.referee import clearing
 from server_stub.referee.areas import PENALTY_AREAS, Vec3, other
 from server_stub.referee.ball_watch import BallWatch
+from server_stub.referee.fouls import IncapableRule
 
 #: The set pieces: play mode -> (kind, side taking it).
 _SET_PIECES = {
@@ -50,6 +52,8 @@ _SET_PIECES = {
 }
 _KICK_OFFS = {"KickOff_Left": "left", "KickOff_Right": "right"}
 _GOALS = {"Goal_Left": "left", "Goal_Right": "right"}
+#: The play modes in which the real referee pauses its foul counts (its GameStateAspect::IsPaused).
+_PAUSED = frozenset({"BeforeKickOff", *_GOALS})
 #: Set pieces whose ball is never placed while no robot has ever touched it (the real referee
 #: waits for a first toucher before its hold at corners and goal kicks, not at kick-ins).
 _WAIT_FOR_A_TOUCHER = frozenset({"corner", "goal_kick"})
@@ -73,6 +77,7 @@ class Referee:
         self.game = game
         self.world = world
         self.ball = BallWatch()
+        self.incapable = IncapableRule(config)
         #: where the next set piece or drop ball puts the ball (x, y; on the ground)
         self.spot: tuple[float, float] = (0.0, 0.0)
         self._repel_due = False
@@ -106,6 +111,7 @@ class Referee:
             # before_step); a trainer that parks it elsewhere does so with or after PlayOn
             self._place_ball((0.0, 0.0, field.BALL_RADIUS))
         # GameOver, offside and pass modes: nothing to do here
+        self.incapable.update(agents, mode in _PAUSED, self.world.ball_position()[1])
 
     def field_emptied(self) -> None:
         self.ball.forget_touches()

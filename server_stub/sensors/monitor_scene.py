@@ -3,10 +3,11 @@
 Shapes copied from the real server's traffic (docs/robot_and_server.md section 9; ``monitor_messages.txt``)::
 
     full:  (<header>)(RSG 0 1)(<node>...)
-    delta: ((time <t>)<changed header items>)(RDS 0 1)(<node>...)
+    delta: ((time <t>)<changed header items><fouls>)(RDS 0 1)(<node>...)
     header := (FieldLength 30)...(PassModeDuration 4)(play_modes <name>...)(time <t>)
               [(team_left <name>)][(team_right <name>)](half <n>)(score_left <n>)(score_right <n>)
-              (play_mode <index>)
+              (play_mode <index>)<fouls>
+    fouls  := (foul <index> <type> <team> <number>)...   (those recorded since the last message)
     node (full)  := (nd TRF (SLT m0 ... m15)<node>...) | (nd StaticMesh <props>) | (nd SMN <props>)
                   | (nd Light <props>)
     node (delta) := (nd[ (SLT m0 ... m15)]<node>...) | (nd StaticMesh) | (nd SMN) | (nd)
@@ -80,6 +81,8 @@ class GameHeader:
     score_right: int = 0
     team_left: str | None = None
     team_right: str | None = None
+    #: the referee's fouls recorded since the last message, as ``(foul ...)`` items
+    fouls: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -326,7 +329,8 @@ class MonitorScene:
         scene = [_STATIC.full, self._ball.full(_ball_pose(ball))]
         for movers, robot in zip(self._robots, robots):
             scene.append(f"(nd TRF {_slt(_IDENTITY.T.ravel())}{movers.full(_column_major(robot.poses))})")
-        return f"({self._fixed_header}(time {header.time:g}){items})(RSG 0 1)({''.join(scene)})"
+        fouls = "".join(header.fouls)
+        return f"({self._fixed_header}(time {header.time:g}){items}{fouls})(RSG 0 1)({''.join(scene)})"
 
     def delta(self, header: GameHeader, robots: Sequence[RobotView], ball: Vec3) -> str:
         """``(time)`` plus changed header items, ``(RDS 0 1)``, the stripped scene.
@@ -339,4 +343,4 @@ class MonitorScene:
         scene = [_STATIC.delta, self._ball.delta(_ball_pose(ball))]
         for movers, robot in zip(self._robots, robots):
             scene.append(f"(nd{movers.delta(_column_major(robot.poses))})")
-        return f"((time {header.time:g}){changed})(RDS 0 1)({''.join(scene)})"
+        return f"((time {header.time:g}){changed}{''.join(header.fouls)})(RDS 0 1)({''.join(scene)})"

@@ -205,7 +205,14 @@ class Sensing:
             if s.robot is not None
         ]
 
-    def monitor_header(self, game: Game) -> GameHeader:
+    def monitor_header(self, game: Game, fouls: Sequence[str] = ()) -> GameHeader:
         return GameHeader(
-            game.time, game.play_mode, game.half, game.score_left, game.score_right, game.team_left, game.team_right
+            game.time,
+            game.play_mode,
+            game.half,
+            game.score_left,
+            game.score_right,
+            game.team_left,
+            game.team_right,
+            tuple(fouls),
         )
