@@ -66,9 +66,12 @@ def start_server(times: Path) -> tuple[subprocess.Popen, int, int]:
     return server, int(found.group(1)), int(found.group(2))
 
 
-def start_players(port: int, players: int, seconds: float, extra: tuple[str, ...] = ()) -> list[subprocess.Popen]:
+def start_players(
+    port: int, players: int, seconds: float, extra: tuple[str, ...] = (), start_now: bool = True
+) -> list[subprocess.Popen]:
     """``players`` agents a side: beamed in two lines on their own half (each team's beam is in
-    its own frame, its goal at -x), facing the other half; ``extra``: more flags for each."""
+    its own frame, its goal at -x), facing the other half, walking at once (``start_now``) or
+    from play on; ``extra``: more flags for each."""
     agents = []
     for team in ("Home", "Away"):
         for unum in range(1, players + 1):
@@ -90,7 +93,7 @@ def start_players(port: int, players: int, seconds: float, extra: tuple[str, ...
                         f"{x:.2f}",
                         f"{y:.2f}",
                         "0",
-                        "--start-now",
+                        *(["--start-now"] if start_now else []),
                         "--duration",
                         f"{seconds:.0f}",
                         *extra,

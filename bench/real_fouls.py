@@ -3,15 +3,17 @@
 Starts the real server's sync wrapper of the shared build (``RCSSSERVER3D``, which takes
 AGENT_PORT MONITOR_PORT: ``/opt/rcss/bin/rcss-sync``; a server started the optimizer's way, with
 its own sync profile, stalled at game time 0 with 8 agents connecting) and ``--players`` agents
-a side beamed and walking at each other as in ``bench/bench_match.py``, kicks off, and reads the
-monitor stream for ``--seconds`` of game time. The real server sends each foul it records as
-``(foul INDEX TYPE TEAM UNUM)`` (SimSpark's soccerruleitem.cpp), again every cycle while it holds
-the player in the air; this counts one event per player and type (a new one after 0.5 s without
-a record) and prints them by type. Of these the stand-in has "incapable" only
-(docs/robot_and_server.md section 8): the others are what it leaves out.
+a side beamed as in ``bench/bench_match.py``; once every robot has beamed, the trainer sets play
+on and they walk at each other; it reads the monitor stream for ``--seconds`` of game time. The
+real server sends each foul it records as ``(foul INDEX TYPE TEAM UNUM)`` (SimSpark's
+soccerruleitem.cpp), again every cycle while it holds the player in the air; this counts one
+event per player and type (a new one after 0.5 s without a record) and prints them by type. With
+``--stand-in`` the same game is played on the stand-in, which has the "incapable" foul only
+(docs/robot_and_server.md section 8).
 
     RCSSSERVER3D=/opt/rcss/bin/rcss-sync python bench/real_fouls.py            # 4 a side, 60 s
     RCSSSERVER3D=/opt/rcss/bin/rcss-sync python bench/real_fouls.py --players 2 --seconds 20
+    python bench/real_fouls.py --stand-in                                      # the same game on the stand-in
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from bench_match import start_players  # noqa: E402
 from optimizer.episode.real_server import find_rcssserver3d, free_port, kill_sim  # noqa: E402
 from optimizer.episode.servers import ServerAddress  # noqa: E402
 from protocol.framing import encode_frame  # noqa: E402
+from protocol.monitor import MonitorReader  # noqa: E402
 
 #: SimSpark 0.7.3's EFoulType, in order (soccerruleaspect.h).
 FOULS = (
@@ -71,6 +74,19 @@ def monitor_frames(sock: socket.socket):
             buffer = buffer[4 + size :]
 
 
+def wait_for_players(messages, count: int) -> None:
+    """Read the monitor stream until ``count`` robots have a team and a number, then 50 messages
+    more (100 cycles: their beams), so that play starts after every beam (a beam in play is
+    ignored, and a robot would walk from where ``init`` put it, by its goal line)."""
+    reader = MonitorReader()
+    for message in messages:
+        state = reader.feed(message)
+        if sum(robot.unum is not None for robot in state.robots) >= count:
+            break
+    for _, _ in zip(range(50), messages):
+        pass
+
+
 def fouls(messages, seconds: float) -> tuple[list[tuple[float, str, int, int]], float]:
     """The foul events (game time, type, team 1 left / 2 right, unum) until ``seconds`` of game
     time, and the last game time seen."""
@@ -98,24 +114,31 @@ def fouls(messages, seconds: float) -> tuple[list[tuple[float, str, int, int]], 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--players", type=int, default=4, help="agents a side (default 4)")
-    parser.add_argument("--seconds", type=float, default=60.0, help="game seconds after kick-off (default 60)")
+    parser.add_argument("--seconds", type=float, default=60.0, help="game seconds of play (default 60)")
+    parser.add_argument("--stand-in", action="store_true", help="play on the stand-in (sync mode) instead")
     args = parser.parse_args(argv)
     if not 1 <= args.players <= 11 or args.seconds <= 0.0:
         parser.error("--players must be 1-11 and --seconds > 0")
     address = ServerAddress("127.0.0.1", free_port(), free_port())
-    server = subprocess.Popen(
-        [find_rcssserver3d(), str(address.agent_port), str(address.monitor_port)],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
+    ports = [str(address.agent_port), str(address.monitor_port)]
+    command = (
+        [sys.executable, "-m", "server_stub", "--sync", "--no-realtime", "--agent-port", ports[0]]
+        + ["--monitor-port", ports[1], "--exit-with-parent"]
+        if args.stand_in
+        else [find_rcssserver3d(), *ports]
     )
+    server = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     agents: list[subprocess.Popen] = []
     try:
-        time.sleep(3.0)  # the server's start
+        time.sleep(3.0)  # the server's start (the stand-in's, with its kernels in numba's cache)
         monitor = socket.create_connection((address.host, address.monitor_port))
         started = time.monotonic()
-        agents = start_players(address.agent_port, args.players, args.seconds + 60.0, ("--sync", "--timeout", "180"))
-        monitor.sendall(encode_frame("(kickOff Left)"))
-        events, reached = fouls(monitor_frames(monitor), args.seconds)
+        extra = ("--sync", "--timeout", "180")
+        agents = start_players(address.agent_port, args.players, args.seconds + 60.0, extra, start_now=False)
+        messages = monitor_frames(monitor)
+        wait_for_players(messages, 2 * args.players)
+        monitor.sendall(encode_frame("(playMode PlayOn)"))
+        events, reached = fouls(messages, args.seconds)
         monitor.close()
         print(
             f"{2 * args.players} agents, {reached:.1f} s of game time in {time.monotonic() - started:.0f} s: "
@@ -127,7 +150,8 @@ def main(argv: list[str] | None = None) -> int:
         for agent in agents:
             agent.kill()
             agent.wait()
-        kill_sim(address)
+        if not args.stand_in:
+            kill_sim(address)
         server.kill()
         server.wait()
     return 0
