@@ -34,8 +34,9 @@ sys.path.insert(0, str(ROOT))
 
 from protocol.framing import encode_frame  # noqa: E402
 
-#: Cycles left out of the second set of figures: 10 s, while the agents connect and beam (each
-#: robot's first step reads its model from pybullet, tens of ms).
+#: Cycles left out of the second set of figures: 10 s, while the agents connect and beam. Then 22
+#: Python processes start on the same cores (the server's steps wait for a core: their wall time
+#: is many times their CPU time), and each robot's first step reads its model (about 2 ms).
 JOINING_CYCLES = 500
 
 
@@ -162,7 +163,6 @@ def main(argv: list[str] | None = None) -> int:
     )
     print(f"physics step: {percentiles(physics)}")
     print(f"whole cycle:  {percentiles(cycle)}")
-    # a robot's first step reads its model from pybullet (tens of ms): the players joining
     joined = JOINING_CYCLES
     print(f"after the first {joined} cycles (the players joining): physics {percentiles(physics[joined:])}")
     print(f"after the first {joined} cycles: whole cycle {percentiles(cycle[joined:])}")
