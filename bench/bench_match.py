@@ -12,6 +12,7 @@ with no cycle's physics over 20 ms.
 
     python bench/bench_match.py                 # 10 minutes
     python bench/bench_match.py --minutes 1 --players 4
+    python bench/bench_match.py --types 0,1,2,3,0,1,2,3,4,4,4   # every robot type, the toes on 9-11
 """
 
 from __future__ import annotations
@@ -68,11 +69,16 @@ def start_server(times: Path) -> tuple[subprocess.Popen, int, int]:
 
 
 def start_players(
-    port: int, players: int, seconds: float, extra: tuple[str, ...] = (), start_now: bool = True
+    port: int,
+    players: int,
+    seconds: float,
+    extra: tuple[str, ...] = (),
+    start_now: bool = True,
+    types: tuple[int, ...] = (0,) * 11,
 ) -> list[subprocess.Popen]:
     """``players`` agents a side: beamed in two lines on their own half (each team's beam is in
     its own frame, its goal at -x), facing the other half, walking at once (``start_now``) or
-    from play on; ``extra``: more flags for each."""
+    from play on; number k on robot type ``types[k - 1]``; ``extra``: more flags for each."""
     agents = []
     for team in ("Home", "Away"):
         for unum in range(1, players + 1):
@@ -95,6 +101,8 @@ def start_players(
                         f"{y:.2f}",
                         "0",
                         *(["--start-now"] if start_now else []),
+                        "--type",
+                        str(types[unum - 1]),
                         "--duration",
                         f"{seconds:.0f}",
                         *extra,
@@ -129,15 +137,26 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--minutes", type=float, default=10.0, help="wall minutes of play (default 10)")
     parser.add_argument("--players", type=int, default=11, help="agents a side (default 11)")
+    parser.add_argument(
+        "--types",
+        default="0,0,0,0,0,0,0,0,0,0,0",
+        help="robot types of numbers 1-11, comma-separated (default all 0)",
+    )
     args = parser.parse_args(argv)
     if args.minutes <= 0.0 or not 1 <= args.players <= 11:
         parser.error("--minutes must be > 0 and --players 1-11")
+    try:
+        types = tuple(int(t) for t in args.types.split(","))
+    except ValueError:
+        parser.error(f"--types must be 11 comma-separated integers 0-4, got {args.types!r}")
+    if len(types) != 11 or not all(0 <= t <= 4 for t in types):
+        parser.error(f"--types must be 11 comma-separated integers 0-4, got {args.types!r}")
     with tempfile.TemporaryDirectory(prefix="bench_match_") as folder:
         times_file = Path(folder) / "cycle_times.json"
         started = time.monotonic()
         server, agent_port, monitor_port = start_server(times_file)
         seconds = args.minutes * 60.0
-        agents = start_players(agent_port, args.players, seconds + 30.0)
+        agents = start_players(agent_port, args.players, seconds + 30.0, types=types)
         trainer = kick_off(monitor_port)
         deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
@@ -158,8 +177,8 @@ def main(argv: list[str] | None = None) -> int:
         times = json.loads(times_file.read_text())
     physics, cycle = np.array(times["physics"]), np.array(times["cycle"])
     print(
-        f"{2 * args.players} agents ({alive} still connected at the end), {args.minutes:g} min real time, "
-        f"{physics.size} cycles in {served:.0f} s of the server's life"
+        f"{2 * args.players} agents (types {args.types}; {alive} still connected at the end), "
+        f"{args.minutes:g} min real time, {physics.size} cycles in {served:.0f} s of the server's life"
     )
     print(f"physics step: {percentiles(physics)}")
     print(f"whole cycle:  {percentiles(cycle)}")
