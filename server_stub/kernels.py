@@ -64,7 +64,7 @@ _TYPES: dict[str, types.Type] = {
     "i2": types.int64[:, ::1],
 }
 #: The kernels both a robot's step and an island's call, with the argument types they call them
-#: with, in the order a robot's step first calls them (``tests/test_kernels.py`` checks both).
+#: with (``tests/test_kernels.py`` checks them), in the order a robot's step first calls them.
 SHARED: tuple[tuple[Callable[[], Any], str], ...] = (
     (lambda: integrate.body_terms, "f1 f2 f2 f2 f1 f1 f1 f2 f2 f b"),
     (lambda: rows.hinge_nodes, "i1 i1 i f3 f2 f2 f2 f2 f1 f2 f f"),

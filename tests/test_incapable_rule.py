@@ -114,3 +114,14 @@ def test_the_monitor_item_names_the_foul_as_simspark_does():
     agents = [_player("right", 7, _Torso(0.0))]
     _run(rule, agents, 751)
     assert rule.fouls[0].monitor_item() == "(foul 1 4 2 7)"
+
+
+def test_counts_start_again_when_forgotten_as_when_the_field_empties():
+    rule = IncapableRule(RefereeConfig())
+    agents = [_player("left", 2, _Torso(0.1))]
+    _run(rule, agents, 700)
+    rule.forget()
+    _run(rule, agents, 750)
+    assert rule.fouls == []
+    _run(rule, agents, 1)
+    assert len(rule.fouls) == 1

@@ -18,7 +18,8 @@ Left out, for it fires neither for a lone walker nor in the games measured
 left out: before putting a robot outside, the real referee looks for a free spot near that place
 (away from the ball and from other robots' boxes), and it takes players in a random order, which
 orders the indices of fouls recorded in the same cycle; the stand-in takes them left before right,
-by number.
+by number. And where the real referee keeps each number's counts for good, the stand-in starts
+them again when the field empties, so that an episode never inherits a foul from the one before.
 """
 
 from __future__ import annotations
@@ -101,13 +102,17 @@ class IncapableRule:
         self._down: set[tuple[str, int]] = set()
         self.fouls: list[Foul] = []
 
+    def forget(self) -> None:
+        """Every count starts again (the fouls recorded stay)."""
+        for counts in self._counts.values():
+            counts.reset()
+        self._down.clear()
+
     def update(self, agents: Iterable[AgentState], paused: bool, ball_y: float) -> None:
         """One cycle of the rule, after the play mode's own rules; ``paused`` before kick-off and
         in a goal's pause."""
         if paused:
-            for counts in self._counts.values():
-                counts.reset()
-            self._down.clear()
+            self.forget()
             return
         players: list[tuple[tuple[str, int], Robot]] = sorted(
             (

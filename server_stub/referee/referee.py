@@ -114,7 +114,10 @@ class Referee:
         self.incapable.update(agents, mode in _PAUSED, self.world.ball_position()[1])
 
     def field_emptied(self) -> None:
+        """Nobody is left: the next robots start afresh (the real referee keeps each number's
+        foul counts; a number joining again there may inherit a foul, which no episode should)."""
         self.ball.forget_touches()
+        self.incapable.forget()
 
     # ----- the trainer's drop ball, and the referee's -----
     def drop_ball(self, agents: Sequence[AgentState], at: Vec3 | None = None) -> None:
