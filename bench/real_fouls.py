@@ -22,7 +22,6 @@ import argparse
 import collections
 import re
 import socket
-import struct
 import subprocess
 import sys
 import time
@@ -31,12 +30,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench_match import start_players  # noqa: E402
+from bench_match import monitor_frames, play_when_joined, start_players  # noqa: E402
 
 from optimizer.episode.real_server import find_rcssserver3d, free_port, kill_sim  # noqa: E402
 from optimizer.episode.servers import ServerAddress  # noqa: E402
-from protocol.framing import encode_frame  # noqa: E402
-from protocol.monitor import MonitorReader  # noqa: E402
 
 #: SimSpark 0.7.3's EFoulType, in order (soccerruleaspect.h).
 FOULS = (
@@ -51,40 +48,6 @@ FOULS = (
 )
 _FOUL = re.compile(r"\(foul (\d+) (\d+) (\d+) (\d+)\)")
 _TIME = re.compile(r"\(time ([0-9.]+)\)")
-
-
-def monitor_frames(sock: socket.socket):
-    """The monitor stream's messages, as text, until the server closes it or goes quiet 180 s (in sync
-    mode it waits for every agent that has connected, and the players take a while to)."""
-    sock.settimeout(180.0)
-    buffer = b""
-    while True:
-        try:
-            data = sock.recv(1 << 16)
-        except TimeoutError:
-            return
-        if not data:
-            return
-        buffer += data
-        while len(buffer) >= 4:
-            size = struct.unpack(">I", buffer[:4])[0]
-            if len(buffer) < 4 + size:
-                break
-            yield buffer[4 : 4 + size].decode("latin-1")
-            buffer = buffer[4 + size :]
-
-
-def wait_for_players(messages, count: int) -> None:
-    """Read the monitor stream until ``count`` robots have a team and a number, then 50 messages
-    more (100 cycles: their beams), so that play starts after every beam (a beam in play is
-    ignored, and a robot would walk from where ``init`` put it, by its goal line)."""
-    reader = MonitorReader()
-    for message in messages:
-        state = reader.feed(message)
-        if sum(robot.unum is not None for robot in state.robots) >= count:
-            break
-    for _, _ in zip(range(50), messages):
-        pass
 
 
 def fouls(messages, seconds: float) -> tuple[list[tuple[float, str, int, int]], float]:
@@ -136,8 +99,7 @@ def main(argv: list[str] | None = None) -> int:
         extra = ("--sync", "--timeout", "180")
         agents = start_players(address.agent_port, args.players, args.seconds + 60.0, extra, start_now=False)
         messages = monitor_frames(monitor)
-        wait_for_players(messages, 2 * args.players)
-        monitor.sendall(encode_frame("(playMode PlayOn)"))
+        play_when_joined(monitor, messages, 2 * args.players)
         events, reached = fouls(messages, args.seconds)
         monitor.close()
         print(

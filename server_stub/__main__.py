@@ -56,7 +56,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--cycle-times",
         metavar="FILE",
         default="",
-        help="when stopping, write every cycle's wall times (physics step and whole cycle, ms) to FILE as JSON",
+        help="when stopping, write every cycle's wall times (physics step and whole cycle, ms) and play mode "
+        "(its index in the monitor's play_modes) to FILE as JSON",
     )
     p.add_argument("-v", "--verbose", action="store_true", help="log connections")
     return p

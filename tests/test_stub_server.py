@@ -9,6 +9,7 @@ import time
 
 import pytest
 
+from protocol.nao import PLAY_MODES
 from tests.stub_client import (
     REPO,
     RawClient,
@@ -383,15 +384,21 @@ def test_the_real_agents_commands_replayed_give_the_real_perceptions(fixtures_di
 
 def test_cycle_times_are_written_when_the_server_stops(tmp_path) -> None:
     """``--cycle-times FILE``: on SIGTERM the server writes one physics time and one whole-cycle
-    time (ms) per cycle it ran, the physics part of each cycle never more than the cycle."""
+    time (ms) per cycle it ran, the physics part of each cycle never more than the cycle, and
+    the play mode each cycle ended in (the trainer's PlayOn from its cycle on)."""
     times = tmp_path / "times.json"
     with StubProcess("--sync", "--no-realtime", "--cycle-times", str(times)) as server:
         client = RawClient(server.agent_port)
         _handshake(client)
-        for _ in range(30):
+        for k in range(30):
+            if k == 20:
+                trainer = RawClient(server.monitor_port)
+                trainer.send("(playMode PlayOn)")
+                time.sleep(0.2)
             client.send("(syn)")
             client.receive()
         server.stop()
+        trainer.close()
         client.close()
     import json
 
@@ -399,6 +406,10 @@ def test_cycle_times_are_written_when_the_server_stops(tmp_path) -> None:
     physics, cycle = written["physics"], written["cycle"]
     assert len(physics) == len(cycle) >= 31
     assert all(0.0 < p <= c for p, c in zip(physics, cycle))
+    modes = [PLAY_MODES[m] for m in written["play_mode"]]
+    assert len(modes) == len(physics)
+    assert modes[:10] == ["BeforeKickOff"] * 10 and modes[-5:] == ["PlayOn"] * 5
+    assert modes == sorted(modes, key=lambda m: m == "PlayOn")  # one change, to PlayOn
 
 
 def test_a_cycle_times_file_that_cannot_be_written_is_reported_and_the_server_exits(tmp_path) -> None:

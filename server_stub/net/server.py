@@ -67,8 +67,11 @@ class StubServer:
         self._wakeup.setblocking(False)
         self._waker.setblocking(False)
         self._selector.register(self._wakeup, selectors.EVENT_READ, "wakeup")
-        #: each cycle's wall seconds: the physics step, the whole cycle (``ServerConfig.cycle_times``)
-        self._times: tuple[array, array] | None = (array("d"), array("d")) if config.cycle_times else None
+        #: each cycle's wall seconds (the physics step, the whole cycle) and the play mode it ended
+        #: in (``ServerConfig.cycle_times``)
+        self._times: tuple[array, array, array] | None = (
+            (array("d"), array("d"), array("b")) if config.cycle_times else None
+        )
 
     @property
     def world(self) -> World:
@@ -306,6 +309,7 @@ class StubServer:
         if self._times is not None:
             self._times[0].append(physics)
             self._times[1].append(time.perf_counter() - started)
+            self._times[2].append(self.sim.game.play_mode_index)
 
     def _broadcast_monitor(self) -> None:
         """One update to every monitor: a delta, or a full scene to those that need one (just
@@ -404,10 +408,10 @@ class StubServer:
 
     def _write_cycle_times(self) -> None:
         assert self._times is not None
-        physics, cycle = ([round(t * 1000.0, 4) for t in times] for times in self._times)
+        physics, cycle = ([round(t * 1000.0, 4) for t in times] for times in self._times[:2])
         try:
             with open(self.config.cycle_times, "w") as out:
-                json.dump({"physics": physics, "cycle": cycle}, out)
+                json.dump({"physics": physics, "cycle": cycle, "play_mode": list(self._times[2])}, out)
         except OSError as exc:
             log.error("cannot write the cycle times to %s: %s", self.config.cycle_times, exc)
 
