@@ -6,8 +6,9 @@ Starts ``python -m server_stub --cycle-times FILE`` (real time, 50 cycles a seco
 robot has its number and has beamed, a trainer connection sets play on, and they walk the
 shipped gait towards the other team, so that they meet, bump and fall near the centre line (the
 referee lifts and puts outside those that stay down). After ``--minutes`` of play the server is
-stopped (SIGTERM) and writes every cycle's wall time of the physics step and of the whole cycle
-(perceptions, vision and the monitor included) and its play mode; this prints their percentiles
+stopped (SIGTERM; the second half is started as the first ends, at 300 s) and writes every
+cycle's wall time of the physics step and of the whole cycle (perceptions, vision and the monitor
+included) and its play mode; this prints their percentiles
 and the cycles over 20 ms, for the players joining and for the play. Issue 28's target: on 2
 cores, 10 minutes of play with no cycle's physics over 20 ms.
 
@@ -183,9 +184,11 @@ def main(argv: list[str] | None = None) -> int:
         messages = monitor_frames(trainer)
         play_when_joined(trainer, messages, 2 * args.players)
         deadline = time.monotonic() + seconds
-        for _ in messages:  # read and dropped, so that the server never waits on the trainer
+        for message in messages:  # read and dropped, so that the server never waits on the trainer
             if time.monotonic() >= deadline:
                 break
+            if "(play_mode 0)" in message:  # the first half is over (300 s): play the second
+                trainer.sendall(encode_frame("(playMode PlayOn)"))
         alive = sum(agent.poll() is None for agent in agents)
         server.send_signal(signal.SIGTERM)
         server.wait(60)
@@ -196,7 +199,9 @@ def main(argv: list[str] | None = None) -> int:
             agent.wait()
         times = json.loads(times_file.read_text())
     physics, cycle = np.array(times["physics"]), np.array(times["cycle"])
-    playing = np.array(times["play_mode"]) != PLAY_MODES.index("BeforeKickOff")
+    modes = np.array(times["play_mode"])
+    first = int(np.argmax(modes != PLAY_MODES.index("BeforeKickOff")))
+    playing = np.arange(modes.size) >= first  # from the first cycle of play (half time included)
     print(
         f"{2 * args.players} agents (types {args.types}; {alive} still connected at the end), "
         f"{args.minutes:g} min of play in real time, {physics.size} cycles in {served:.0f} s of the server's life"
