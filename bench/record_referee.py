@@ -21,7 +21,9 @@ first perception showing it (the game time after the step that changed it), ``sc
 right], ``ball_in`` (``ballpos``, 2 decimals) from the segment's first vision message at least
 two cycles in (``_PLACED_SHOWS``), ``ball``
 and ``me`` (``ballpos`` and the first robot's ``mypos``) from its last, ``still`` whether the ball
-stood there at the vision message before. Per robot, what it heard (``hear``, with the cycle).
+stood there at the vision message before. Per robot, what it heard (``hear``, with the cycle),
+when the referee held it in the air (``lifted``) and where it ended (``end``); and the fouls the
+monitor stream reported (``fouls``, as runs: ``foul_runs``).
 """
 
 from __future__ import annotations
@@ -441,11 +443,11 @@ def table(recording: dict) -> str:
             ball = "ball in {} {} {}, ".format(*s["ball_in"]) + ball
         me = "" if s["me"] is None else "  me {} {}".format(*s["me"][:2])
         lines.append(f"  {s['t']:8.2f}  {s['mode']:<18} {s['score'][0]}:{s['score'][1]}  {ball}{me}")
-    for index, (lifted, end) in enumerate(zip(recording.get("lifted", []), recording.get("end", []))):
+    for index, (lifted, end) in enumerate(zip(recording["lifted"], recording["end"])):
         if lifted:
             runs = ", ".join(f"{a:.2f}-{b:.2f}" for a, b in lifted)
             lines.append(f"  robot {index}: lifted {runs}; ends at {end}")
-    for kind, team, unum, t0, t1, count in recording.get("fouls", []):
+    for kind, team, unum, t0, t1, count in recording["fouls"]:
         lines.append(f"  foul type {kind} team {team} unum {unum}: {count} records, {t0:.2f}-{t1:.2f}")
     for index, heard in enumerate(recording["hear"]):
         for h in heard:
