@@ -13,13 +13,14 @@ the field, on the side line away from the ball at x = -+0.6 (7 - number) (its ow
 0.4 m, and its counts start again. Every one of those cycles records a foul, which the monitor
 stream reports as ``(foul index type team number)``.
 
-Left out, for it fires neither for a lone walker nor in the games measured
-(``bench/real_fouls.py``): the other fouls (charging, touching, crowding, illegal defence). Also
-left out: before putting a robot outside, the real referee looks for a free spot near that place
-(away from the ball and from other robots' boxes), and it takes players in a random order, which
-orders the indices of fouls recorded in the same cycle; the stand-in takes them left before right,
-by number. And where the real referee keeps each number's counts for good, the stand-in starts
-them again when the field empties, so that an episode never inherits a foul from the one before.
+Left out: the other fouls (charging, touching, crowding, illegal defence). In the games measured
+(``bench/real_fouls.py``) only touching fired, once in two real games, and the real server
+picks at random whom it moves for it. Also left out: before putting a robot outside, the real
+referee looks for a free spot near that place (away from the ball and from other robots' boxes),
+and it takes players in a random order, which orders the indices of fouls recorded in the same
+cycle; the stand-in takes them left before right, by number. And where the real referee keeps
+each number's counts for good, the stand-in starts them again when the field empties, so that an
+episode never inherits a foul from the one before.
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ _CYCLE = 0.02
 #: Below this torso height a robot is not standing, and below ``_GROUND`` it is on the ground.
 _STANDING = 0.25
 _GROUND = 0.15
-#: A count runs only while the torso centre is this close to the field's middle line (|y|).
+#: A count runs only while the torso centre's |y| is under this: inside the side lines, and 0.1 m.
 _COUNTED_WITHIN = field.HALF_WIDTH + 0.1
 #: After a foul or a pause a robot counts as having stood for 5 s.
 _STOOD_AFTER_RESET = int(5 / _CYCLE)
