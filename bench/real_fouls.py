@@ -31,6 +31,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from bench_match import monitor_frames, play_when_joined, start_players  # noqa: E402
+from record_referee import foul_runs  # noqa: E402
 
 from optimizer.episode.real_server import find_rcssserver3d, free_port, kill_sim  # noqa: E402
 from optimizer.episode.servers import ServerAddress  # noqa: E402
@@ -64,14 +65,8 @@ def fouls(messages, seconds: float) -> tuple[list[tuple[float, str, int, int]], 
             records.setdefault(index, (now, kind, team, unum))
         if now >= seconds:
             break
-    events, last = [], {}
-    for index in sorted(records):
-        t, kind, team, unum = records[index]
-        key = (kind, team, unum)
-        if key not in last or t - last[key] > 0.5:
-            events.append((t, FOULS[kind], team, unum))
-        last[key] = t
-    return events, now
+    runs = foul_runs([records[index] for index in sorted(records)])
+    return [(t, FOULS[kind], team, unum) for kind, team, unum, t, _, _ in runs], now
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -45,12 +45,11 @@ def test_on_a_cold_cache_a_helper_process_compiles_the_later_parts(tmp_path):
         "kernels.warm_up(['motors', 'sensors'])\n"
         "print(len(helpers), kernels._cached('motors'), kernels._cached('sensors'))\n"
     )
-    first = subprocess.run([sys.executable, "-c", script], cwd=ROOT, env=env, capture_output=True, text=True)
-    assert first.returncode == 0, first.stderr[-2000:]
+    first = _python(script, env)
     assert first.stdout.split() == ["1", "True", "True"]
     cached = {path.name.split(".")[0] for path in tmp_path.rglob("*.nbi")}
     assert {"motors", "number_text", "vision", "rotations"} <= cached
-    again = subprocess.run([sys.executable, "-c", script], cwd=ROOT, env=env, capture_output=True, text=True)
+    again = _python(script, env)
     assert again.stdout.split() == ["0", "True", "True"]
 
 
@@ -68,7 +67,13 @@ def test_a_cold_walk_compile_finds_each_shared_kernel_with_the_listed_types_only
         "    held = [key[0] for key in kernel()._cache._cache_file._load_index()]\n"
         "    print(kernel().__name__, held == [kernels.shared_signature(spec)], len(held))\n"
     )
-    done = subprocess.run([sys.executable, "-c", script], cwd=ROOT, env=env, capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr[-2000:]
+    done = _python(script, env)
     lines = done.stdout.split("\n")[: len(kernels.SHARED)]
     assert [line.split()[1:] for line in lines] == [["True", "1"]] * len(kernels.SHARED), done.stdout
+
+
+def _python(script: str, env: dict[str, str]) -> subprocess.CompletedProcess:
+    """``script`` run by a new Python in the repository, which must exit 0."""
+    done = subprocess.run([sys.executable, "-c", script], cwd=ROOT, env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    return done

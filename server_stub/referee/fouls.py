@@ -25,13 +25,14 @@ episode never inherits a foul from the one before.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 from server_stub import field
 from server_stub.agent_state import AgentState
 from server_stub.config import RefereeConfig
 from server_stub.physics.robot import Robot
+from server_stub.referee.areas import Vec3
 
 #: The real referee turns its times into cycle counts by dividing by 0.02 s, whatever the step.
 _CYCLE = 0.02
@@ -99,19 +100,16 @@ class IncapableRule:
     def __init__(self, config: RefereeConfig) -> None:
         self.config = config
         self._counts = {(side, unum): _Counts() for side in TEAM_INDEX for unum in range(1, 12)}
-        #: the players whose counts are not all clear (only they can commit the foul)
-        self._down: set[tuple[str, int]] = set()
         self.fouls: list[Foul] = []
 
     def forget(self) -> None:
         """Every count starts again (the fouls recorded stay)."""
         for counts in self._counts.values():
             counts.reset()
-        self._down.clear()
 
-    def update(self, agents: Iterable[AgentState], paused: bool, ball_y: float) -> None:
+    def update(self, agents: Iterable[AgentState], paused: bool, ball: Callable[[], Vec3]) -> None:
         """One cycle of the rule, after the play mode's own rules; ``paused`` before kick-off and
-        in a goal's pause."""
+        in a goal's pause; ``ball`` gives where the ball is, asked only when a robot is put out."""
         if paused:
             self.forget()
             return
@@ -128,17 +126,12 @@ class IncapableRule:
         )
         for key, robot in players:
             _, y, z = robot.torso_position()
-            counts = self._counts[key]
-            counts.count(z, abs(y) < _COUNTED_WITHIN)
-            if counts.not_standing or counts.ground:
-                self._down.add(key)
-        for key in list(self._down):  # connected or not, as the real referee analyses all numbers
-            counts = self._counts[key]
-            self._analyse(key[1], counts)
-            if not (counts.fouled or counts.ground or counts.not_standing):
-                self._down.discard(key)
+            self._counts[key].count(z, abs(y) < _COUNTED_WITHIN)
+        for key, counts in self._counts.items():  # connected or not, as the real referee does
+            if counts.fouled or counts.ground or counts.not_standing:  # else nothing to analyse
+                self._analyse(key[1], counts)
         for key, robot in players:
-            self._clear(key, robot, ball_y)
+            self._clear(key, robot, ball)
 
     def _analyse(self, unum: int, counts: _Counts) -> None:
         if counts.enforceable:
@@ -156,7 +149,7 @@ class IncapableRule:
             counts.foul_time = 0
             counts.fouled = False
 
-    def _clear(self, key: tuple[str, int], robot: Robot, ball_y: float) -> None:
+    def _clear(self, key: tuple[str, int], robot: Robot, ball: Callable[[], Vec3]) -> None:
         counts = self._counts[key]
         if not counts.enforceable:
             return
@@ -168,7 +161,6 @@ class IncapableRule:
             robot.place(x, y, 1.0 + counts.foul_time * 0.01)
             return
         sign = -1.0 if side == "left" else 1.0
-        away = 1.0 if ball_y < 0 else -1.0
+        away = 1.0 if ball()[1] < 0 else -1.0
         robot.place(sign * 0.6 * (7 - unum), away * (field.HALF_WIDTH + 0.5), field.AGENT_RADIUS)
         counts.reset()
-        self._down.discard(key)
