@@ -18,6 +18,7 @@ from __future__ import annotations
 import enum
 import logging
 from dataclasses import dataclass, field
+from operator import add
 
 import numpy as np
 
@@ -89,7 +90,7 @@ class WalkBehaviour:
         if self._dither is None:
             return velocities
         draws = self._dither.uniform(-self.config.command_noise, self.config.command_noise, len(velocities))
-        return {name: v + d for (name, v), d in zip(velocities.items(), draws.tolist())}
+        return dict(zip(velocities, map(add, velocities.values(), draws.tolist())))
 
     def _beam(self) -> str:
         if self.play_mode in BEAM_PLAY_MODES:

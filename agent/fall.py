@@ -54,12 +54,13 @@ class FallDetector:
         else:
             up = self._up
             if gyro is not None:  # a direction fixed in the world turns by -w x up in the torso frame
-                wx, wy, wz = (math.radians(r) * self._cycle for r in gyro)
+                dt = self._cycle
+                wx, wy, wz = math.radians(gyro[0]) * dt, math.radians(gyro[1]) * dt, math.radians(gyro[2]) * dt
                 ux, uy, uz = up
                 up = (ux - (wy * uz - wz * uy), uy - (wz * ux - wx * uz), uz - (wx * uy - wy * ux))
             if gravity is not None:
-                k = self._weight
-                up = tuple((1.0 - k) * u + k * g for u, g in zip(up, gravity))  # type: ignore[assignment]
+                k, keep = self._weight, 1.0 - self._weight
+                up = (keep * up[0] + k * gravity[0], keep * up[1] + k * gravity[1], keep * up[2] + k * gravity[2])
             self._up = _unit(up)
         if self._up[2] < self.threshold:
             self.fallen = True

@@ -369,6 +369,19 @@ def test_ball_rests_on_the_ground_and_can_be_set(world):
     assert 1.013 <= x <= 1.022 and y == pytest.approx(2.0, abs=1e-6)
 
 
+def test_ball_position_is_what_pybullet_holds_and_reading_it_does_not_hide_a_placement(world):
+    """The world answers ``ball_position`` from what its step last wrote (the referee asks several
+    times a cycle); a placement read before the next step must still wake a resting ball."""
+    settle(world, 0.5)  # long enough for ODE's auto-disable to put the ball to sleep
+    world.set_ball((1.0, 2.0, 0.5))
+    assert world.ball_position() == (1.0, 2.0, 0.5)  # the referee looks before the step
+    for _ in range(5):
+        world.step()
+        held = pb.getBasePositionAndOrientation(world._ball, physicsClientId=world._client)[0]
+        assert world.ball_position() == tuple(held)
+    assert world.ball_position()[2] < 0.5 - 0.01  # stepped: it falls
+
+
 def test_part_poses_cover_every_part(standing):
     _, robot = standing
     fresh = robot.part_positions(["head", "rfoot", "llowerarm"])  # before part_poses is cached

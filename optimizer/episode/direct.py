@@ -36,7 +36,8 @@ from optimizer.episode.monitor_link import EpisodeFailure
 from optimizer.episode.scoring import Judge
 from protocol import commands
 from protocol.monitor import MonitorState, RobotPose
-from protocol.nao import JOINT_BY_EFFECTOR, JOINTS
+from protocol.nao import JOINTS
+from protocol.numbers import rounded
 from protocol.perception import GameState, Perception
 from server_stub import kernels
 from server_stub.agent_state import AgentState
@@ -47,10 +48,6 @@ from server_stub.simulation import Simulation
 _stub_log = logging.getLogger("server_stub")
 #: The 22 joints' effector names, in ``JOINTS`` order: a reply naming them all is one array.
 _EFFECTORS = tuple(joint.effector for joint in JOINTS)
-#: ``round``'s second argument for every joint (a type with toes has 24): perceptions print 2
-#: decimals, commands 4
-_TWO_DECIMALS = (2,) * len(JOINT_BY_EFFECTOR)
-_FOUR_DECIMALS = (4,) * len(JOINT_BY_EFFECTOR)
 #: The monitor resends a transform only when one of its 16 numbers moved by more than this.
 _SLT_THRESHOLD = MonitorConfig().slt_threshold
 
@@ -126,14 +123,13 @@ def _perception(sim: Simulation, state: AgentState) -> Perception:
         round(game.time, 2),
         game.play_mode,
     )
-    ax, ay, az = robot.accelerometer()
-    gx, gy, gz = robot.gyro()
-    joints = dict(zip(robot.perceptors, map(round, robot.joint_degrees(), _TWO_DECIMALS)))
+    gx, gy, gz, ax, ay, az = rounded((*robot.gyro(), *robot.accelerometer()), 2)
+    joints = dict(zip(robot.perceptors, rounded(robot.joint_degrees(), 2)))
     return Perception(
         round(sim.world.time, 2),
         gs,
-        (round(gx, 2), round(gy, 2), round(gz, 2)),
-        (round(ax, 2), round(ay, 2), round(az, 2)),
+        (gx, gy, gz),
+        (ax, ay, az),
         joints,
         {},
         None,
@@ -232,9 +228,9 @@ class DirectStub:
         velocities = action.velocities
         # a non-finite one raises ValueError when applied, as printing it does on the socket path
         if tuple(velocities) == _EFFECTORS:
-            out.append(np.array(list(map(round, velocities.values(), _FOUR_DECIMALS))))
+            out.append(np.array(rounded(velocities.values(), 4)))
         elif velocities:
-            out.append(dict(zip(velocities, map(round, velocities.values(), _FOUR_DECIMALS))))
+            out.append(dict(zip(velocities, rounded(velocities.values(), 4))))
         if action.text:
             out.append(action.text.encode())
         return out

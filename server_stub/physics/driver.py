@@ -216,7 +216,8 @@ class Stepper:
         # the ball's state; placed by the trainer or the referee since the last step, SimSpark
         # enables its body (trainercommandparser.cpp, soccerruleaspect.cpp: Enable())
         placed = self._ball_moved or self._ball_written is None
-        ball_now = self._ball_now()
+        ball_now = self.ball_now()
+        self._ball_moved = False
         touching = []
         if not self._far_apart([prep.bodies.pos for prep in preps], ball_now[0]):
             for robot in robots:
@@ -307,12 +308,12 @@ class Stepper:
         """Someone besides this stepper wrote the ball into pybullet (``World.set_ball``)."""
         self._ball_moved = True
 
-    def _ball_now(self) -> tuple:
+    def ball_now(self) -> tuple:
         """The ball's (position, orientation, velocity, spin) as pybullet gives them: what this
-        stepper last wrote and read back (nothing else changes it), unless ``ball_moved``."""
+        stepper last wrote and read back (nothing else changes it), unless ``ball_moved``; so the
+        referee's several looks at the ball a cycle cost no pybullet call."""
         if self._ball_written is not None and not self._ball_moved:
             return self._ball_written
-        self._ball_moved = False
         c = self.client
         position, orientation = pb.getBasePositionAndOrientation(self.ball, physicsClientId=c)
         velocity, spin = pb.getBaseVelocity(self.ball, physicsClientId=c)

@@ -191,7 +191,8 @@ class World:
         self._stepper.ball_moved()
 
     def ball_position(self) -> tuple[float, float, float]:
-        return tuple(pb.getBasePositionAndOrientation(self._ball, physicsClientId=self._client)[0])
+        x, y, z = self._stepper.ball_now()[0]
+        return (x, y, z)
 
     def robots_touching_ball(self, ball: tuple[float, float, float]) -> list[Robot]:
         """The robots with a part touching the ball (at ``ball``, where it is now) as everything

@@ -1,0 +1,53 @@
+"""``protocol.numbers.rounded``: the embedded episodes' rounding must give ``round``'s floats, bit
+for bit, or an episode without text would walk differently from one over the wire."""
+
+from __future__ import annotations
+
+import math
+
+from hypothesis import given
+from hypothesis import strategies as st
+
+from protocol.numbers import rounded
+
+
+def same_float(a: float, b: float) -> bool:
+    """Equal bits: -0.0 is not 0.0 here, and NaN is NaN."""
+    if math.isnan(a) or math.isnan(b):
+        return math.isnan(a) and math.isnan(b)
+    return a == b and math.copysign(1.0, a) == math.copysign(1.0, b)
+
+
+def assert_as_round(values: list[float], digits: int) -> None:
+    got = rounded(values, digits)
+    assert len(got) == len(values)
+    for value, mine in zip(values, got):
+        assert same_float(mine, round(value, digits)), (value, digits, mine, round(value, digits))
+
+
+@given(st.lists(st.floats(), max_size=30), st.sampled_from([2, 4]))
+def test_rounded_is_round_for_any_float(values: list[float], digits: int) -> None:
+    assert_as_round(values, digits)
+
+
+@given(st.lists(st.floats(min_value=-400.0, max_value=400.0), max_size=30), st.sampled_from([2, 4]))
+def test_rounded_is_round_for_angles_and_speeds(values: list[float], digits: int) -> None:
+    assert_as_round(values, digits)
+
+
+@given(st.integers(min_value=-(10**7), max_value=10**7), st.sampled_from([2, 4]), st.integers(-3, 3))
+def test_rounded_is_round_next_to_a_half(whole: int, digits: int, ulps: int) -> None:
+    """Halfway between two printed numbers, and a few floats either side: where a float product
+    alone would round the wrong way."""
+    value = (whole + 0.5) / 10**digits
+    for _ in range(abs(ulps)):
+        value = math.nextafter(value, math.copysign(math.inf, ulps))
+    assert_as_round([value, -value], digits)
+
+
+def test_rounded_examples() -> None:
+    values = [0.125, 0.375, 1.005, 2.675, -2.675, -0.001, -0.0, 0.0, 1e-9, -1e-9, 89.995, 1e300, math.inf]
+    assert_as_round(values, 2)
+    assert_as_round(values, 4)
+    assert rounded([-0.001, 0.125, 2.675], 2) == [-0.0, 0.12, 2.67]
+    assert math.copysign(1.0, rounded([-0.001], 2)[0]) == -1.0
