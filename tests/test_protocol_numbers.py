@@ -51,3 +51,5 @@ def test_rounded_examples() -> None:
     assert_as_round(values, 4)
     assert rounded([-0.001, 0.125, 2.675], 2) == [-0.0, 0.12, 2.67]
     assert math.copysign(1.0, rounded([-0.001], 2)[0]) == -1.0
+    for digits in (-2, 0, 1, 23):
+        assert_as_round([1234.5678, -0.5, 2.5, 1e-30], digits)
