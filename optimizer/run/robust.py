@@ -144,6 +144,13 @@ class Race:
             return []
         return [key for key, fitness in raced if fitness > self._lead]
 
-    def lead(self, fitness: float) -> None:
-        """A score over ``lead_walks`` walks joins the leaders' bar."""
+    def lead(self, raced: float, fitness: float) -> None:
+        """A leader's score over ``lead_walks`` walks (``fitness``; over k walks it was ``raced``)
+        joins the leaders' bar and takes the place of its k-walk score in the racing bar: the bar
+        is then of the scores the search is told, so no first walk left below it can outscore
+        the search's best."""
         self._lead = max(self._lead, fitness)
+        i = bisect.bisect_left(self._best, raced)
+        if i < len(self._best) and self._best[i] == raced:
+            del self._best[i]
+            bisect.insort(self._best, fitness)
