@@ -33,14 +33,9 @@ def _player(side: str, unum: int, torso: _Torso) -> AgentState:
     return AgentState(robot=torso, side=side, unum=unum)  # type: ignore[arg-type]
 
 
-def _ball(y: float):
-    """Where the ball is, as the referee asks for it: at the centre line, ``y`` to the side."""
-    return lambda: (0.0, y, 0.042)
-
-
 def _run(rule: IncapableRule, agents: list[AgentState], cycles: int, ball_y: float = 1.0) -> None:
     for _ in range(cycles):
-        rule.update(agents, paused=False, ball=_ball(ball_y))
+        rule.update(agents, paused=False, ball_y=ball_y)
 
 
 def test_a_field_player_on_the_ground_is_called_after_15_s_held_half_a_second_then_put_outside():
@@ -70,7 +65,7 @@ def test_the_limits_by_role_and_posture():
     agents = [_player("right", 5, sitting), _player("right", 1, goalie_down), _player("left", 1, goalie_sitting)]
     first_call: dict[tuple[str, int], int] = {}
     for cycle in range(1, 3100):
-        rule.update(agents, paused=False, ball=_ball(-1.0))
+        rule.update(agents, paused=False, ball_y=-1.0)
         for foul in rule.fouls:
             first_call.setdefault((foul.side, foul.unum), cycle)
     assert first_call == {("right", 5): 1501, ("right", 1): 1501, ("left", 1): 3001}
@@ -107,7 +102,7 @@ def test_a_pause_or_lying_outside_the_field_restarts_or_stops_the_count(paused_a
     inside, outside = _Torso(0.1), _Torso(0.1, y=y)
     agents = [_player("left", 2, inside), _player("right", 2, outside)]
     _run(rule, agents, paused_at)
-    rule.update(agents, paused=True, ball=_ball(0.0))
+    rule.update(agents, paused=True, ball_y=0.0)
     _run(rule, agents, 750)
     assert rule.fouls == []
     _run(rule, agents, 1)

@@ -25,14 +25,13 @@ episode never inherits a foul from the one before.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from server_stub import field
 from server_stub.agent_state import AgentState
 from server_stub.config import RefereeConfig
 from server_stub.physics.robot import Robot
-from server_stub.referee.areas import Vec3
 
 #: The real referee turns its times into cycle counts by dividing by 0.02 s, whatever the step.
 _CYCLE = 0.02
@@ -107,9 +106,9 @@ class IncapableRule:
         for counts in self._counts.values():
             counts.reset()
 
-    def update(self, agents: Iterable[AgentState], paused: bool, ball: Callable[[], Vec3]) -> None:
+    def update(self, agents: Iterable[AgentState], paused: bool, ball_y: float) -> None:
         """One cycle of the rule, after the play mode's own rules; ``paused`` before kick-off and
-        in a goal's pause; ``ball`` gives where the ball is, asked only when a robot is put out."""
+        in a goal's pause; ``ball_y``: the ball's y (a robot is put out on the other side line)."""
         if paused:
             self.forget()
             return
@@ -131,7 +130,7 @@ class IncapableRule:
             if counts.fouled or counts.ground or counts.not_standing:  # else nothing to analyse
                 self._analyse(key[1], counts)
         for key, robot in players:
-            self._clear(key, robot, ball)
+            self._clear(key, robot, ball_y)
 
     def _analyse(self, unum: int, counts: _Counts) -> None:
         if counts.enforceable:
@@ -149,7 +148,7 @@ class IncapableRule:
             counts.foul_time = 0
             counts.fouled = False
 
-    def _clear(self, key: tuple[str, int], robot: Robot, ball: Callable[[], Vec3]) -> None:
+    def _clear(self, key: tuple[str, int], robot: Robot, ball_y: float) -> None:
         counts = self._counts[key]
         if not counts.enforceable:
             return
@@ -161,6 +160,6 @@ class IncapableRule:
             robot.place(x, y, 1.0 + counts.foul_time * 0.01)
             return
         sign = -1.0 if side == "left" else 1.0
-        away = 1.0 if ball()[1] < 0 else -1.0
+        away = 1.0 if ball_y < 0 else -1.0
         robot.place(sign * 0.6 * (7 - unum), away * (field.HALF_WIDTH + 0.5), field.AGENT_RADIUS)
         counts.reset()

@@ -111,7 +111,7 @@ class Referee:
             # before_step); a trainer that parks it elsewhere does so with or after PlayOn
             self._place_ball((0.0, 0.0, field.BALL_RADIUS))
         # GameOver, offside and pass modes: nothing to do here
-        self.incapable.update(agents, mode in _PAUSED, self.world.ball_position)
+        self.incapable.update(agents, mode in _PAUSED, self.world.ball_position()[1])
 
     def field_emptied(self) -> None:
         """Nobody is left: the next robots start afresh (the real referee keeps each number's
