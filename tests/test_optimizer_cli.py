@@ -617,6 +617,34 @@ def test_the_refinement_can_search_the_runs_own_family(tmp_path: Path) -> None:
     assert load_gait(out / "fastest_gait.json").family.name == "tfs"
 
 
+def test_a_refinement_of_two_families_gives_each_its_share_and_hands_over_the_best_of_both(tmp_path: Path) -> None:
+    """The first family's runs are the runs it walks alone with its share of the gaits (the same
+    keys, genes and seeds); the second's are numbered on from them; the checks rank both."""
+    out, episodes = _refined_run(tmp_path, "--refine-family", "tfs", "tfs-start")
+    searched = [e for e in episodes if e["key"].startswith("refine") and "/k" not in e["key"]]
+    tfs = [e for e in searched if "family" not in e]
+    start = [e for e in searched if e.get("family") == "tfs-start"]
+    assert len(tfs) + len(start) == len(searched) and len(tfs) == len(start) == 40
+    assert all(len(e["genes"]) == 7 for e in tfs) and all(len(e["genes"]) == 14 for e in start)
+    arms = {e["key"].split("/")[0] for e in tfs}, {e["key"].split("/")[0] for e in start}
+    assert arms[0].isdisjoint(arms[1]) and max(arms[0]) < min(arms[1])
+    alone, alone_episodes = _refined_run(tmp_path / "alone", "--refine-family", "tfs", "--refine", "40")
+    shared = {(e["key"], tuple(e["genes"]), e["seed"]) for e in episodes if e["key"].startswith("refine")}
+    solo = {(e["key"], tuple(e["genes"]), e["seed"]) for e in alone_episodes if e["key"].startswith("refine")}
+    assert solo and solo <= shared
+    results = json.loads((out / "results.json").read_text())
+    families = {e.get("family", "tfs") for e in episodes if e["key"].startswith("check/refine")}
+    assert families == {"tfs", "tfs-start"}
+    assert results["fastest_score"]["key"].startswith("refine")
+
+
+def test_a_refinement_family_given_twice_is_refused(tmp_path: Path, capsys) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        gala_command.main(["--refine-family", "tfs", "tfs", "--out", str(tmp_path / "x")])
+    assert exit_info.value.code == 2
+    assert "--refine-family: a family is given twice (tfs tfs)" in capsys.readouterr().err
+
+
 def test_a_refinement_family_that_cannot_refine_the_runs_walks_is_refused(tmp_path: Path, capsys) -> None:
     with pytest.raises(SystemExit) as exit_info:
         gala_command.main(["--family", "tfs-plus", "--out", str(tmp_path / "x")])
@@ -624,10 +652,12 @@ def test_a_refinement_family_that_cannot_refine_the_runs_walks_is_refused(tmp_pa
     assert "--refine-family tfs-start: it cannot refine tfs-plus walks" in capsys.readouterr().err
 
 
-def test_the_quick_budget_refines_tfs_gaits_and_the_paper_budget_tfs_start_walks(tmp_path: Path) -> None:
-    """A quick row's walks are too slow to hold as start gaits: its refinement searches TFS gaits,
-    and races no leaders."""
-    for budget, family, refine, lead in (("quick", "tfs", 1600, 0), ("paper", "tfs-start", 4000, 20)):
+def test_the_quick_budget_refines_tfs_gaits_and_tfs_start_walks_and_the_paper_budget_tfs_start_walks(
+    tmp_path: Path,
+) -> None:
+    """Which family climbs from a quick row's slow walks depends on the seed: its refinement
+    searches both, and races no leaders."""
+    for budget, family, refine, lead in (("quick", ["tfs", "tfs-start"], 1600, 0), ("paper", "tfs-start", 4000, 20)):
         out = tmp_path / budget
         with pytest.raises(Killed):
             gala_command.main(

@@ -20,7 +20,9 @@ GALA's population levels off below what the gait family holds. By default it ref
 tfs-start walks (``--refine-family``, ``gait.tfs_start``): each begun by itself, its start gait
 held and its cruise gait searched, because what decides whether a fast TFS gait walks at all is
 its first half second, while what makes it fast after that changes smoothly with its genes; the
-walk handed over is then a tfs-start gait file. Table I is the same with or without it.
+walk handed over is then a tfs-start gait file. Several families (the quick budget's TFS and
+tfs-start) each search their share of the N gaits in turn, and the hand-over takes the best of
+all. Table I is the same with or without it.
 ``--family`` searches another gait family (``gait.FAMILIES``).
 
 Each row's best gait is then checked (``optimizer.run.stability``): walked ``--check-repeats``
@@ -119,12 +121,17 @@ PAPER: dict[str, Any] = {
     **HAND_OVER_DEFAULTS,
 }
 
+#: The quick budget's refinement families, in turn.
+QUICK_FAMILIES = (TFS.name, TFS_START.name)
+
 #: A first look on a 2-core machine: one row (the paper's best crossover rate), population 20,
 #: 20 iterations (19 feedbacks to the automaton), a 6-generation final GA (515 gaits), then 1600
 #: gaits of refinement, each gait raced as the default scoring says, plus the checks (10 walks for
 #: the row's best and for each of the 10 best-scored gaits). Measured in bench/notebook-2026.md.
-#: Its refinement searches TFS gaits: a quick row's walks are slow, and a tfs-start refinement
-#: holding one as its start gait handed over less (seed 1: 7.33 m, against 7.77 m; bench/RESULTS.md).
+#: Its refinement searches TFS gaits with half its gaits and tfs-start walks with the other half, and
+#: hands over the best of both: a quick row's walks are slow and which family climbs from them
+#: depends on the seed (seed 1 alone in TFS handed over 8.08 m, in tfs-start 6.80 m; the README's
+#: random seed 1836095818: 7.45 m and 13.21 m; bench/RESULTS.md).
 #: It races no leaders: its walks are slow and hold without them (three seeds, none fell in 200
 #: walks or on the real server), and seed 1's leaders cost it 1,200 walks (a third of its
 #: refinement) and 0.8 m (7.28 m handed over, against 8.08 m; docs/optimizer.md, "Leaders").
@@ -136,7 +143,7 @@ BUDGETS: dict[str, dict[str, Any]] = {
         "iterations": 20,
         "generations": 6,
         "refine": 1600,
-        "refine_family": TFS.name,
+        "refine_family": list(QUICK_FAMILIES),
         "refine_lead_walks": 0,
     },
 }
@@ -269,19 +276,33 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--refine-family",
         choices=list(FAMILIES),
+        nargs="+",
         default=None,
+        metavar="FAMILY",
         help="the gait family the refinement searches, the run's own or one extending it (default "
         f"{PAPER['refine_family']}: the rows' walk begun by itself, its start held and its cruise gait "
-        'searched; docs/optimizer.md, "The start-up decides")',
+        'searched; docs/optimizer.md, "The start-up decides"); several: each searches its share of '
+        f"--refine in turn and the hand-over takes the best of all (quick: {' '.join(QUICK_FAMILIES)}). "
+        f"Known: {', '.join(FAMILIES)}",
     )
     add_run_arguments(p, hand_over=True)
     return p
 
 
-def refinement_family(settings: Mapping[str, Any]) -> GaitFamily:
-    """The family the refinement searches: ``refine_family``, else (a run from before the setting)
-    the run's own."""
-    return family_named(settings.get("refine_family") or run_family(settings))
+def refinement_families(settings: Mapping[str, Any]) -> list[GaitFamily]:
+    """The families the refinement searches, in turn: ``refine_family`` (one name, stored as runs
+    made before several were possible stored it, or a list of names), else (a run from before the
+    setting) the run's own."""
+    named = settings.get("refine_family") or run_family(settings)
+    return [family_named(name) for name in ([named] if isinstance(named, str) else named)]
+
+
+def family_setting(names: Sequence[str] | None) -> str | list[str] | None:
+    """``--refine-family`` as stored: one family as its name (so that a run of one family has the
+    manifest it always had, and resumes as it was made), several as a list."""
+    if names is None:
+        return None
+    return names[0] if len(names) == 1 else list(names)
 
 
 def gala_config(settings: dict[str, Any]) -> GALAConfig:
@@ -381,22 +402,26 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.refine_family = family_setting(args.refine_family)
+    if isinstance(args.refine_family, list) and len(set(args.refine_family)) != len(args.refine_family):
+        parser.error(f"--refine-family: a family is given twice ({' '.join(args.refine_family)})")
     apply_preset(args, BUDGETS[args.budget or "paper"])
     tags = [f"pc{pc:g}" for pc in args.crossover or ()]
     if len(set(tags)) != len(tags):
         parser.error(f"--crossover: a rate is given twice ({' '.join(t[2:] for t in tags)})")
     run = prepare_run(parser, args, "gala", PAPER, argv)
-    refined = refinement_family(run.settings)
-    if refined is not run.family and refined.extends is not run.family:
-        parser.error(
-            f"--refine-family {refined.name}: it cannot refine {run.family.name} walks; give the run's own "
-            f"family (--refine-family {run.family.name}) or one that extends it"
-        )
-    if run.settings.get("bounds", "legacy") not in refined.boxes:
-        parser.error(
-            f"--refine-family {refined.name}: it has no {run.settings.get('bounds', 'legacy')} box (its boxes: "
-            f"{', '.join(refined.boxes)}); give --refine-family {run.family.name}"
-        )
+    families = refinement_families(run.settings)
+    for refined in families:
+        if refined is not run.family and refined.extends is not run.family:
+            parser.error(
+                f"--refine-family {refined.name}: it cannot refine {run.family.name} walks; give the run's own "
+                f"family (--refine-family {run.family.name}) or one that extends it"
+            )
+        if run.settings.get("bounds", "legacy") not in refined.boxes:
+            parser.error(
+                f"--refine-family {refined.name}: it has no {run.settings.get('bounds', 'legacy')} box (its "
+                f"boxes: {', '.join(refined.boxes)}); give --refine-family {run.family.name}"
+            )
     config = gala_config(run.settings)
     stability = stability_config(run.settings)
     bounds, repair = search_box(run.settings)
@@ -419,10 +444,14 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         fallback: list[ScoredGait] = []
         if run.settings.get("refine", 0) and fastest is not None:  # a run from before it: none
             starts = refine_starts(driver, fastest) if run.settings.get("refine_race") else [fastest.gait.genes]
-            lifted = [refined.from_gait(run.family.gait(start)).genes for start in starts]
-            box, box_repair = search_box(run.settings, refined)
-            named = None if refined is run.family else refined.name
-            refine(driver, run.settings, run.seed, box, box_repair, lifted, refined.held, named)
+            share, extra = divmod(run.settings["refine"], len(families))
+            first = 0
+            for j, refined in enumerate(families):
+                lifted = [refined.from_gait(run.family.gait(start)).genes for start in starts]
+                box, box_repair = search_box(run.settings, refined)
+                named = None if refined is run.family else refined.name
+                own = {**run.settings, "refine": share + (j < extra)}
+                first += refine(driver, own, run.seed, box, box_repair, lifted, refined.held, named, first)
             fallback.append(fastest.gait)  # when no refined walk holds, the rows' may
         if fastest is not None:  # the walk handed over: its candidates walk on (--hand-over-walks)
             fastest = fastest_walk(driver, run.setup.start, stability, hand_over=True, fallback=fallback)

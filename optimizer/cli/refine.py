@@ -106,15 +106,16 @@ class Arm:
     sigma: float
 
 
-def refinement_arms(settings: Mapping[str, Any], starts: Sequence[Sequence[float]]) -> list[Arm]:
+def refinement_arms(settings: Mapping[str, Any], starts: Sequence[Sequence[float]], first: int = 0) -> list[Arm]:
     """The refinement's CMA-ES runs: one per start and step of ``settings["refine_sigma"]``, the
-    starts in the order given, keyed ``refine<j>``. A run from before several steps stored one
-    number: one run keyed ``refine``, as it was made."""
+    starts in the order given, keyed ``refine<j>`` from j = ``first`` (a refinement of several
+    families numbers on from the previous family's runs). A run from before several steps stored
+    one number: one run keyed ``refine``, as it was made."""
     sigmas = settings["refine_sigma"]
     if isinstance(sigmas, (int, float)):
         return [Arm(REFINE_PREFIX, tuple(starts[0]), float(sigmas))]
     pairs = [(tuple(start), float(sigma)) for start in starts for sigma in sigmas]
-    return [Arm(f"{REFINE_PREFIX}{j}", start, sigma) for j, (start, sigma) in enumerate(pairs)]
+    return [Arm(f"{REFINE_PREFIX}{first + j}", start, sigma) for j, (start, sigma) in enumerate(pairs)]
 
 
 def refine_scoring(settings: Mapping[str, Any], scoring: ScoringConfig) -> ScoringConfig:
@@ -156,12 +157,14 @@ def refine(
     starts: Sequence[Sequence[float]],
     held: Sequence[int] = (),
     family: str | None = None,
-) -> None:
-    """CMA-ES from each of ``starts`` (genes) with each step of the settings (``refinement_arms``),
-    each run seeded from the run's seed and its prefix; every gait scored as the run scores. The
-    genes ``held`` keep each start's values (the family's ``held``: a tfs-start search holds the
-    start gait and searches the cruise gait). ``family`` names the genes' family where it is not
-    the run's (the main job refines its TFS rows' walks as tfs-start walks).
+    first: int = 0,
+) -> int:
+    """CMA-ES from each of ``starts`` (genes) with each step of the settings (``refinement_arms``,
+    numbered from ``first``), each run seeded from the run's seed and its prefix; every gait scored
+    as the run scores. The genes ``held`` keep each start's values (the family's ``held``: a
+    tfs-start search holds the start gait and searches the cruise gait). ``family`` names the
+    genes' family where it is not the run's (the main job refines its TFS rows' walks as tfs-start
+    walks). Returns the number of CMA-ES runs, where the next family's numbering goes on.
 
     The runs race: each walks a heat (``heat_gaits``), then the one whose best score is highest
     (the first on a tie) walks the rest of the budget, going on where it stopped, with its own
@@ -176,7 +179,7 @@ def refine(
     best-scored gait (``refine_starts``): a fragile start's neighbourhood falls almost everywhere,
     and CMA-ES learns nothing from a population of falls (measured: from a gait that fell in 4 of
     its 10 check walks, 2,997 of 3,000 refined gaits fell), so such a run loses its heat."""
-    arms = refinement_arms(settings, starts)
+    arms = refinement_arms(settings, starts, first)
     scoring = refine_scoring(settings, driver.scoring)
     total = settings["refine"]
     population = settings.get("refine_population")  # a run from before the flag: the library's default
@@ -201,7 +204,7 @@ def refine(
                 Race(scoring),
                 family,
             )
-        return
+        return len(arms)
     whole = total - (len(arms) - 1) * heat  # what the winner walks in all
     runs = [
         CMAESRun(
@@ -223,6 +226,7 @@ def refine(
         driver.run(Heat(run, heat), race, family)
     winner = max(range(len(runs)), key=lambda j: (_best_score(runs[j]), -j))
     driver.run(runs[winner], races[winner], family)
+    return len(arms)
 
 
 def refine_starts(driver: Driver, fastest: Fastest) -> list[tuple[float, ...]]:
