@@ -657,7 +657,7 @@ def test_the_quick_budget_refines_tfs_gaits_and_tfs_start_walks_and_the_paper_bu
 ) -> None:
     """Which family climbs from a quick row's slow walks depends on the seed: its refinement
     searches both, and races no leaders."""
-    for budget, family, refine, lead in (("quick", ["tfs", "tfs-start"], 1600, 0), ("paper", "tfs-start", 4000, 20)):
+    for budget, family, refine, lead in (("quick", ["tfs", "tfs-start"], 3200, 0), ("paper", "tfs-start", 4000, 20)):
         out = tmp_path / budget
         with pytest.raises(Killed):
             gala_command.main(

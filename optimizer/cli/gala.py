@@ -125,13 +125,14 @@ PAPER: dict[str, Any] = {
 QUICK_FAMILIES = (TFS.name, TFS_START.name)
 
 #: A first look on a 2-core machine: one row (the paper's best crossover rate), population 20,
-#: 20 iterations (19 feedbacks to the automaton), a 6-generation final GA (515 gaits), then 1600
+#: 20 iterations (19 feedbacks to the automaton), a 6-generation final GA (515 gaits), then 3200
 #: gaits of refinement, each gait raced as the default scoring says, plus the checks (10 walks for
 #: the row's best and for each of the 10 best-scored gaits). Measured in bench/notebook-2026.md.
-#: Its refinement searches TFS gaits with half its gaits and tfs-start walks with the other half, and
-#: hands over the best of both: a quick row's walks are slow and which family climbs from them
-#: depends on the seed (seed 1 alone in TFS handed over 8.08 m, in tfs-start 6.80 m; the README's
-#: random seed 1836095818: 7.45 m and 13.21 m; bench/RESULTS.md).
+#: Its refinement searches 1600 TFS gaits, then 1600 tfs-start walks, and hands over the best of
+#: both: a quick row's walks are slow and which family climbs from them depends on the seed (with
+#: 1600 gaits, seed 1 handed over 8.08 m in TFS and 6.80 m in tfs-start; the README's random seed
+#: 1836095818 7.45 m and 13.21 m), and half as many gaits each were too few (seed 1: 7.43 m;
+#: bench/RESULTS.md).
 #: It races no leaders: its walks are slow and hold without them (three seeds, none fell in 200
 #: walks or on the real server), and seed 1's leaders cost it 1,200 walks (a third of its
 #: refinement) and 0.8 m (7.28 m handed over, against 8.08 m; docs/optimizer.md, "Leaders").
@@ -142,7 +143,7 @@ BUDGETS: dict[str, dict[str, Any]] = {
         "population": 20,
         "iterations": 20,
         "generations": 6,
-        "refine": 1600,
+        "refine": 3200,
         "refine_family": list(QUICK_FAMILIES),
         "refine_lead_walks": 0,
     },
@@ -171,7 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
         choices=sorted(BUDGETS),
         default=None,
         help="paper: the full Table I protocol (default); quick: crossover 0.8, population 20, "
-        "20 iterations, 6 final generations, 1600 gaits of refinement. "
+        "20 iterations, 6 final generations, 3200 gaits of refinement (1600 TFS, 1600 tfs-start). "
         "Flags given override it",
     )
     p.add_argument(
