@@ -244,6 +244,13 @@ def test_an_error_in_the_owner_stops_its_server(rcssserver3d: str) -> None:
     assert server.pid is None and _gone(pid)
 
 
+def _as_a_terminal_job() -> None:
+    """Ctrl-C as a terminal's foreground job gets it: a test run started in the background of a
+    script (nohup, ``&``) ignores SIGINT, its children inherit that, and Python then leaves
+    SIGINT ignored, as a background job should."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start_gala(rcssserver3d: str, out: Path) -> tuple[subprocess.Popen, str]:
     env, tag = _tagged_env(rcssserver3d)
     process = subprocess.Popen(
@@ -271,6 +278,7 @@ def _start_gala(rcssserver3d: str, out: Path) -> tuple[subprocess.Popen, str]:
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,
+        preexec_fn=_as_a_terminal_job,
     )
     assert _wait_for(lambda: len(_servers_tagged(tag)) == 2, 60.0), "the run did not start its 2 servers"
     assert _wait_for(lambda: (out / "episodes.jsonl").exists() and (out / "episodes.jsonl").stat().st_size > 0, 60.0)
@@ -282,14 +290,20 @@ def _start_gala(rcssserver3d: str, out: Path) -> tuple[subprocess.Popen, str]:
 @pytest.mark.parametrize("stop", ["ctrl-c", "sigterm"])
 def test_ctrl_c_or_sigterm_stops_every_server(rcssserver3d: str, tmp_path: Path, stop: str) -> None:
     process, tag = _start_gala(rcssserver3d, tmp_path / "run")
-    if stop == "ctrl-c":
-        os.killpg(process.pid, signal.SIGINT)  # what a terminal sends to its foreground group
-    else:
-        process.terminate()  # what a scheduler sends to the job
-    _, err = process.communicate(timeout=60)
-    assert process.returncode == 130, err
-    assert "--resume" in err
-    assert _wait_for(lambda: _servers_tagged(tag) == [], 10.0), _servers_tagged(tag)
+    try:
+        if stop == "ctrl-c":
+            os.killpg(process.pid, signal.SIGINT)  # what a terminal sends to its foreground group
+        else:
+            process.terminate()  # what a scheduler sends to the job
+        _, err = process.communicate(timeout=60)
+        assert process.returncode == 130, err
+        assert "--resume" in err
+        assert _wait_for(lambda: _servers_tagged(tag) == [], 10.0), _servers_tagged(tag)
+    finally:  # tidy up after a failure: a run left going would hold two cores and two servers
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+        for pid in _servers_tagged(tag):
+            os.kill(pid, signal.SIGKILL)
 
 
 @pytest.mark.real_server
