@@ -21,9 +21,10 @@ from optimizer.cli import gala as gala_command
 from optimizer.cli.refine import Arm, heat_gaits, refinement_arms
 from optimizer.episode import EpisodeResult
 from optimizer.evaluation.pool import EpisodeOutcome
-from optimizer.evaluation.record import WalkKind
+from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.report import read_table_csv
-from optimizer.run.robust import jittered_starts
+from optimizer.run.robust import ScoredGait, jittered_starts
+from optimizer.run.stability import check_candidates
 from optimizer.run.walk_card import REAL_SERVER, STAND_IN, read_card
 from optimizer.search.config import GAConfig, GALAConfig
 from optimizer.search.ga import GARun
@@ -636,6 +637,18 @@ def test_a_refinement_of_two_families_gives_each_its_share_and_hands_over_the_be
     families = {e.get("family", "tfs") for e in episodes if e["key"].startswith("check/refine")}
     assert families == {"tfs", "tfs-start"}
     assert results["fastest_score"]["key"].startswith("refine")
+
+
+def test_the_checks_of_a_refinement_of_two_families_walk_the_best_of_each() -> None:
+    """``check_candidates``: the ten best of each family, best-scored first, where the ten best of
+    the run could all be of one family."""
+    walk = EpisodeRecord("k", (0.0,), 10.0, distance=1.0, time=15.0)
+    ranked = [ScoredGait(f"s{j}", (float(j),), 100.0 - j, (walk,), "tfs-start") for j in range(12)]
+    ranked += [ScoredGait(f"t{j}", (float(j), 1.0), 50.0 - j, (walk,)) for j in range(12)]
+    assert [g.key for g in check_candidates(ranked, 10)] == [f"s{j}" for j in range(10)]
+    both = check_candidates(ranked, 10, by_family=True)
+    assert [g.key for g in both] == [f"s{j}" for j in range(10)] + [f"t{j}" for j in range(10)]
+    assert check_candidates(ranked[:12], 10, by_family=True) == check_candidates(ranked[:12], 10)
 
 
 def test_a_refinement_family_given_twice_is_refused(tmp_path: Path, capsys) -> None:
