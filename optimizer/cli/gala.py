@@ -21,8 +21,8 @@ tfs-start walks (``--refine-family``, ``gait.tfs_start``): each begun by itself,
 held and its cruise gait searched, because what decides whether a fast TFS gait walks at all is
 its first half second, while what makes it fast after that changes smoothly with its genes; the
 walk handed over is then a tfs-start gait file. Several families (the quick budget's TFS and
-tfs-start) each search their share of the N gaits in turn, and the hand-over takes the best of
-all. Table I is the same with or without it.
+tfs-start) each search their share of the N gaits in turn, and the checks walk the ten
+best-scored gaits of each family. Table I is the same with or without it.
 ``--family`` searches another gait family (``gait.FAMILIES``).
 
 Each row's best gait is then checked (``optimizer.run.stability``): walked ``--check-repeats``
@@ -283,7 +283,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="the gait family the refinement searches, the run's own or one extending it (default "
         f"{PAPER['refine_family']}: the rows' walk begun by itself, its start held and its cruise gait "
         'searched; docs/optimizer.md, "The start-up decides"); several: each searches its share of '
-        f"--refine in turn and the hand-over takes the best of all (quick: {' '.join(QUICK_FAMILIES)}). "
+        f"--refine in turn and the checks walk the best of each (quick: {' '.join(QUICK_FAMILIES)}). "
         f"Known: {', '.join(FAMILIES)}",
     )
     add_run_arguments(p, hand_over=True)
