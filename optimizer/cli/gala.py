@@ -471,7 +471,8 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
 
     # the racing walks and how many candidates the checks walk are not known ahead: an estimate
     planned = len(rates) * planned_episodes(config, stability.repeats) + run.settings.get("refine", 0)
-    planned += stability.candidates * (stability.repeats + stability.confirm) + stability.hand_over
+    candidates = stability.candidates * (len(families) if run.settings.get("refine") else 1)
+    planned += candidates * (stability.repeats + stability.confirm) + stability.hand_over
     return run_session(
         run,
         planned,

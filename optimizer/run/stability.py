@@ -154,14 +154,14 @@ def fastest_stable(
     """The fastest stable gait of the run so far: the ``config.candidates`` best-scored gaits
     (``ranked_gaits``; ``by_family``: of each gait family, ``check_candidates``) are each checked,
     those that held walk ``config.confirm`` more walks (their check goes on: the same seeds and
-    starts, more of them), and of all the candidates the one that
-    fell in the smallest share of its walks (none, when one holds) and whose worst walk scored
-    highest is it (then the higher on average; a walk's score is 10 x its distance, less the run's
-    drift penalty where it has one). Checking all of them, not stopping at the first that passes,
-    lets a gait scored a little lower but steadier win. The worst walk, not the mean, because a
-    wide spread on the stand-in is a margin the real server can cross: a gait that held 10 checks
-    at 11.73-12.84 m (mean 12.51) fell once in 10 real walks, one that held at 12.02 m in every
-    walk walked 11.98-12.01 m in 20 real ones (docs/optimizer.md). None when every gait fell.
+    starts, more of them), and of all the candidates the one that fell in the smallest share of its
+    walks (none, when one holds) and whose worst walk scored highest is it (then the higher on
+    average; a walk's score is 10 x its distance, less the run's drift penalty where it has one).
+    Checking all of them, not stopping at the first that passes, lets a gait scored a little lower
+    but steadier win. The worst walk, not the mean, because a wide spread on the stand-in is a
+    margin the real server can cross: a gait that held 10 checks at 11.73-12.84 m (mean 12.51) fell
+    once in 10 real walks, one that held at 12.02 m in every walk walked 11.98-12.01 m in 20 real
+    ones (docs/optimizer.md). None when every gait fell.
 
     With ``hand_over`` (the gait the run hands over at its end) the winners then walk on, in that
     order, towards ``config.hand_over`` walks each, ``config.repeats`` at a time and no further once
