@@ -412,6 +412,8 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         parser.error(f"--crossover: a rate is given twice ({' '.join(t[2:] for t in tags)})")
     run = prepare_run(parser, args, "gala", PAPER, argv)
     families = refinement_families(run.settings)
+    # the check candidates' families: the refinement's, when it runs (the rows' gaits count as TFS)
+    checked_families = len(families) if run.settings.get("refine") else 1
     for refined in families:
         if refined is not run.family and refined.extends is not run.family:
             parser.error(
@@ -455,9 +457,8 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
                 first += refine(driver, own, run.seed, box, box_repair, lifted, refined.held, named, first)
             fallback.append(fastest.gait)  # when no refined walk holds, the rows' may
         if fastest is not None:  # the walk handed over: its candidates walk on (--hand-over-walks)
-            several = len(families) > 1 and bool(run.settings.get("refine"))
             fastest = fastest_walk(
-                driver, run.setup.start, stability, hand_over=True, fallback=fallback, by_family=several
+                driver, run.setup.start, stability, hand_over=True, fallback=fallback, by_family=checked_families > 1
             )
             write_outputs(run, rows, fastest)
         falling = [f"{row.result.crossover:g}" for row in rows if row.check is not None and not row.check.stable]
@@ -471,8 +472,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
 
     # the racing walks and how many candidates the checks walk are not known ahead: an estimate
     planned = len(rates) * planned_episodes(config, stability.repeats) + run.settings.get("refine", 0)
-    candidates = stability.candidates * (len(families) if run.settings.get("refine") else 1)
-    planned += candidates * (stability.repeats + stability.confirm) + stability.hand_over
+    planned += stability.candidates * checked_families * (stability.repeats + stability.confirm) + stability.hand_over
     return run_session(
         run,
         planned,
