@@ -79,20 +79,24 @@ def test_the_first_round_races_only_the_best_first_walks_and_a_failed_walk_never
 def test_only_a_score_above_every_leader_walks_on() -> None:
     race = Race(ScoringConfig(walks=3, lead_walks=6))
     assert race.leaders([("a", 10.0), ("b", 30.0)]) == ["a", "b"]  # no leader yet: both could be the best
-    race.lead(22.0, 20.0)
-    race.lead(13.0, 12.0)  # a leader that fell in its later walks does not lower the bar
+    race.lead(20.0)
+    race.lead(12.0)  # a leader that fell in its later walks does not lower the bar
     assert race.leaders([("a", 10.0), ("b", 30.0), ("c", 20.0)]) == ["b"]
     assert Race(ScoringConfig(walks=3)).leaders([("b", 30.0)]) == []
 
 
-def test_a_leaders_lower_score_lowers_the_racing_bar() -> None:
+def test_a_first_walk_above_the_best_leader_races_under_the_bar() -> None:
     """Once a leader's later walks lower its score, a first walk between that and its k-walk
-    score could outscore it: the racing bar takes the leader's new score, so such a walk races."""
+    score could outscore it: such a walk races though it is under the bar, and one at or below
+    the leader's score does not (the bar itself keeps the k-walk score)."""
     race = Race(ScoringConfig(walks=2, lead_walks=5, top=1))
     race.enter(105.0)
-    assert race.choose([("x", _record(104.8))]) == []  # below the one raced score
-    race.lead(105.0, 100.0)
-    assert race.choose([("x", _record(104.8))]) == ["x"]
+    assert race.choose([("x", _record(104.8))]) == []  # below the one raced score, no leader yet
+    race.lead(100.0)
+    assert race.choose([("x", _record(104.8)), ("y", _record(100.0)), ("z", _record(99.0))]) == ["x"]
+    plain = Race(ScoringConfig(walks=2, top=1))  # without leaders the bar alone decides
+    plain.enter(105.0)
+    assert plain.choose([("x", _record(104.8))]) == []
 
 
 def test_a_scoring_config_refuses_impossible_values() -> None:

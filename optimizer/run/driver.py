@@ -91,9 +91,9 @@ class Driver:
     ) -> list[ScoredGait]:
         """Score a batch: every candidate walks once, then, round by round, those ``race``
         chooses walk the rest of their k walks (each round one more batch) and their scores join
-        the race, until it chooses none; then its leaders walk on. A leader's lower score over all
-        its walks lowers the racing bar, so the rounds start again until neither names a gait:
-        else a first walk below the bar of k-walk scores could outscore every leader."""
+        the race, until it chooses none; then its leaders walk on. A leader's score over all its
+        walks may be below a first walk left unraced, which ``race`` then chooses, so the rounds
+        start again until neither names a gait: else that walk could outscore every leader."""
         firsts = self.walk([self.task(key, genes, family=family) for key, genes in candidates])
         walks = {key: [firsts[key]] for key, _ in candidates}
         genes_of = {key: genes for key, genes in candidates}
@@ -108,7 +108,7 @@ class Driver:
                 break
             walks.update(self._walk_on(chosen, walks, genes_of, lead, race.config.jitter, family))
             for key in chosen:
-                race.lead(race.score(walks[key][:k]), race.score(walks[key]))
+                race.lead(race.score(walks[key]))
         out = []
         for key, _ in candidates:
             scored = ScoredGait(key, firsts[key].genes, race.score(walks[key]), tuple(walks[key]), family)

@@ -117,9 +117,11 @@ class Race:
     def choose(self, firsts: Sequence[tuple[str, EpisodeRecord]]) -> list[str]:
         """Of these candidates' first walks (not raced yet), the keys that walk their other k - 1
         walks now: those that could enter the top, at most ``top`` of them (more on a tie), the
-        best first. Asked again after their scores enter, until it names none; then every
-        candidate left with one walk is at most the ``top``-th best raced score, so a single
-        lucky walk is never a search's best once ``top`` gaits have been raced."""
+        best first; and, once the search has a leader, every one above the best leader's score,
+        which it could otherwise outscore. Asked again after their scores enter, until it names
+        none; then every candidate left with one walk is at most the ``top``-th best raced score
+        and at most the search's best, so a single lucky walk is never a search's best once
+        ``top`` gaits have been raced."""
         if not self.config.robust:
             return []
         open_ = [(key, walk.fitness) for key, walk in firsts if walk.ran]
@@ -128,7 +130,8 @@ class Race:
             return []
         threshold = pool[min(self.config.top, len(pool)) - 1]
         floor = self._best[0] if len(self._best) >= self.config.top else -math.inf
-        return [key for key, f in open_ if f >= threshold and f > floor]
+        led = self._lead > -math.inf  # a leader has walked on
+        return [key for key, f in open_ if (f >= threshold and f > floor) or (led and f > self._lead)]
 
     def enter(self, fitness: float) -> None:
         """A raced score joins the bar."""
@@ -144,13 +147,8 @@ class Race:
             return []
         return [key for key, fitness in raced if fitness > self._lead]
 
-    def lead(self, raced: float, fitness: float) -> None:
-        """A leader's score over ``lead_walks`` walks (``fitness``; over k walks it was ``raced``)
-        joins the leaders' bar and takes the place of its k-walk score in the racing bar: the bar
-        is then of the scores the search is told, so no first walk left below it can outscore
-        the search's best."""
+    def lead(self, fitness: float) -> None:
+        """A score over ``lead_walks`` walks joins the leaders' bar. The racing bar keeps the
+        leader's k-walk score: a first walk between the two races by ``choose``'s second rule,
+        and no other gait needs to."""
         self._lead = max(self._lead, fitness)
-        i = bisect.bisect_left(self._best, raced)
-        if i < len(self._best) and self._best[i] == raced:
-            del self._best[i]
-            bisect.insort(self._best, fitness)
