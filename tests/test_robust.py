@@ -3,6 +3,7 @@ tests on a fake evaluator whose walks vary with their seed, as dithered walks do
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
@@ -85,18 +86,21 @@ def test_only_a_score_above_every_leader_walks_on() -> None:
     assert Race(ScoringConfig(walks=3)).leaders([("b", 30.0)]) == []
 
 
-def test_a_first_walk_above_the_best_leader_races_under_the_bar() -> None:
-    """Once a leader's later walks lower its score, a first walk between that and its k-walk
-    score could outscore it: such a walk races though it is under the bar, and one at or below
-    the leader's score does not (the bar itself keeps the k-walk score)."""
+def test_a_first_walk_above_the_best_leader_is_told_just_under_it() -> None:
+    """Once a leader's later walks lower its score, a first walk left under the bar of k-walk
+    scores may lie above it: it is told just under the best leader's score, so that one walk is
+    never the search's best; a walk below it is told as it walked, and without leaders nothing
+    is capped."""
     race = Race(ScoringConfig(walks=2, lead_walks=5, top=1))
     race.enter(105.0)
-    assert race.choose([("x", _record(104.8))]) == []  # below the one raced score, no leader yet
+    assert race.choose([("x", _record(104.8))]) == []  # below the one raced score: not raced
+    assert race.score([_record(104.8)]) == 104.8  # no leader yet
     race.lead(100.0)
-    assert race.choose([("x", _record(104.8)), ("y", _record(100.0)), ("z", _record(99.0))]) == ["x"]
-    plain = Race(ScoringConfig(walks=2, top=1))  # without leaders the bar alone decides
-    plain.enter(105.0)
-    assert plain.choose([("x", _record(104.8))]) == []
+    assert race.choose([("x", _record(104.8))]) == []  # the bar is still the k-walk score
+    told = race.score([_record(104.8)])
+    assert told < 100.0 and told == math.nextafter(100.0, -math.inf)
+    assert race.score([_record(99.0)]) == 99.0
+    assert race.score([_record(104.8), _record(98.0)]) == 98.0 + 0.25 * 6.8  # raced scores are not capped
 
 
 def test_a_scoring_config_refuses_impossible_values() -> None:
@@ -166,7 +170,7 @@ def test_a_search_best_is_always_a_leader_walked_on_from_the_same_first_walks(
 ) -> None:
     """With leaders' walks: after every batch the best score of the search is a gait's over all its
     ``lead_walks`` walks; each gait has 1, k or ``lead_walks`` walks; and a leader's first k walks
-    are the very walks (keys, seeds, starts) the race without leaders gives it where that races it."""
+    are the very walks (keys, seeds, starts) the race without leaders gives it."""
     lead = walks + more
     folder = tmp_path_factory.mktemp("lead")
     with EpisodeLog(folder / "lead.jsonl") as log, EpisodeLog(folder / "plain.jsonl") as plain_log:
@@ -184,7 +188,9 @@ def test_a_search_best_is_always_a_leader_walked_on_from_the_same_first_walks(
                 assert [w.key for w in gait.walks] == [gait.key] + [
                     extra_key(gait.key, j) for j in range(1, len(gait.walks))
                 ]
-                # a leader's lower score can race a gait the race without leaders leaves at one walk;
-                # where both race it, its first k walks are the same walks
-                if len(gait.walks) == lead and len(plain.scored[gait.key].walks) == walks:
-                    assert gait.walks[:walks] == plain.scored[gait.key].walks
+                # leaders change no race: the same gaits raced, from the same first k walks
+                alone = plain.scored[gait.key]
+                assert gait.walks[: len(alone.walks)] == alone.walks
+                assert (len(gait.walks) == 1) == (len(alone.walks) == 1)
+                if len(gait.walks) == 1:  # told as it walked, but never above a leader
+                    assert gait.fitness == min(alone.fitness, math.nextafter(best.fitness, -math.inf))

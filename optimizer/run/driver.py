@@ -91,21 +91,16 @@ class Driver:
     ) -> list[ScoredGait]:
         """Score a batch: every candidate walks once, then, round by round, those ``race``
         chooses walk the rest of their k walks (each round one more batch) and their scores join
-        the race, until it chooses none; then its leaders walk on. A leader's score over all its
-        walks may be below a first walk left unraced, which ``race`` then chooses, so the rounds
-        start again until neither names a gait: else that walk could outscore every leader."""
+        the race, until it chooses none; then, round by round, its leaders walk on."""
         firsts = self.walk([self.task(key, genes, family=family) for key, genes in candidates])
         walks = {key: [firsts[key]] for key, _ in candidates}
         genes_of = {key: genes for key, genes in candidates}
         k, lead = race.config.walks, race.config.lead_walks
-        while True:
-            while chosen := race.choose([(key, firsts[key]) for key, _ in candidates if len(walks[key]) == 1]):
-                walks.update(self._walk_on(chosen, walks, genes_of, k, race.config.jitter, family))
-                for key in chosen:
-                    race.enter(race.score(walks[key]))
-            chosen = race.leaders([(key, race.score(w)) for key, w in walks.items() if len(w) == k])
-            if not chosen:
-                break
+        while chosen := race.choose([(key, firsts[key]) for key, _ in candidates if len(walks[key]) == 1]):
+            walks.update(self._walk_on(chosen, walks, genes_of, k, race.config.jitter, family))
+            for key in chosen:
+                race.enter(race.score(walks[key]))
+        while chosen := race.leaders([(key, race.score(w)) for key, w in walks.items() if len(w) == k]):
             walks.update(self._walk_on(chosen, walks, genes_of, lead, race.config.jitter, family))
             for key in chosen:
                 race.lead(race.score(walks[key]))

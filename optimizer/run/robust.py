@@ -13,8 +13,9 @@ The k walks' score is a low quantile of their eq. 9 fitness by default (``Scorin
 Racing keeps the cost low: every candidate walks once; only one whose first walk could put it
 among the ``top`` best scores of its search so far walks the other k - 1 times (``Race.choose``,
 asked again after each round of scores until no candidate left could enter). A candidate that
-does not qualify keeps its one walk's value, which lies at or below the bar, so it is never taken
-for one of the search's best.
+does not qualify keeps its one walk's value, which lies at or below the bar (and, where a search
+races leaders, just under the best leader's score), so it is never taken for one of the search's
+best.
 
 A search may also race its leaders (``ScoringConfig.lead_walks``; the main job's refinement does):
 a candidate whose score over k walks would make it the search's best walks on to ``lead_walks``
@@ -106,10 +107,12 @@ class Race:
     def score(self, walks: Sequence[EpisodeRecord]) -> float:
         """What the search is told: a single walk's eq. 9 fitness (the paper's, unchanged), else
         the quantile (or mean) of the walks' fitness, each walk counted as eq. 9 counts it (a
-        fall at the distance it had reached)."""
+        fall at the distance it had reached). Once the search has a leader, a gait left at one
+        walk is told at most just under the best leader's score (``lead``)."""
         values = [w.fitness for w in walks]
         if len(values) == 1:
-            return values[0]
+            led = self._lead > -math.inf
+            return min(values[0], math.nextafter(self._lead, -math.inf)) if led else values[0]
         if self.config.quantile is None:
             return float(np.mean(values))
         return float(np.quantile(values, self.config.quantile))
@@ -117,11 +120,9 @@ class Race:
     def choose(self, firsts: Sequence[tuple[str, EpisodeRecord]]) -> list[str]:
         """Of these candidates' first walks (not raced yet), the keys that walk their other k - 1
         walks now: those that could enter the top, at most ``top`` of them (more on a tie), the
-        best first; and, once the search has a leader, every one above the best leader's score,
-        which it could otherwise outscore. Asked again after their scores enter, until it names
-        none; then every candidate left with one walk is at most the ``top``-th best raced score
-        and at most the search's best, so a single lucky walk is never a search's best once
-        ``top`` gaits have been raced."""
+        best first. Asked again after their scores enter, until it names none; then every
+        candidate left with one walk is at most the ``top``-th best raced score, so a single
+        lucky walk is never a search's best once ``top`` gaits have been raced."""
         if not self.config.robust:
             return []
         open_ = [(key, walk.fitness) for key, walk in firsts if walk.ran]
@@ -130,8 +131,7 @@ class Race:
             return []
         threshold = pool[min(self.config.top, len(pool)) - 1]
         floor = self._best[0] if len(self._best) >= self.config.top else -math.inf
-        led = self._lead > -math.inf  # a leader has walked on
-        return [key for key, f in open_ if (f >= threshold and f > floor) or (led and f > self._lead)]
+        return [key for key, f in open_ if f >= threshold and f > floor]
 
     def enter(self, fitness: float) -> None:
         """A raced score joins the bar."""
@@ -149,6 +149,9 @@ class Race:
 
     def lead(self, fitness: float) -> None:
         """A score over ``lead_walks`` walks joins the leaders' bar. The racing bar keeps the
-        leader's k-walk score: a first walk between the two races by ``choose``'s second rule,
-        and no other gait needs to."""
+        leader's k-walk score, which is mostly above it (the worst of 20 walks is lower than the
+        worst of 5), so a first walk left under that bar may lie above every leader's score:
+        ``score`` tells it just under the best, or it would be the search's best on one walk.
+        Racing every such walk instead (commit 6e2987b) cost seed 2's default refinement 60%
+        more walks (docs/optimizer.md, "Leaders")."""
         self._lead = max(self._lead, fitness)
