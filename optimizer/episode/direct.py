@@ -31,13 +31,14 @@ import numpy as np
 from agent.behaviour import WalkBehaviour
 from agent.config import AgentConfig
 from gait import Gait
+from optimizer.episode import rounding
 from optimizer.episode.config import EpisodeConfig, parked_ball
 from optimizer.episode.monitor_link import EpisodeFailure
+from optimizer.episode.rounding import rounded, rounded_array
 from optimizer.episode.scoring import Judge
 from protocol import commands
 from protocol.monitor import MonitorState, RobotPose
 from protocol.nao import JOINTS
-from protocol.numbers import rounded
 from protocol.perception import GameState, Perception
 from server_stub import kernels
 from server_stub.agent_state import AgentState
@@ -153,6 +154,7 @@ class DirectStub:
         # the walk's kernels compiled now, in two processes if numba's cache is cold (a fresh
         # clone), rather than one by one in the first episode
         kernels.warm_up(kernels.WALK, eager=False)
+        rounding.warm_up()
         self.sim = Simulation(ServerConfig(sync=True, realtime=False, beam_noise=False, seed=seed), PhysicsConfig())
         #: the monitor reader's knowledge, kept across episodes as a trainer's connection keeps it
         self._view = _TorsoView()
@@ -228,7 +230,7 @@ class DirectStub:
         velocities = action.velocities
         # a non-finite one raises ValueError when applied, as printing it does on the socket path
         if tuple(velocities) == _EFFECTORS:
-            out.append(np.array(rounded(velocities.values(), 4)))
+            out.append(rounded_array(np.fromiter(velocities.values(), dtype=float, count=len(velocities)), 4))
         elif velocities:
             out.append(dict(zip(velocities, rounded(velocities.values(), 4))))
         if action.text:

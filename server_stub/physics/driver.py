@@ -165,6 +165,21 @@ class Stepper:
         self.ball_mass = field.BALL_MASS
         self.ball_inertia = 0.4 * field.BALL_MASS * r * r
         self.gravity = np.array([0.0, 0.0, config.gravity])
+        #: the ball's model and drag in an island's columns (``_gather_bodies``): the same every step
+        self._ball_columns = (
+            np.array([self.ball_mass]),
+            np.full((1, 3), self.ball_inertia),
+            np.array([-1], dtype=np.int64),
+            np.array([0], dtype=np.int64),
+            np.zeros((0, 3)),
+            np.zeros((0, 3)),
+            np.zeros((0, 3)),
+            np.array([config.ode_ball_drag_linear]),
+            np.array([config.ode_ball_drag_angular]),
+        )
+        #: an island's two-body contacts when it has none (most islands: a lone ball settling after
+        #: the trainer placed it), made once by ``_gather_pairs`` itself, so they are the same arrays
+        self._no_pairs: PairContacts | None = None
         pb.setCollisionFilterPair(ground, ball, -1, -1, 0, physicsClientId=client)
         self._ball_written: tuple | None = None
         self._ball_moved = False
@@ -373,25 +388,8 @@ class Stepper:
                 nj += st.local_axes.shape[0]
             else:
                 pos, quat, vel, spin = ball_state
-                parts.append(
-                    (
-                        np.array([self.ball_mass]),
-                        np.full((1, 3), self.ball_inertia),
-                        np.array([-1], dtype=np.int64),
-                        np.array([0], dtype=np.int64),
-                        np.zeros((0, 3)),
-                        np.zeros((0, 3)),
-                        np.zeros((0, 3)),
-                        pos,
-                        quat,
-                        vel,
-                        spin,
-                        vel,
-                        spin,
-                        np.array([cfg.ode_ball_drag_linear]),
-                        np.array([cfg.ode_ball_drag_angular]),
-                    )
-                )
+                model_columns, drag = self._ball_columns[:7], self._ball_columns[7:]
+                parts.append((*model_columns, pos, quat, vel, spin, vel, spin, *drag))
                 n += 1
         cols = [np.concatenate(x) for x in zip(*parts)]
         masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = cols[:7]
@@ -490,6 +488,9 @@ class Stepper:
         bodies, the normal from body 2 into body 1."""
         members = set(island.group)
         kept = [pt for pt in pairs if by_body[pt[contact.BODY_A]] in members]
+        if not kept and self._no_pairs is not None:
+            island.pairs = []
+            return self._no_pairs
         n = len(kept)
         fields = list(zip(*kept)) if kept else [()] * (contact.DISTANCE + 1)
         a = [by_body[body] for body in fields[contact.BODY_A]]
@@ -510,7 +511,7 @@ class Stepper:
         normal_on_b = np.array(fields[contact.NORMAL_ON_B], dtype=float).reshape(n, 3)
         s = self.surfaces
         surfaces = [s.robot_robot if island.is_robot(i) and island.is_robot(j) else s.robot_ball for i, j in zip(a, b)]
-        return PairContacts(
+        gathered = PairContacts(
             body1,
             body2,
             0.5 * (carried[:n] + carried[n:]),
@@ -518,6 +519,9 @@ class Stepper:
             -np.array(fields[contact.DISTANCE], dtype=float),
             _rows(surfaces, 5),
         )
+        if not kept:
+            self._no_pairs = gathered
+        return gathered
 
     def _scatter(
         self, island: _Island, out, robots, statics, preps, motors: Motors, contacts: Contacts, pairs, by_body

@@ -1,14 +1,22 @@
-"""``protocol.numbers.rounded``: the embedded episodes' rounding must give ``round``'s floats, bit
+"""``optimizer.episode.rounding``: the embedded episodes' rounding must give ``round``'s floats, bit
 for bit, or an episode without text would walk differently from one over the wire."""
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from protocol.numbers import rounded
+from optimizer.episode.rounding import rounded, rounded_array, warm_up
+
+
+@pytest.fixture(autouse=True, scope="module")
+def compiled() -> None:
+    """The kernel compiled (or loaded) before hypothesis times its first example."""
+    warm_up()
 
 
 def same_float(a: float, b: float) -> bool:
@@ -53,3 +61,12 @@ def test_rounded_examples() -> None:
     assert math.copysign(1.0, rounded([-0.001], 2)[0]) == -1.0
     for digits in (-2, 0, 1, 23):
         assert_as_round([1234.5678, -0.5, 2.5, 1e-30], digits)
+
+
+@given(st.lists(st.floats(), max_size=30), st.sampled_from([2, 4]))
+def test_rounded_array_is_round_of_each_element(values: list[float], digits: int) -> None:
+    """The array form (the direct episode's velocity commands) gives the same floats as ``round``."""
+    got = rounded_array(np.array(values, dtype=float), digits)
+    assert got.shape == (len(values),)
+    for value, mine in zip(values, got.tolist()):
+        assert same_float(mine, round(value, digits)), (value, digits, mine)
