@@ -494,9 +494,11 @@ def pool_evaluator(setup: EvaluationSetup) -> Evaluator:
     if not setup.servers and setup.real_command is None:
         # the embedded stand-in's kernels compiled once here, in two processes on a fresh clone,
         # rather than by every worker at once; the workers load them from numba's cache
+        from optimizer.episode import rounding
         from server_stub import kernels
 
         kernels.warm_up(kernels.WALK, eager=False)
+        rounding.warm_up()
     return ProcessPoolEvaluator(
         EpisodeRunnerFactory(config, setup.servers, setup.seed, setup.real_command), setup.workers, task_timeout=timeout
     )
