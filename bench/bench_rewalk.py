@@ -4,8 +4,9 @@ the code walks them exactly as the code that logged them.
 A run's ``episodes.jsonl`` holds every walk of a search (genes, family, seed, start) and its
 outcome. This walks a seeded sample of them again, in this process, on one runner set up as the
 run's workers were (its manifest's walk time, start, dither, family and drift penalty, the
-embedded stand-in without sockets), and compares each outcome (distance, fall, time, fitness and,
-for check walks, drift, turn and track) with the log, to the last bit. A search's walks mix the
+embedded stand-in without sockets), each as a worker runs its task, and compares each record
+(distance, fall, time, fitness, speed, status and, for check walks, drift, turn and track: every
+field but the wall time and the worker) with the logged one, to the last bit. A search's walks mix the
 kinds a default row spends its time on: random gaits that fall within a second, the converged
 rows' full walks, the refinement's and the checks'. So ms per episode here is what the main
 job's workers pay per walk, and the figure to compare two versions of the in-process path by
@@ -19,49 +20,61 @@ Exit status 1 when an outcome differs from the log.
 from __future__ import annotations
 
 import argparse
-import json
+import dataclasses
 import logging
 import random
 import sys
 import time
 from pathlib import Path
-from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from gait import Gait  # noqa: E402
-from gait.families import family_named  # noqa: E402
-from optimizer.cli.common import episode_config  # noqa: E402
+from optimizer.cli.common import episode_config, run_family  # noqa: E402
 from optimizer.episode.runner import EpisodeRunner  # noqa: E402
+from optimizer.evaluation.pool import EpisodeTask  # noqa: E402
+from optimizer.evaluation.record import EpisodeRecord, WalkKind  # noqa: E402
+from optimizer.run.folder import RunFolder, RunFolderError, read_episode_log  # noqa: E402
 
-#: The outcome fields compared with the log (the last three only in check walks' records).
-COMPARED = ("distance", "fell", "time", "fitness", "drift", "heading_change", "track")
+#: What a re-walk may change: how long it took and which worker ran it.
+NOT_COMPARED = {"wall", "worker"}
 
 
-def runner_of(run: Path) -> EpisodeRunner:
+def runner_of(folder: RunFolder) -> EpisodeRunner:
     """One runner as the run's workers had it (the embedded stand-in, in process)."""
-    settings = json.loads((run / "manifest.json").read_text())["settings"]
+    settings = folder.manifest["settings"]
     config = episode_config(
         settings["walk_time"],
         settings["start"],
         "inprocess",
         settings.get("command_noise", 0.0),
-        settings.get("family", "tfs"),
+        run_family(settings),
         settings.get("drift_penalty", 0.0),
     )
     return EpisodeRunner(config, seed=0)
 
 
-def gait_of(record: dict[str, Any]) -> Gait | list[float]:
-    """The walk's gait: its genes, of the run's family unless the record names its own."""
-    family = record.get("family")
-    return record["genes"] if family is None else family_named(family).gait(tuple(record["genes"]))
+def rewalked(runner: EpisodeRunner, logged: EpisodeRecord) -> EpisodeRecord:
+    """``logged``'s walk again, run as a worker runs its task, recorded as the run recorded it."""
+    task = EpisodeTask(
+        logged.key,
+        logged.genes,
+        logged.seed if logged.seed is not None else 0,
+        logged.start,
+        logged.kind,
+        trace=logged.kind is WalkKind.CHECK,
+        family=logged.family,
+    )
+    result = task.run_on(runner)
+    return EpisodeRecord.of(task.key, task.genes, task.seed, task.start, task.kind, 0, result, task.family)
 
 
-def differences(record: dict[str, Any], outcome: dict[str, Any]) -> list[str]:
-    """The fields in which ``outcome`` (as it would be logged: through JSON) differs from ``record``."""
-    logged_again = json.loads(json.dumps(outcome))
-    return [key for key in COMPARED if key in record and record[key] != logged_again.get(key)]
+def differences(logged: EpisodeRecord, again: EpisodeRecord) -> list[str]:
+    """The fields in which the walk again differs from the logged one."""
+    return [
+        field.name
+        for field in dataclasses.fields(EpisodeRecord)
+        if field.name not in NOT_COMPARED and getattr(logged, field.name) != getattr(again, field.name)
+    ]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -72,29 +85,29 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.episodes < 1:
         parser.error(f"--episodes must be at least 1, got {args.episodes}")
-    log_file = args.run / "episodes.jsonl"
-    if not log_file.is_file() or not (args.run / "manifest.json").is_file():
-        parser.error(f"{args.run} is not a run folder: it needs manifest.json and episodes.jsonl")
-    records = [json.loads(line) for line in log_file.read_text().splitlines() if line.strip()]
-    records = [r for r in records if r.get("status") == "ok"]
-    random.Random(args.sample_seed).shuffle(records)
-    sample = records[: args.episodes]
+    try:
+        folder = RunFolder.open(args.run)
+        records, _, _ = read_episode_log(folder.episodes_path)
+    except (RunFolderError, FileNotFoundError) as exc:
+        parser.error(f"{args.run}: {exc}")
+    walks = [record for record in records.values() if record.ran and record.seed is not None]
+    if not walks:
+        parser.error(f"{args.run}: its log holds no walk with its seed")
+    random.Random(args.sample_seed).shuffle(walks)
+    sample = walks[: args.episodes]
     logging.disable(logging.WARNING)  # the agents' fall reports
-    runner = runner_of(args.run)
-    runner.evaluate(gait_of(sample[0]))  # kernels loaded, the stand-in made: not timed
+    runner = runner_of(folder)
+    rewalked(runner, sample[0])  # kernels loaded, the stand-in made: not timed
     walked = 0.0
     differing = 0
     started = time.perf_counter()
-    for record in sample:
-        start = tuple(record["start"]) if record.get("start") else None
-        outcome = runner.evaluate(
-            gait_of(record), seed=record["seed"], start=start, trace=record["kind"] == "check"
-        ).to_dict()
-        walked += outcome["time"]
-        fields = differences(record, outcome)
+    for logged in sample:
+        again = rewalked(runner, logged)
+        walked += again.time
+        fields = differences(logged, again)
         if fields:
             differing += 1
-            print(f"{record['key']}: differs from the log in {', '.join(fields)}")
+            print(f"{logged.key}: differs from the log in {', '.join(fields)}")
     wall = time.perf_counter() - started
     n = len(sample)
     print(
