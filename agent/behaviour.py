@@ -18,12 +18,11 @@ from __future__ import annotations
 import enum
 import logging
 from dataclasses import dataclass, field
-from operator import add
 
 import numpy as np
 
 from agent.config import AgentConfig
-from agent.controller import joint_velocities
+from agent.controller import velocities_towards
 from agent.fall import FallDetector
 from gait import Walker
 from protocol import commands
@@ -43,15 +42,31 @@ class Phase(enum.Enum):
     DONE = "done"
 
 
-@dataclass(frozen=True)
-class Action:
-    """One cycle's answer before it is printed: hinge velocities (rad/s by effector name, in
-    ``joints_of`` order; empty when none are sent) and the text of any other command after them
-    (``init``, ``beam``). A program that hands the velocities to a server without text (the
-    optimizer's direct episodes) reads this; ``reply`` prints it."""
+#: No hinge velocities: an action that only says something else, or nothing.
+_NO_SPEEDS = np.zeros(0)
+_NO_SPEEDS.flags.writeable = False
 
-    velocities: dict[str, float] = field(default_factory=dict)
+
+@dataclass(frozen=True, eq=False)
+class Action:
+    """One cycle's answer before it is printed: hinge velocities (rad/s, ``speeds[i]`` for
+    ``effectors[i]``, in ``joints_of`` order; none when none are sent) and the text of any other
+    command after them (``init``, ``beam``). A program that hands the velocities to a server
+    without text (the optimizer's direct episodes) reads the array; ``reply`` prints them."""
+
+    effectors: tuple[str, ...] = ()
+    speeds: np.ndarray = field(default_factory=lambda: _NO_SPEEDS)
     text: str = ""
+
+    @property
+    def velocities(self) -> dict[str, float]:
+        """The hinge velocities by effector name."""
+        return dict(zip(self.effectors, self.speeds.tolist()))
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Action):
+            return NotImplemented
+        return (self.effectors, self.speeds.tolist(), self.text) == (other.effectors, other.speeds.tolist(), other.text)
 
 
 class WalkBehaviour:
@@ -64,10 +79,17 @@ class WalkBehaviour:
         self.fall = FallDetector()
         self.fell_at: float | None = None
         self.play_mode: str | None = None
-        # every joint of the robot's type, the toes of type 4 too: held at 0 unless told otherwise
-        base = {j.effector: 0.0 for j in joints_of(config.robot_type)}
-        base.update(config.posture)
-        self._posture = base
+        joints = joints_of(config.robot_type)
+        #: the robot type's joints (the toes of type 4 too), the order of every array of joints here
+        self._effectors = tuple(j.effector for j in joints)
+        self._perceptors = tuple(j.perceptor for j in joints)
+        self._slot = {effector: i for i, effector in enumerate(self._effectors)}
+        # every joint held at 0 unless the posture says otherwise
+        self._posture = np.zeros(len(joints))
+        for effector, degrees in config.posture.items():
+            if effector not in self._slot:
+                raise ValueError(f"posture names {effector!r}, not a joint of robot type {config.robot_type}")
+            self._posture[self._slot[effector]] = degrees
         self._dither = np.random.default_rng(config.noise_seed) if config.command_noise > 0 else None
 
     @property
@@ -77,20 +99,32 @@ class WalkBehaviour:
 
     def targets(self, gait_time: float) -> dict[str, float]:
         """Joint targets in degrees for every joint of the robot's type at ``gait_time``."""
-        out = dict(self._posture)
-        out.update(self.gait.joint_targets(gait_time, _LIMITS))
+        return dict(zip(self._effectors, self._target_array(gait_time).tolist()))
+
+    def _target_array(self, gait_time: float) -> np.ndarray:
+        out = self._posture.copy()
+        slot = self._slot
+        for effector, degrees in self.gait.joint_targets(gait_time, _LIMITS).items():
+            out[slot[effector]] = degrees
         return out
 
-    def _velocities(self, perception: Perception, gait_time: float) -> dict[str, float]:
+    def _velocities(self, perception: Perception, gait_time: float) -> np.ndarray:
+        """The controller's commands; a joint missing from the perception gets 0 ("hold")."""
         lookahead = gait_time + self.config.lookahead_cycles * CYCLE
-        return joint_velocities(self.targets(lookahead), perception.joints, self.config.gain)
+        angles = list(map(perception.joints.get, self._perceptors))
+        unseen = [i for i, angle in enumerate(angles) if angle is None] if None in angles else []
+        for i in unseen:
+            angles[i] = 0.0
+        velocities = velocities_towards(self._target_array(lookahead), np.array(angles), self.config.gain)
+        if unseen:
+            velocities[unseen] = 0.0
+        return velocities
 
-    def _dithered(self, velocities: dict[str, float]) -> dict[str, float]:
+    def _dithered(self, velocities: np.ndarray) -> np.ndarray:
         """``velocities``, each moved by its own draw of the walk's dither (``AgentConfig.command_noise``)."""
         if self._dither is None:
             return velocities
-        draws = self._dither.uniform(-self.config.command_noise, self.config.command_noise, len(velocities))
-        return dict(zip(velocities, map(add, velocities.values(), draws.tolist())))
+        return velocities + self._dither.uniform(-self.config.command_noise, self.config.command_noise, len(velocities))
 
     def _beam(self) -> str:
         if self.play_mode in BEAM_PLAY_MODES:
@@ -101,7 +135,7 @@ class WalkBehaviour:
     def reply(self, perception: Perception) -> str:
         """The message to send after ``perception`` (without ``(syn)``, which the caller adds)."""
         action = self.action(perception)
-        if not action.velocities:
+        if not action.effectors:
             return action.text
         return commands.hinge_velocities(action.velocities) + action.text
 
@@ -123,7 +157,7 @@ class WalkBehaviour:
                 velocities = self._velocities(perception, 0.0)
                 beam = self._beam() if self.settle_cycle == self.config.rebeam_cycle else ""
                 self.settle_cycle += 1
-                return Action(velocities, beam)
+                return Action(self._effectors, velocities, beam)
         if self.phase is Phase.WALKING:
             # the first walking reply is gait time 0; after it, one cycle has been walked
             velocities = self._dithered(self._velocities(perception, self.walk_time))
@@ -135,5 +169,5 @@ class WalkBehaviour:
                 )
             if self.config.duration is not None and self.walk_time >= self.config.duration - 1e-9:
                 self.phase = Phase.DONE
-            return Action(velocities)
+            return Action(self._effectors, velocities)
         return Action()

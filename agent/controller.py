@@ -11,11 +11,23 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
+import numpy as np
+
 from protocol.nao import JOINT_BY_EFFECTOR, SPEED_CAP
 
 _DEG = math.pi / 180.0
 #: Every joint of any robot type (a type with toes adds two), in index order.
 _NAMES = tuple((joint.effector, joint.perceptor) for joint in JOINT_BY_EFFECTOR.values())
+
+
+def velocities_towards(targets_deg: np.ndarray, perceived_deg: np.ndarray, gain: float) -> np.ndarray:
+    """rad/s towards ``targets_deg`` from ``perceived_deg`` (degrees, joint by joint), clipped to
+    the speed cap. The agent's law on arrays: a few array operations a cycle instead of a loop
+    over 22 joints, with the same floats (each element takes the same operations in the same
+    order as the scalar law did)."""
+    v = gain * (targets_deg - perceived_deg) * _DEG
+    # min(max(v, -cap), cap); a NaN stays NaN (refused when sent)
+    return np.minimum(np.maximum(v, -SPEED_CAP, out=v), SPEED_CAP, out=v)
 
 
 def joint_velocities(
@@ -24,18 +36,13 @@ def joint_velocities(
     gain: float,
 ) -> dict[str, float]:
     """rad/s for every joint in ``targets_deg`` (effector names; ``perceived_deg`` by perceptor
-    name), in ``protocol.nao.joints_of`` order.
+    name), in ``protocol.nao.joints_of`` order (``velocities_towards`` by name).
 
     A joint missing from the perception gets 0, which the server treats as "hold".
     """
-    velocities: dict[str, float] = {}
-    target_of, angle_of = targets_deg.get, perceived_deg.get
-    for effector, perceptor in _NAMES:
-        target = target_of(effector)
-        if target is None:
-            continue
-        angle = angle_of(perceptor)
-        v = 0.0 if angle is None else gain * (target - angle) * _DEG
-        # min(max(v, -cap), cap) without the two calls: 22 joints every cycle
-        velocities[effector] = SPEED_CAP if v > SPEED_CAP else -SPEED_CAP if v < -SPEED_CAP else v
-    return velocities
+    names = [(effector, perceptor) for effector, perceptor in _NAMES if effector in targets_deg]
+    targets = np.array([targets_deg[effector] for effector, _ in names], dtype=float)
+    perceived = np.array([perceived_deg.get(perceptor, 0.0) for _, perceptor in names], dtype=float)
+    velocities = velocities_towards(targets, perceived, gain)
+    velocities[[i for i, (_, perceptor) in enumerate(names) if perceptor not in perceived_deg]] = 0.0
+    return dict(zip((effector for effector, _ in names), velocities.tolist()))

@@ -349,6 +349,14 @@ def test_maximal_step_keeps_a_flailing_robot_together():
     assert worst_gap < 0.02
 
 
+def _bundled(fields: tuple) -> tuple:
+    """``tree_step.step_tree``'s arguments (the bundles' fields one by one) as the bundles."""
+    kinds = (Model, State, Forces, GroundContacts, Motors, Params)
+    bounds = np.cumsum([0] + [len(kind._fields) for kind in kinds])
+    assert bounds[-1] == len(fields)
+    return tuple(kind(*fields[a:b]) for kind, a, b in zip(kinds, bounds[:-1], bounds[1:]))
+
+
 def test_the_tree_solve_equals_the_dense_solve(monkeypatch):
     """``tree_step.step_tree`` (Baraff's tree elimination, the bounded rows on a Schur
     complement) gives ``tests.dense_step``'s velocities and contact forces (one dense LCP) on a flailing
@@ -357,9 +365,10 @@ def test_the_tree_solve_equals_the_dense_solve(monkeypatch):
     worst = [0.0, 0.0]
     limits = [0]
 
-    def both(model, state, forces, ground, motors, params):
+    def both(*fields):
+        model, state, forces, ground, motors, params = _bundled(fields)
         dense = dense_step(model, state, forces, ground, motors._replace(state=motors.state.copy()), params)
-        out = tree(model, state, forces, ground, motors, params)
+        out = tree(*fields)
         worst[0] = max(worst[0], np.abs(out[2] - dense[2]).max(), np.abs(out[3] - dense[3]).max())
         if out[4].size:
             worst[1] = max(worst[1], np.abs(out[4] - dense[4]).max())
@@ -446,7 +455,8 @@ def test_the_island_solve_equals_the_tree_solve_for_one_robot(monkeypatch):
     tree = robot_step.step_tree
     worst = [0.0, 0.0]
 
-    def both(model, state, forces, ground, motors, params):
+    def both(*fields):
+        model, state, forces, ground, motors, params = _bundled(fields)
         nb, nc = model.masses.shape[0], ground.body.shape[0]
         roots = model.parents.copy()
         roots[0] = -1
@@ -465,7 +475,7 @@ def test_the_island_solve_equals_the_tree_solve_for_one_robot(monkeypatch):
             params,
             IslandSolve(10**6, 1, 0.0),
         )
-        out = tree(model, state, forces, ground, motors, params)
+        out = tree(*fields)
         worst[0] = max(worst[0], np.abs(out[2] - island[2]).max(), np.abs(out[3] - island[3]).max())
         if out[4].size:
             worst[1] = max(worst[1], np.abs(out[4] - island[4]).max())

@@ -37,7 +37,7 @@ from optimizer.episode.monitor_link import EpisodeFailure
 from optimizer.episode.rounding import rounded, rounded_array
 from optimizer.episode.scoring import Judge
 from protocol import commands
-from protocol.monitor import MonitorState, RobotPose
+from protocol.monitor import MonitorState, RobotPose, Vec3
 from protocol.nao import JOINTS
 from protocol.perception import GameState, Perception
 from server_stub import kernels
@@ -66,6 +66,9 @@ class _TorsoView:
     def __init__(self) -> None:
         self._keys: list[tuple] = []
         self._sent: list[list[float]] = []
+        #: each robot's torso as the stream last carried it: position, up (z) and forward (y)
+        #: axes, printed and read back (``_g``) once per pose sent, not every state
+        self._read: list[tuple[Vec3, Vec3, Vec3]] = []
 
     def state(self, sim: Simulation) -> MonitorState:
         playing = [s for s in sim.agents if s.robot is not None]
@@ -75,6 +78,7 @@ class _TorsoView:
         if full:
             self._keys = keys
             self._sent = [[] for _ in playing]
+            self._read = [((0.0, 0.0, 0.0),) * 3 for _ in playing]
         robots = []
         for index, state in enumerate(playing):
             robot = state.robot
@@ -85,16 +89,12 @@ class _TorsoView:
             sent = self._sent[index]
             if not sent or max(abs(a - b) for a, b in zip(pose, sent)) > _SLT_THRESHOLD:
                 self._sent[index] = sent = pose
-            robots.append(
-                RobotPose(
-                    state.side,
-                    state.unum,
-                    state.robot_type,
+                self._read[index] = (
                     (_g(sent[12]), _g(sent[13]), _g(sent[14])),
                     (_g(sent[8]), _g(sent[9]), _g(sent[10])),
                     (_g(sent[4]), _g(sent[5]), _g(sent[6])),
                 )
-            )
+            robots.append(RobotPose(state.side, state.unum, state.robot_type, *self._read[index]))
         game = sim.game
         return MonitorState(
             _g(game.time),
@@ -124,14 +124,18 @@ def _perception(sim: Simulation, state: AgentState) -> Perception:
         round(game.time, 2),
         game.play_mode,
     )
-    gx, gy, gz, ax, ay, az = rounded((*robot.gyro(), *robot.accelerometer()), 2)
-    joints = dict(zip(robot.perceptors, rounded(robot.joint_degrees(), 2)))
+    # the gyro, the accelerometer and the joints' degrees, rounded in one pass
+    numbers = np.empty(6 + len(robot.perceptors))
+    numbers[0:3] = robot.gyro()
+    numbers[3:6] = robot.accelerometer()
+    np.degrees(robot.joint_state()[0], out=numbers[6:])
+    gx, gy, gz, ax, ay, az, *degrees = rounded_array(numbers, 2).tolist()
     return Perception(
         round(sim.world.time, 2),
         gs,
         (gx, gy, gz),
         (ax, ay, az),
-        joints,
+        dict(zip(robot.perceptors, degrees)),
         {},
         None,
         [],
@@ -227,12 +231,11 @@ class DirectStub:
         per episode) as their text."""
         action = behaviour.action(perception)
         out: list[bytes | np.ndarray | dict[str, float]] = []
-        velocities = action.velocities
         # a non-finite one raises ValueError when applied, as printing it does on the socket path
-        if tuple(velocities) == _EFFECTORS:
-            out.append(rounded_array(np.fromiter(velocities.values(), dtype=float, count=len(velocities)), 4))
-        elif velocities:
-            out.append(dict(zip(velocities, rounded(velocities.values(), 4))))
+        if action.effectors == _EFFECTORS:
+            out.append(rounded_array(action.speeds, 4))
+        elif action.effectors:
+            out.append(dict(zip(action.effectors, rounded(action.speeds.tolist(), 4))))
         if action.text:
             out.append(action.text.encode())
         return out

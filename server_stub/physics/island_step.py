@@ -65,8 +65,9 @@ def step_island(model, state, forces, motors, contacts, pairs, params, solve):
     solved (exactly, or past ``solve.exact_rows`` by ``gauss_seidel``). Returns (positions,
     quaternions, velocities, spins, one-body contact forces (normal, t1, t2) and tangents, two-body
     contact forces (on body 1) and tangents, motor/stop torques, solver passes)."""
+    # the bundles' fields one by one: numba types named tuples in Python at every call (``_prepare``)
     free, gb, gj, bb, lo, hi, cfm_b, yb, bj, bf, tree, tangents, p_tangents = _prepare(
-        model, state, forces, motors, contacts, pairs, params
+        *model, *state, *forces, *motors, *contacts, *pairs, *params
     )
     parents, joint_of, _, _, jc, jp, _, dinv_body, dinv_joint, _ = tree
     nj = model.local_axes.shape[0]
@@ -91,7 +92,8 @@ def step_island(model, state, forces, motors, contacts, pairs, params, solve):
         )
     motors.state[:] = row_state[:nj]
     return _finish(
-        model,
+        model.parents,
+        nj,
         state.pos,
         state.quat,
         free,
@@ -100,7 +102,7 @@ def step_island(model, state, forces, motors, contacts, pairs, params, solve):
         lam_b,
         bj,
         bf,
-        tree,
+        *tree,
         tangents,
         p_tangents,
         params.h,
@@ -110,19 +112,55 @@ def step_island(model, state, forces, motors, contacts, pairs, params, solve):
 
 
 @njit(cache=True)
-def _prepare(model, state, forces, motors, contacts, pairs, params):
+def _prepare(
+    masses,
+    principal,
+    parents,
+    joint_of,
+    local_axes,
+    anchor_child,
+    anchor_parent,
+    pos,
+    quat,
+    vel,
+    spin,
+    gravity,
+    drag_linear,
+    drag_angular,
+    drag_vel,
+    drag_spin,
+    motor_target,
+    motor_lo,
+    motor_hi,
+    push,
+    _motor_state,  # the motors' states: ``step_island``'s
+    c_body,
+    c_point,
+    c_normal,
+    c_depth,
+    c_surface,
+    p_body1,
+    p_body2,
+    p_point,
+    p_normal,
+    p_depth,
+    p_surface,
+    h,
+    joint_erp,
+    joint_cfm,
+    motor_cfm,
+    surface_layer,
+    implicit_gyro,
+    _erp,
+    _cfm,
+    _slip,
+):
     """The island's rows: its tree factored with the unbounded rows (hinges, one-body friction;
     ``tree``: parents, joint_of, contact_first, contact_next, jc, jp, jf and the inverted blocks,
     what ``solver.tree_solve`` takes), the bounded rows (motors, one-body normals, two-body
     contacts: bodies ``gb``, Jacobians ``gj``, right side ``bb`` less the free motion, bounds,
-    CFM), and the unbounded solve ``yb`` with no bounded row pushing."""
-    masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
-    pos, quat, vel, spin = state
-    gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
-    motor_target, motor_lo, motor_hi, push, _ = motors  # the motors' states: ``step_island``'s
-    c_body, c_point, c_normal, c_depth, c_surface = contacts
-    p_body1, p_body2, p_point, p_normal, p_depth, p_surface = pairs
-    h, joint_erp, joint_cfm, motor_cfm, surface_layer, implicit_gyro, _erp, _cfm, _slip = params
+    CFM), and the unbounded solve ``yb`` with no bounded row pushing. The arguments are the
+    fields of ``step_island``'s bundles, in order (but ``solve``)."""
     nb = masses.shape[0]
     nj = local_axes.shape[0]
     nc = c_point.shape[0]
@@ -218,11 +256,37 @@ def _prepare(model, state, forces, motors, contacts, pairs, params):
 
 
 @njit(cache=True)
-def _finish(model, pos, quat, free, gb, gj, lam_b, bj, bf, tree, tangents, p_tangents, h, nc, iterations):
-    """The solved bounded rows' push carried through the tree, the bodies advanced, and the
-    forces reported (``step_island``'s return)."""
-    nb = model.parents.shape[0]
-    nj = model.local_axes.shape[0]
+def _finish(
+    parents,
+    nj,
+    pos,
+    quat,
+    free,
+    gb,
+    gj,
+    lam_b,
+    bj,
+    bf,
+    tree_parents,
+    tree_joint_of,
+    contact_first,
+    contact_next,
+    jc,
+    jp,
+    jf,
+    dinv_body,
+    dinv_joint,
+    dinv_contact,
+    tangents,
+    p_tangents,
+    h,
+    nc,
+    iterations,
+):
+    """The solved bounded rows' push carried through the tree (``_prepare``'s ``tree``, its ten
+    arrays one by one), the bodies advanced, and the forces reported (``step_island``'s return)."""
+    nb = parents.shape[0]
+    tree = (tree_parents, tree_joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact)
     nbd = lam_b.shape[0]
     npc = (nbd - nj - nc) // 3
     rb = np.zeros((nb, 6))

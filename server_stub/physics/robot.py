@@ -124,7 +124,8 @@ class Robot:
     def command_joints(self, velocities: np.ndarray) -> None:
         """``command_joint`` for every joint at once, ``velocities`` in ``joints_of`` order (the
         optimizer's direct episodes, which hand over an agent's commands without text)."""
-        if velocities.shape != self._requested.shape or not np.isfinite(velocities).all():
+        # np.logical_and.reduce: ``.all()`` without its Python wrapper, once a cycle
+        if velocities.shape != self._requested.shape or not np.logical_and.reduce(np.isfinite(velocities)):
             raise ValueError(f"velocities must be {len(self._requested)} finite numbers, got {velocities!r}")
         # np.clip for finite numbers, without its checks
         np.minimum(np.maximum(velocities, self._neg_caps, out=self._requested), self._caps_array, out=self._requested)

@@ -52,21 +52,53 @@ from server_stub.physics.solver import (
 
 
 @njit(cache=True)
-def step_tree(model, state, forces, ground, motors, params):
+def step_tree(
+    masses,
+    principal,
+    parents,
+    joint_of,
+    local_axes,
+    anchor_child,
+    anchor_parent,
+    pos,
+    quat,
+    vel,
+    spin,
+    gravity,
+    drag_linear,
+    drag_angular,
+    drag_vel,
+    drag_spin,
+    contact_body,
+    contact_point,
+    contact_depth,
+    motor_target,
+    motor_lo,
+    motor_hi,
+    push,
+    motor_state,
+    h,
+    joint_erp,
+    joint_cfm,
+    motor_cfm,
+    surface_layer,
+    implicit_gyro,
+    contact_erp,
+    contact_cfm,
+    slip,
+):
     """``step`` solved in O(bodies) (Baraff 1996, "Linear-time dynamics using Lagrange
     multipliers"): the unbounded rows (5 per hinge, 2 friction rows per contact) and the bodies form
     a tree, so H = [[M/h, J_U'], [J_U, -cfm_U]] is factored block by block from the leaves to the
     torso; the bounded rows (motor or stop per hinge, normal per contact) get their Schur
     complement S = cfm_B + G' H^-1 G (G their Jacobians on the bodies) from one forward pass each
-    along their path to the torso, and ``box_qp`` solves their LCP on S. Arguments in bundles
-    (``server_stub.physics.bundles``); the same results as one dense LCP (``tests/dense_step.py``,
-    to rounding). Requires every parent index below its child's."""
-    masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
-    pos, quat, vel, spin = state
-    gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
-    contact_body, contact_point, contact_depth = ground
-    motor_target, motor_lo, motor_hi, push, motor_state = motors
-    h, joint_erp, joint_cfm, motor_cfm, surface_layer, implicit_gyro, contact_erp, contact_cfm, slip = params
+    along their path to the torso, and ``box_qp`` solves their LCP on S. The same results as one
+    dense LCP (``tests/dense_step.py``, to rounding). Requires every parent index below its child's.
+
+    The arguments are the fields of the bundles ``Model``, ``State``, ``Forces``,
+    ``GroundContacts``, ``Motors`` and ``Params`` in that order (``step_tree(*model, *state, ...)``),
+    not the bundles themselves: numba types named tuples in Python at every call, 11 us of a
+    robot's cycle, against 3 us for the same arrays passed one by one."""
     nb = masses.shape[0]
     nj = local_axes.shape[0]
     nc = contact_point.shape[0]
