@@ -36,16 +36,15 @@ def leg_joint_targets(
     """
     targets: dict[str, float] = {}
     hips, knees = (angles.left_hip, angles.right_hip), (angles.left_knee, angles.right_knee)
+    # min(max(value, low + margin), high - margin) written out: six clamps every cycle
     for (pitch_name, knee_name, ankle_name), hip, knee in zip(_LEGS, hips, knees):
-        pitch = _clamp(limits[pitch_name], hip, margin)
-        knee_angle = _clamp(limits[knee_name], -knee, margin)
+        low, high = limits[pitch_name]
+        pitch = min(max(hip, low + margin), high - margin)
+        low, high = limits[knee_name]
+        knee_angle = min(max(-knee, low + margin), high - margin)
         # flatten the foot against the joints as they will really be, i.e. after clamping
         targets[pitch_name] = pitch
         targets[knee_name] = knee_angle
-        targets[ankle_name] = _clamp(limits[ankle_name], -(pitch + knee_angle), margin)
+        low, high = limits[ankle_name]
+        targets[ankle_name] = min(max(-(pitch + knee_angle), low + margin), high - margin)
     return targets
-
-
-def _clamp(limit: tuple[float, float], value: float, margin: float) -> float:
-    low, high = limit
-    return min(max(value, low + margin), high - margin)

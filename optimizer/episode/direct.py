@@ -37,7 +37,7 @@ from optimizer.episode.monitor_link import EpisodeFailure
 from optimizer.episode.rounding import rounded, rounded_array
 from optimizer.episode.scoring import Judge
 from protocol import commands
-from protocol.monitor import MonitorState, RobotPose, Vec3
+from protocol.monitor import MonitorState, RobotPose
 from protocol.nao import JOINTS
 from protocol.perception import GameState, Perception
 from server_stub import kernels
@@ -66,9 +66,6 @@ class _TorsoView:
     def __init__(self) -> None:
         self._keys: list[tuple] = []
         self._sent: list[list[float]] = []
-        #: each robot's torso as the stream last carried it: position, up (z) and forward (y)
-        #: axes, printed and read back (``_g``) once per pose sent, not every state
-        self._read: list[tuple[Vec3, Vec3, Vec3]] = []
 
     def state(self, sim: Simulation) -> MonitorState:
         playing = [s for s in sim.agents if s.robot is not None]
@@ -78,7 +75,6 @@ class _TorsoView:
         if full:
             self._keys = keys
             self._sent = [[] for _ in playing]
-            self._read = [((0.0, 0.0, 0.0),) * 3 for _ in playing]
         robots = []
         for index, state in enumerate(playing):
             robot = state.robot
@@ -89,12 +85,16 @@ class _TorsoView:
             sent = self._sent[index]
             if not sent or max(abs(a - b) for a, b in zip(pose, sent)) > _SLT_THRESHOLD:
                 self._sent[index] = sent = pose
-                self._read[index] = (
+            robots.append(
+                RobotPose(
+                    state.side,
+                    state.unum,
+                    state.robot_type,
                     (_g(sent[12]), _g(sent[13]), _g(sent[14])),
                     (_g(sent[8]), _g(sent[9]), _g(sent[10])),
                     (_g(sent[4]), _g(sent[5]), _g(sent[6])),
                 )
-            robots.append(RobotPose(state.side, state.unum, state.robot_type, *self._read[index]))
+            )
         game = sim.game
         return MonitorState(
             _g(game.time),
@@ -116,22 +116,24 @@ def _perception(sim: Simulation, state: AgentState) -> Perception:
     game = sim.game
     identity = state.announce_identity and state.side is not None
     state.announce_identity = state.announce_identity and not identity
+    # the two clocks, the gyro, the accelerometer and the joints' degrees, rounded in one pass
+    numbers = np.empty(8 + len(robot.perceptors))
+    numbers[0] = game.time
+    numbers[1] = sim.world.time
+    numbers[2:5] = robot.gyro()
+    numbers[5:8] = robot.accelerometer()
+    np.degrees(robot.joint_state()[0], out=numbers[8:])
+    game_time, now, gx, gy, gz, ax, ay, az, *degrees = rounded_array(numbers, 2).tolist()
     gs = GameState(
         state.unum if identity else None,
         state.side if identity else None,
         game.score_left,
         game.score_right,
-        round(game.time, 2),
+        game_time,
         game.play_mode,
     )
-    # the gyro, the accelerometer and the joints' degrees, rounded in one pass
-    numbers = np.empty(6 + len(robot.perceptors))
-    numbers[0:3] = robot.gyro()
-    numbers[3:6] = robot.accelerometer()
-    np.degrees(robot.joint_state()[0], out=numbers[6:])
-    gx, gy, gz, ax, ay, az, *degrees = rounded_array(numbers, 2).tolist()
     return Perception(
-        round(sim.world.time, 2),
+        now,
         gs,
         (gx, gy, gz),
         (ax, ay, az),

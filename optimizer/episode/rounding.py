@@ -53,8 +53,9 @@ def rounded_array(values: np.ndarray, digits: int) -> np.ndarray:
     out = np.empty(values.shape[0])
     doubtful = np.empty(values.shape[0], dtype=np.int64)
     count = _round_trusted(values, 10.0**digits, out, doubtful)
-    for i in doubtful[:count].tolist():
-        out[i] = round(float(values[i]), digits)
+    if count:  # rare: a number next to a half, large or not finite
+        for i in doubtful[:count].tolist():
+            out[i] = round(float(values[i]), digits)
     return out
 
 

@@ -190,6 +190,8 @@ class Stepper:
         self._static_hi = np.array([np.add(centre, half) for half, centre in boxes])
         #: what the step keeps of each robot on the field
         self._robots: dict[Robot, robot_step.RobotPhysics] = {}
+        #: ``_far_apart``'s owners of a lone robot's bodies (all 0), made once (never written)
+        self._one_owner = np.zeros(0, dtype=np.int64)
 
     def add(self, robot: Robot) -> None:
         """A new robot on the field (its model is read at its first step)."""
@@ -266,7 +268,9 @@ class Stepper:
         asked (nor told where the robots are): the usual cycle of a lone walker."""
         if len(robot_bodies) == 1:
             pos = robot_bodies[0]
-            owner = np.zeros(pos.shape[0], dtype=np.int64)
+            owner = self._one_owner
+            if owner.shape[0] != pos.shape[0]:
+                owner = self._one_owner = np.zeros(pos.shape[0], dtype=np.int64)
         else:  # none (the ball alone) or several
             pos = np.concatenate(robot_bodies) if robot_bodies else np.zeros((0, 3))
             owner = np.repeat(np.arange(len(robot_bodies)), [p.shape[0] for p in robot_bodies]).astype(np.int64)

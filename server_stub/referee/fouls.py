@@ -92,6 +92,10 @@ class _Counts:
             self.not_standing = 0
 
 
+def _player_key(player: tuple[tuple[str, int], Robot]) -> tuple[str, int]:
+    return player[0]
+
+
 class IncapableRule:
     """The counts of every player (numbers 1-11 of each side, connected or not, as the real
     referee keeps them) and the fouls recorded so far."""
@@ -99,6 +103,9 @@ class IncapableRule:
     def __init__(self, config: RefereeConfig) -> None:
         self.config = config
         self._counts = {(side, unum): _Counts() for side in TEAM_INDEX for unum in range(1, 12)}
+        #: the players whose counts may hold something to analyse (the others' are all 0 and not
+        #: fouled): a cycle looks at these, not at all 22
+        self._live: set[tuple[str, int]] = set()
         self.fouls: list[Foul] = []
 
     def forget(self) -> None:
@@ -112,23 +119,25 @@ class IncapableRule:
         if paused:
             self.forget()
             return
-        players: list[tuple[tuple[str, int], Robot]] = sorted(
-            (
-                ((state.side, state.unum), state.robot)
-                for state in agents
-                if state.side in TEAM_INDEX
-                and state.unum is not None
-                and 1 <= state.unum <= 11
-                and state.robot is not None
-            ),
-            key=lambda player: player[0],  # fouls of one cycle: left before right, by number
-        )
+        players: list[tuple[tuple[str, int], Robot]] = [
+            ((state.side, state.unum), state.robot)
+            for state in agents
+            if state.side in TEAM_INDEX and state.unum is not None and 1 <= state.unum <= 11 and state.robot is not None
+        ]
+        players.sort(key=_player_key)  # fouls of one cycle: left before right, by number
         for key, robot in players:
             _, y, z = robot.torso_position()
-            self._counts[key].count(z, abs(y) < _COUNTED_WITHIN)
-        for key, counts in self._counts.items():  # connected or not, as the real referee does
-            if counts.fouled or counts.ground or counts.not_standing:  # else nothing to analyse
+            counts = self._counts[key]
+            counts.count(z, abs(y) < _COUNTED_WITHIN)
+            if counts.fouled or counts.ground or counts.not_standing:
+                self._live.add(key)
+        # every player with something to analyse, connected or not, as the real referee does
+        for key in list(self._live):
+            counts = self._counts[key]
+            if counts.fouled or counts.ground or counts.not_standing:
                 self._analyse(key[1], counts)
+            else:
+                self._live.discard(key)
         for key, robot in players:
             self._clear(key, robot, ball_y)
 
