@@ -642,6 +642,31 @@ def test_the_ball_bounces_off_a_goal_post_and_rolls_on_the_ground():
         assert abs(world.ball_position()[0] - (15.0 - 0.042)) < 0.003
 
 
+def test_a_lone_balls_step_is_the_general_islands_bit_for_bit():
+    """``Stepper._step_lone_ball`` (the ball alone, its island's arrays made at once) gives the very
+    state the general island solve gives the same ball, step by step: thrown up, in the air (no
+    contact at all), bouncing, rolling and slowing."""
+    with World(MAX) as world:
+        stepper = world._stepper
+        write = stepper._write_ball
+        solved: list[list[float]] = []
+        heights = []
+        for place, velocity in (((1.0, 2.0, 0.3), (1.5, -0.5, 2.0)), ((0.0, 0.0, 0.042), (2.0, 0.0, 0.0))):
+            world.set_ball(place, velocity)
+            for _ in range(60):
+                ball_now = stepper.ball_now()
+                heights.append(ball_now[0][2])
+                solved.clear()
+                stepper._write_ball = lambda *state: solved.append(np.concatenate(state).tolist())
+                stepper._step_lone_ball(ball_now)
+                stepper._solve_island([0], [], [], [], [[]], [], ball_now, {world._ball: 0})
+                stepper._write_ball = write
+                mine, theirs = solved
+                assert mine == theirs  # every float of position, orientation, velocity and spin
+                world.step()  # the world's own step, which takes the shortcut
+        assert max(heights) > 0.3 and min(heights) < 0.043  # it flew, came down and rolled
+
+
 def test_flailing_robots_tangled_together_do_not_blow_up():
     """Four robots beamed 0.3 m apart in a square, random motor speeds (3 rad/s spread, new every
     0.2 s) for 4 s: they touch, and no torso passes 5 m/s, no hinge's anchors part by 2 cm."""
