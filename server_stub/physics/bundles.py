@@ -1,8 +1,10 @@
 """The step kernels' arguments, in named bundles: what the bodies are (``Model``), where they are and
 how they move (``State``), the forces before the step (``Forces``), the motor rows (``Motors``),
 the contacts (``GroundContacts`` for one robot on the ground; ``Contacts`` and ``PairContacts`` in
-an island) and the world's numbers (``Params``). numba passes them as tuples, so a kernel unpacks
-them into the same locals as before and computes the same bits.
+an island) and the world's numbers (``Params``). The Python code passes them around whole; the
+kernels called every step (``tree_step.step_tree``, ``island_step._prepare``) take their fields one
+by one (``step_tree(*model, *state, ...)``), as numba types a named tuple argument in Python at
+every call (11 us of a robot's step, against 3 us for its arrays passed one by one).
 
 Bodies: 0 is the torso (in an island, each tree's root), k = j + 1 the child of hinge j. Every
 array is in the world frame; a quaternion is (x, y, z, w).
