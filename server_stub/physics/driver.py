@@ -352,7 +352,7 @@ class Stepper:
         """The ball touching nothing but the ground (every walk's ball settling after the trainer
         placed it): its island of one body, the arrays made at once, the very arrays
         ``_solve_island`` gathers for it (same values, types and layouts, so the same bits) without
-        its bookkeeping of members, frames and scattering (a third of a short walk's time)."""
+        its bookkeeping of members, frames and scattering (a fifth of a short walk's time)."""
         position, orientation, velocity, spin = ball_now
         mass, principal, parents, joint_of, axes, anchor_child, anchor_parent, drag_linear, drag_angular = (
             column.copy() for column in self._ball_columns

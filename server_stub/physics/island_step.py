@@ -92,7 +92,6 @@ def step_island(model, state, forces, motors, contacts, pairs, params, solve):
         )
     motors.state[:] = row_state[:nj]
     return _finish(
-        model.parents,
         nj,
         state.pos,
         state.quat,
@@ -257,7 +256,6 @@ def _prepare(
 
 @njit(cache=True)
 def _finish(
-    parents,
     nj,
     pos,
     quat,
@@ -285,7 +283,7 @@ def _finish(
 ):
     """The solved bounded rows' push carried through the tree (``_prepare``'s ``tree``, its ten
     arrays one by one), the bodies advanced, and the forces reported (``step_island``'s return)."""
-    nb = parents.shape[0]
+    nb = tree_parents.shape[0]
     tree = (tree_parents, tree_joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact)
     nbd = lam_b.shape[0]
     npc = (nbd - nj - nc) // 3
