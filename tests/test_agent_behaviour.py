@@ -10,13 +10,14 @@ from __future__ import annotations
 import math
 import re
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from agent.behaviour import Phase, WalkBehaviour
 from agent.config import AgentConfig
-from agent.controller import joint_velocities
+from agent.controller import joint_velocities, velocities_towards
 from agent.fall import FallDetector
 from gait import load_gait
 from protocol.nao import JOINTS, SPEED_CAP
@@ -65,6 +66,25 @@ def test_controller_caps_velocity_and_holds_missing_joints() -> None:
     assert v["lle3"] == SPEED_CAP
     small = joint_velocities({"he2": 1.0}, {"hj2": 0.0}, gain=15.0)
     assert small == {"he2": pytest.approx(15.0 * math.radians(1.0))}
+
+
+_DEGREES = st.floats(-400.0, 400.0, allow_nan=False)
+
+
+@given(pairs=st.lists(st.tuples(_DEGREES, _DEGREES), min_size=1, max_size=24), gain=st.floats(0.1, 100.0))
+def test_the_array_law_gives_the_scalar_laws_floats_bit_for_bit(pairs: list[tuple[float, float]], gain: float) -> None:
+    """``velocities_towards`` on arrays is the controller's scalar law, min(max(g (t - a) deg, -cap),
+    cap) per joint, to the last bit (the walks must not change by a bit)."""
+    targets, angles = (np.array(column) for column in zip(*pairs))
+    scalar = [min(max(gain * (t - a) * (math.pi / 180.0), -SPEED_CAP), SPEED_CAP) for t, a in pairs]
+    assert velocities_towards(targets, angles, gain).tolist() == scalar
+
+
+def test_a_posture_naming_a_joint_the_robot_lacks_is_refused() -> None:
+    """Type 0 has no toes: holding one is a mistake said at once, not a command for no joint."""
+    with pytest.raises(ValueError, match="rle7"):
+        WalkBehaviour(AgentConfig(robot_type=0, posture={"rle7": 10.0}), load_gait().walker())
+    WalkBehaviour(AgentConfig(robot_type=4, posture={"rle7": 10.0}), load_gait().walker())  # type 4 has them
 
 
 def test_fall_detector_ignores_spikes_and_sees_a_torso_tipping_over() -> None:
