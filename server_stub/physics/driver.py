@@ -144,6 +144,16 @@ class _Island:
         return member < self._robots
 
 
+def _ball_on_ground(position) -> list[tuple[np.ndarray, float]]:
+    """The ball's contact with the ground at ``position``, ODE's sphere-plane one: its lowest point
+    and the depth radius - height, if it touches (a list of none or one)."""
+    centre = np.array(position)
+    depth = field.BALL_RADIUS - centre[2]
+    if not depth >= 0.0:
+        return []
+    return [(centre - np.array([0.0, 0.0, field.BALL_RADIUS]), depth)]
+
+
 def _rows(values: list, width: int) -> np.ndarray:
     """A list of points, normals or surfaces as an (n, width) array (n may be 0)."""
     return np.array(values, dtype=float).reshape(-1, width)
@@ -364,16 +374,14 @@ class Stepper:
         forces = Forces(self.gravity, drag_linear, drag_angular, vel.copy(), rot.copy())
         empty = np.zeros(0)
         motors = Motors(empty, empty, empty, empty, np.zeros(0, dtype=np.int64))
-        # ODE's sphere-plane contact: the lowest point, depth radius - height, if it touches
-        centre = np.array(position)
-        depth = field.BALL_RADIUS - centre[2]
-        touches = depth >= 0.0
+        ground = _ball_on_ground(position)
+        n = len(ground)
         contacts = Contacts(
-            np.zeros(int(touches), dtype=np.int64),
-            _rows([centre - np.array([0.0, 0.0, field.BALL_RADIUS])] if touches else [], 3),
-            _rows([(0.0, 0.0, 1.0)] if touches else [], 3),
-            np.array([depth] if touches else [], dtype=float).reshape(-1),
-            _rows([self.surfaces.ball_ground] if touches else [], 5),
+            np.zeros(n, dtype=np.int64),
+            _rows([lowest for lowest, _ in ground], 3),
+            _rows([(0.0, 0.0, 1.0)] * n, 3),
+            np.array([depth for _, depth in ground], dtype=float).reshape(-1),
+            _rows([self.surfaces.ball_ground] * n, 5),
         )
         out = island_step.step_island(
             model, state, forces, motors, contacts, self._no_pairs, self.params, self.island_solve
@@ -494,12 +502,10 @@ class Stepper:
                     surface.append(s.robot_ground)
                 surf = s.robot_static
             else:
-                centre = np.array(ball_now[0])
-                ball_depth = field.BALL_RADIUS - centre[2]
                 island.ground[i] = (len(body), np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros(0))
-                if ball_depth >= 0.0:
+                for lowest, ball_depth in _ball_on_ground(ball_now[0]):
                     body.append(off)
-                    point.append(centre - np.array([0.0, 0.0, field.BALL_RADIUS]))
+                    point.append(lowest)
                     normal.append((0.0, 0.0, 1.0))
                     depth.append(ball_depth)
                     surface.append(s.ball_ground)

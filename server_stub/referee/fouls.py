@@ -76,6 +76,11 @@ class _Counts:
         self.fouled = False
 
     @property
+    def live(self) -> bool:
+        """Something to analyse: a foul, or a count of cycles down."""
+        return self.fouled or self.ground > 0 or self.not_standing > 0
+
+    @property
     def enforceable(self) -> bool:
         return self.fouled and self.foul_time > 0
 
@@ -129,12 +134,12 @@ class IncapableRule:
             _, y, z = robot.torso_position()
             counts = self._counts[key]
             counts.count(z, abs(y) < _COUNTED_WITHIN)
-            if counts.fouled or counts.ground or counts.not_standing:
+            if counts.live:
                 self._live.add(key)
         # every player with something to analyse, connected or not, as the real referee does
         for key in list(self._live):
             counts = self._counts[key]
-            if counts.fouled or counts.ground or counts.not_standing:
+            if counts.live:
                 self._analyse(key[1], counts)
             else:
                 self._live.discard(key)
