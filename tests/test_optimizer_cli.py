@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from test_driver import FakeEvaluator, Killed
 
-from gait import GENE_BOUNDS, LEGACY_GENE_BOUNDS, load_gait
+from gait import DEFAULT_GAIT_PATH, GENE_BOUNDS, LEGACY_GENE_BOUNDS, TFS, TFS_PLUS, load_gait
 from optimizer.cli import episode as episode_command
 from optimizer.cli import ga as ga_command
 from optimizer.cli import gala as gala_command
@@ -553,6 +553,40 @@ def test_the_refinement_holds_a_rows_walk_as_the_start_and_searches_the_cruise_g
     assert json.loads((out / "fastest_gait.card.json").read_text())["family"] == "tfs-start"
 
 
+def _held_starts(folder: Path) -> dict[str, set[tuple[float, ...]]]:
+    """Each tfs-start refinement run's held start gaits (its genes after the cruise gait's 7)."""
+    held: dict[str, set[tuple[float, ...]]] = {}
+    for e in _episodes(folder):
+        if e["key"].startswith("refine"):
+            held.setdefault(e["key"].split("/")[0], set()).add(tuple(e["genes"][7:]))
+    return held
+
+
+def test_the_refinement_can_start_from_the_reference_walk_too(tmp_path: Path) -> None:
+    """--refine-reference: the last CMA-ES runs start from the reference walk (in tfs-start, it is
+    their held start gait), the rows' runs keep their numbers and starts, and the manifest says so."""
+    reference = load_gait(DEFAULT_GAIT_PATH).genes
+    plain, _ = _refined_run(tmp_path / "plain")
+    also, _ = _refined_run(tmp_path / "also", "--refine-reference")
+    without, held = _held_starts(plain), _held_starts(also)
+    assert all(reference not in starts for starts in without.values())
+    arms = sorted(held, key=lambda arm: int(arm[len("refine") :]))
+    assert len(arms) == len(without) + 2 and [held[arm] for arm in arms[-2:]] == [{reference}, {reference}]
+    assert all(held[arm] == without[arm] for arm in without)
+    for folder, stored in ((plain, False), (also, True)):
+        assert json.loads((folder / "manifest.json").read_text())["settings"]["refine_reference"] is stored
+
+
+def test_the_reference_walk_is_lifted_into_the_runs_family_and_refused_outside_its_box() -> None:
+    reference = load_gait(DEFAULT_GAIT_PATH).genes
+    assert gala_command.reference_start(TFS, LEGACY_GENE_BOUNDS) == reference
+    assert gala_command.reference_start(TFS_PLUS, TFS_PLUS.bounds)[:7] == reference
+    narrow = LEGACY_GENE_BOUNDS.copy()
+    narrow[6] = (20.0, 25.0)  # w: the reference walk's 15.7 rad/s lies below
+    with pytest.raises(ValueError, match="the reference walk lies outside the tfs family's search box"):
+        gala_command.reference_start(TFS, narrow)
+
+
 class WalkToWalk(FakeEvaluator):
     """The synthetic hill, each walk a little off it by its own seed: walks of one gait differ."""
 
@@ -670,7 +704,10 @@ def test_the_quick_budget_refines_tfs_gaits_and_tfs_start_walks_and_the_paper_bu
 ) -> None:
     """Which family climbs from a quick row's slow walks depends on the seed: its refinement
     searches both, and races no leaders."""
-    for budget, family, refine, lead in (("quick", ["tfs", "tfs-start"], 3200, 0), ("paper", "tfs-start", 4000, 20)):
+    for budget, family, refine, lead, reference in (
+        ("quick", ["tfs", "tfs-start"], 3200, 0, True),
+        ("paper", "tfs-start", 4000, 20, False),
+    ):
         out = tmp_path / budget
         with pytest.raises(Killed):
             gala_command.main(
@@ -678,3 +715,4 @@ def test_the_quick_budget_refines_tfs_gaits_and_tfs_start_walks_and_the_paper_bu
             )
         settings = json.loads((out / "manifest.json").read_text())["settings"]
         assert (settings["refine_family"], settings["refine"], settings["refine_lead_walks"]) == (family, refine, lead)
+        assert settings["refine_reference"] is reference

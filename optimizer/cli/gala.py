@@ -12,7 +12,8 @@ dither that reproduces the real server's run-to-run spread, and is scored by the
 reached. ``--robust-walks 1 --command-noise 0`` is the paper's single undithered walk (eq. 9).
 
 After the rows, a refinement phase (beyond the paper; ``--refine N``, 0 to skip) runs CMA-ES from
-the fastest gait of the rows that held its check and from the best-scored gait, its runs raced
+the fastest gait of the rows that held its check and from the best-scored gait (and, with
+``--refine-reference``, the quick budget's default, from the reference walk too), its runs raced
 (``--refine-race``), for N more gaits, scored the same way but by the worst of a gait's walks
 (``--refine-quantile``, default 0: its walk is the one handed over) (``optimizer.cli.refine``,
 which ``python -m optimizer.refine`` runs on a gait file of your own):
@@ -53,7 +54,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from gait import FAMILIES, TFS, TFS_START, GaitFamily, family_named
+import numpy as np
+
+from gait import DEFAULT_GAIT_PATH, FAMILIES, TFS, TFS_START, GaitFamily, family_named, load_gait
 from optimizer.cli.common import (
     HAND_OVER_DEFAULTS,
     EvaluatorMaker,
@@ -118,6 +121,7 @@ PAPER: dict[str, Any] = {
     "refine": 4000,
     "refine_family": TFS_START.name,
     "refine_quantile": REFINE_QUANTILE,
+    "refine_reference": False,
     **HAND_OVER_DEFAULTS,
 }
 
@@ -133,6 +137,10 @@ QUICK_FAMILIES = (TFS.name, TFS_START.name)
 #: 1600 gaits, seed 1 handed over 8.08 m in TFS and 6.80 m in tfs-start; the README's random seed
 #: 1836095818 7.45 m and 13.21 m), and half as many gaits each were too few (seed 1: 7.43 m;
 #: bench/RESULTS.md).
+#: Its refinement also starts from the reference walk (``--refine-reference``): a quick row's walks
+#: can all sit where gaits fall (seed 2696547095: its row's best walked 2.93 m and fell, and it
+#: handed over 5.01 m), while CMA-ES from the reference walk climbs (docs/optimizer.md, "The
+#: reference start").
 #: It races no leaders: its walks are slow and hold without them (three seeds, none fell in 200
 #: walks or on the real server), and seed 1's leaders cost it 1,200 walks (a third of its
 #: refinement) and 0.8 m (7.28 m handed over, against 8.08 m; docs/optimizer.md, "Leaders").
@@ -146,6 +154,7 @@ BUDGETS: dict[str, dict[str, Any]] = {
         "refine": 3200,
         "refine_family": list(QUICK_FAMILIES),
         "refine_lead_walks": 0,
+        "refine_reference": True,
     },
 }
 
@@ -286,8 +295,27 @@ def build_parser() -> argparse.ArgumentParser:
         f"--refine in turn and the checks walk the best of each (quick: {' '.join(QUICK_FAMILIES)}). "
         f"Known: {', '.join(FAMILIES)}",
     )
+    p.add_argument(
+        "--refine-reference",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="the refinement also starts from the reference walk (gait/default_gait.json: the slow "
+        "calibration walk, which holds on the real server), besides the rows' walks: a short search's "
+        "walks can all sit where gaits fall, and CMA-ES climbs only from where gaits walk (quick: on; "
+        'default: off, the rows of 11,000 gaits start higher; docs/optimizer.md, "The reference start")',
+    )
     add_run_arguments(p, hand_over=True)
     return p
+
+
+def reference_start(family: GaitFamily, bounds: np.ndarray) -> tuple[float, ...]:
+    """The reference walk (``DEFAULT_GAIT_PATH``) as genes of the run's ``family``, where
+    ``--refine-reference`` starts a refinement: a ValueError when the family cannot take a TFS walk
+    or the walk lies outside the run's box."""
+    genes = family.from_gait(load_gait(DEFAULT_GAIT_PATH)).genes
+    if np.any(np.asarray(genes) < bounds[:, 0]) or np.any(np.asarray(genes) > bounds[:, 1]):
+        raise ValueError(f"the reference walk lies outside the {family.name} family's search box")
+    return genes
 
 
 def refinement_families(settings: Mapping[str, Any]) -> list[GaitFamily]:
@@ -428,6 +456,12 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     config = gala_config(run.settings)
     stability = stability_config(run.settings)
     bounds, repair = search_box(run.settings)
+    reference: list[tuple[float, ...]] = []
+    if run.settings.get("refine") and run.settings.get("refine_reference"):  # a run from before it: none
+        try:
+            reference.append(reference_start(run.family, bounds))
+        except ValueError as exc:
+            parser.error(f"--refine-reference: {exc}; give --no-refine-reference")
     rates = config.crossover_rates
 
     def body(driver: Driver) -> str:
@@ -447,6 +481,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         fallback: list[ScoredGait] = []
         if run.settings.get("refine", 0) and fastest is not None:  # a run from before it: none
             starts = refine_starts(driver, fastest) if run.settings.get("refine_race") else [fastest.gait.genes]
+            starts += [start for start in reference if start not in starts]
             share, extra = divmod(run.settings["refine"], len(families))
             first = 0
             for j, refined in enumerate(families):

@@ -178,7 +178,9 @@ def refine(
     The main job starts it from the fastest gait of the rows that held its check and from the
     best-scored gait (``refine_starts``): a fragile start's neighbourhood falls almost everywhere,
     and CMA-ES learns nothing from a population of falls (measured: from a gait that fell in 4 of
-    its 10 check walks, 2,997 of 3,000 refined gaits fell), so such a run loses its heat."""
+    its 10 check walks, 2,997 of 3,000 refined gaits fell), so such a run loses its heat. With
+    ``--refine-reference`` the reference walk is one more start, for when every walk of the rows
+    sits where gaits fall (``optimizer.cli.gala``)."""
     arms = refinement_arms(settings, starts, first)
     scoring = refine_scoring(settings, driver.scoring)
     total = settings["refine"]
