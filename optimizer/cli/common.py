@@ -353,6 +353,13 @@ def search_box(
     return bounds, functools.partial(family.repair, bounds=bounds)
 
 
+def in_box(genes: Sequence[float], bounds: np.ndarray) -> bool:
+    """Whether ``genes`` lie inside ``bounds`` (edges included): a search starts only from inside
+    its box, since the box's repair would move the start before its first walk."""
+    values = np.asarray(genes, dtype=float)
+    return bool(np.all(values >= bounds[:, 0]) and np.all(values <= bounds[:, 1]))
+
+
 #: Defaults of the episode settings every command stores.
 EPISODE_DEFAULTS: dict[str, Any] = {"walk_time": 15.0, "start": list(DEFAULT_START), "agent_mode": "inprocess"}
 #: Where runs made before ``--start`` existed started.

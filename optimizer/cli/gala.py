@@ -66,6 +66,7 @@ from optimizer.cli.common import (
     best_gait,
     card_of,
     hand_over,
+    in_box,
     pool_evaluator,
     prepare_run,
     quantile_or_mean,
@@ -313,7 +314,7 @@ def reference_start(family: GaitFamily, bounds: np.ndarray) -> tuple[float, ...]
     ``--refine-reference`` starts a refinement: a ValueError when the family cannot take a TFS walk
     or the walk lies outside the run's box."""
     genes = family.from_gait(load_gait(DEFAULT_GAIT_PATH)).genes
-    if np.any(np.asarray(genes) < bounds[:, 0]) or np.any(np.asarray(genes) > bounds[:, 1]):
+    if not in_box(genes, bounds):
         raise ValueError(f"the reference walk lies outside the {family.name} family's search box")
     return genes
 

@@ -41,6 +41,7 @@ from optimizer.cli.common import (
     add_walk_run_arguments,
     apply_preset,
     hand_over,
+    in_box,
     pool_evaluator,
     prepare_run,
     run_session,
@@ -370,7 +371,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     stability = stability_config(run.settings)
     bounds, repair = search_box(run.settings)
     start_genes = run.settings["start_gait"]
-    if np.any(np.asarray(start_genes) < bounds[:, 0]) or np.any(np.asarray(start_genes) > bounds[:, 1]):
+    if not in_box(start_genes, bounds):
         parser.error(f"GAIT: the start gait lies outside the {run.family.name} family's search box")
 
     def body(driver: Driver) -> str:
