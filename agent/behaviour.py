@@ -42,6 +42,10 @@ class Phase(enum.Enum):
     DONE = "done"
 
 
+#: Cycles of dither drawn at once: a generator fills a block with the numbers it gives one
+#: cycle's draw after another, at a tenth of the calls.
+_NOISE_BLOCK = 64
+
 #: No hinge velocities: an action that only says something else, or nothing.
 _NO_SPEEDS = np.zeros(0)
 _NO_SPEEDS.flags.writeable = False
@@ -91,6 +95,9 @@ class WalkBehaviour:
                 raise ValueError(f"posture names {effector!r}, not a joint of robot type {config.robot_type}")
             self._posture[self._slot[effector]] = degrees
         self._dither = np.random.default_rng(config.noise_seed) if config.command_noise > 0 else None
+        # the dither's draws, a block of cycles at a time (the very numbers of one draw a cycle)
+        self._noise = np.zeros((0, len(joints)))
+        self._noise_row = 0
 
     @property
     def walk_time(self) -> float:
@@ -111,11 +118,14 @@ class WalkBehaviour:
     def _velocities(self, perception: Perception, gait_time: float) -> np.ndarray:
         """The controller's commands; a joint missing from the perception gets 0 ("hold")."""
         lookahead = gait_time + self.config.lookahead_cycles * CYCLE
-        angles = list(map(perception.joints.get, self._perceptors))
-        unseen = [i for i, angle in enumerate(angles) if angle is None] if None in angles else []
-        for i in unseen:
-            angles[i] = 0.0
-        velocities = velocities_towards(self._target_array(lookahead), np.array(angles), self.config.gain)
+        joints = perception.joints
+        try:
+            angles = np.fromiter(map(joints.__getitem__, self._perceptors), float, len(self._perceptors))
+            unseen = []
+        except KeyError:
+            unseen = [i for i, perceptor in enumerate(self._perceptors) if perceptor not in joints]
+            angles = np.array([joints.get(perceptor, 0.0) for perceptor in self._perceptors], dtype=float)
+        velocities = velocities_towards(self._target_array(lookahead), angles, self.config.gain)
         if unseen:
             velocities[unseen] = 0.0
         return velocities
@@ -124,7 +134,12 @@ class WalkBehaviour:
         """``velocities``, each moved by its own draw of the walk's dither (``AgentConfig.command_noise``)."""
         if self._dither is None:
             return velocities
-        return velocities + self._dither.uniform(-self.config.command_noise, self.config.command_noise, len(velocities))
+        if self._noise_row == self._noise.shape[0]:
+            noise = self.config.command_noise
+            self._noise = self._dither.uniform(-noise, noise, (_NOISE_BLOCK, len(velocities)))
+            self._noise_row = 0
+        self._noise_row += 1
+        return velocities + self._noise[self._noise_row - 1]
 
     def _beam(self) -> str:
         if self.play_mode in BEAM_PLAY_MODES:

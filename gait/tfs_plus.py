@@ -30,7 +30,7 @@ import math
 import numpy as np
 
 from gait.family import GaitFamily, Limits
-from gait.nao_legs import LIMIT_MARGIN_DEG, leg_joint_targets
+from gait.nao_legs import LIMIT_MARGIN_DEG, clamped, leg_joint_targets
 from gait.params import GENE_BOUNDS, GENE_NAMES, GENE_UNITS, TFSParams, repair_genes
 from gait.tfs import TFSGait
 from gait.tfs_family import TFS
@@ -69,7 +69,7 @@ BOUNDS: np.ndarray = np.vstack(
 
 def _clamp(limits: Limits, name: str, value: float) -> float:
     low, high = limits[name]
-    return min(max(value, low + LIMIT_MARGIN_DEG), high - LIMIT_MARGIN_DEG)
+    return clamped(value, low + LIMIT_MARGIN_DEG, high - LIMIT_MARGIN_DEG)
 
 
 class TFSPlusWalker:

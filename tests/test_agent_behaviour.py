@@ -202,3 +202,38 @@ def test_the_command_dither_is_fixed_by_its_seed() -> None:
     assert velocities(3) != velocities(4)
     with pytest.raises(ValueError, match="command_noise"):
         AgentConfig(command_noise=-0.1)
+
+
+@given(noise=st.floats(1e-4, 0.5), seed=st.integers(0, 2**31))
+@settings(max_examples=10, deadline=None)
+def test_the_dither_drawn_in_blocks_is_one_draw_a_cycle_bit_for_bit(noise: float, seed: int) -> None:
+    """The behaviour draws its dither a block of cycles at a time; each cycle's velocities are the
+    plain ones plus the numbers a draw of 22 a cycle from the same seed gives, to the last bit,
+    across block boundaries (150 cycles)."""
+    cycles = 150
+    plain = _walking_actions(AgentConfig(start_now=True), cycles)
+    dithered = _walking_actions(AgentConfig(start_now=True, command_noise=noise, noise_seed=seed), cycles)
+    draws = np.random.default_rng(seed)
+    walking_from = AgentConfig.settle_cycles + 2
+    for a, b in zip(plain[walking_from:], dithered[walking_from:], strict=True):
+        expected = a.speeds + draws.uniform(-noise, noise, len(a.speeds))
+        assert b.speeds.tobytes() == expected.tobytes()
+
+
+def test_a_joint_missing_from_the_perception_is_held_and_the_others_move_as_usual() -> None:
+    """A joint the perception does not name gets 0 ("hold"); every other joint gets what it gets
+    when all are named."""
+    angles = " ".join(f"(HJ (n {j.perceptor}) (ax 0.00))" for j in JOINTS if j.perceptor != "hj1")
+    head = "(time (now 1.00))(GS (sl 0) (sr 0) (t 0.02) (pm BeforeKickOff))"
+    without = parse_perception(head + angles)
+    with_it = parse_perception(head + "(HJ (n hj1) (ax 0.00))" + angles)
+
+    def settling(perception) -> np.ndarray:
+        behaviour = WalkBehaviour(AgentConfig(posture={"he1": 30.0}), load_gait().walker())
+        behaviour.action(perception), behaviour.action(perception)  # init, beam
+        return behaviour.action(perception).speeds
+
+    full, held = settling(with_it), settling(without)
+    he1 = [j.effector for j in JOINTS].index("he1")
+    assert full[he1] != 0.0 and held[he1] == 0.0
+    assert np.delete(held, he1).tobytes() == np.delete(full, he1).tobytes()

@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from optimizer.episode.direct import _printed
 from optimizer.episode.rounding import rounded, rounded_array, warm_up
 
 
@@ -70,3 +71,12 @@ def test_rounded_array_is_round_of_each_element(values: list[float], digits: int
     assert got.shape == (len(values),)
     for value, mine in zip(values, got.tolist()):
         assert same_float(mine, round(value, digits)), (value, digits, mine)
+
+
+@given(values=st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=1, max_size=12))
+def test_the_monitor_views_numbers_are_printed_with_g_as_one_at_a_time(values: list[float]) -> None:
+    """The direct episodes' monitor view prints its numbers with one ``%g`` format for them all;
+    each must come back as ``float(f"{v:g}")`` does alone, to the bit."""
+    got = _printed(values)
+    assert len(got) == len(values)
+    assert all(same_float(a, float(f"{v:g}")) for a, v in zip(got, values, strict=True))

@@ -24,7 +24,7 @@ from gait import (
     repair_genes,
     save_gait,
 )
-from gait.nao_legs import LIMIT_MARGIN_DEG
+from gait.nao_legs import LIMIT_MARGIN_DEG, clamped
 from protocol.nao import JOINT_BY_EFFECTOR
 
 LIMITS = {name: (j.min_deg, j.max_deg) for name, j in JOINT_BY_EFFECTOR.items()}
@@ -209,3 +209,14 @@ def test_the_gene_box_comes_from_the_robot() -> None:
 def test_known_real_walks_lie_inside_the_box(genes) -> None:
     assert np.all(np.array(genes) >= GENE_BOUNDS[:, 0]) and np.all(np.array(genes) <= GENE_BOUNDS[:, 1])
     assert list(repair_genes(np.array(genes))) == pytest.approx(list(genes))
+
+
+_ANY_FLOAT = st.floats(allow_nan=True, allow_infinity=True)
+
+
+@given(value=_ANY_FLOAT, low=_ANY_FLOAT, high=_ANY_FLOAT)
+def test_clamped_gives_min_of_max_to_the_bit(value: float, low: float, high: float) -> None:
+    """Every joint target goes through ``clamped``; it must be ``min(max(v, lo), hi)`` for any
+    floats, NaN, infinities, signed zeros and ties included, or the walks would change."""
+    expected, got = min(max(value, low), high), clamped(value, low, high)
+    assert repr(got) == repr(expected) and math.copysign(1.0, got) == math.copysign(1.0, expected)

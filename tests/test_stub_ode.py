@@ -4,6 +4,8 @@ standing, walking and ball numbers."""
 
 from __future__ import annotations
 
+import struct
+
 import numpy as np
 import pybullet as pb
 import pytest
@@ -665,6 +667,38 @@ def test_a_lone_balls_step_is_the_general_islands_bit_for_bit():
                 assert mine == theirs  # every float of position, orientation, velocity and spin
                 world.step()  # the world's own step, which takes the shortcut
         assert max(heights) > 0.3 and min(heights) < 0.043  # it flew, came down and rolled
+
+
+def test_a_ball_placed_again_settles_from_remembered_steps_with_the_same_bits(monkeypatch):
+    """A trainer placing the ball where it placed it before (every walk of an episode runner):
+    the ball settles through the very states of its first settling, none of them solved again,
+    and each remembered step is what solving it now gives, to the bit."""
+    solves = []
+    island = island_step.step_island
+
+    def counted(*args):
+        solves.append(1)
+        return island(*args)
+
+    with World(MAX) as world:
+        stepper = world._stepper
+        monkeypatch.setattr(island_step, "step_island", counted)
+        settlings = []
+        for _ in range(2):
+            solves.clear()
+            world.set_ball((1.0, 2.0, 0.06), (0.3, 0.0, 0.0))
+            states = []
+            for _ in range(80):
+                world.step()
+                states.append(np.concatenate(stepper.ball_now()).tolist())
+            settlings.append((states, len(solves)))
+        (first, first_solves), (again, again_solves) = settlings
+        assert first == again
+        assert first_solves > 10 and again_solves == 0
+        for before, stepped in stepper._lone_ball_steps.items():
+            state = struct.unpack("13d", before)
+            fresh = stepper._lone_ball_step((state[0:3], state[3:7], state[7:10], state[10:13]))
+            assert np.concatenate(fresh).tobytes() == np.concatenate(stepped).tobytes()
 
 
 def test_flailing_robots_tangled_together_do_not_blow_up():

@@ -266,7 +266,8 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="race the refinement's CMA-ES runs (from the fastest gait that held and the best-scored "
         "one, each step) and give the winner half the gaits (default); --no-refine-race: "
-        "one start, the gaits shared evenly among the steps, as before the race",
+        "CMA-ES from the fastest gait alone (and from the reference walk with --refine-reference), "
+        "the gaits shared evenly among its runs, as before the race",
     )
     p.add_argument(
         "--refine-quantile",

@@ -53,9 +53,10 @@ _EFFECTORS = tuple(joint.effector for joint in JOINTS)
 _SLT_THRESHOLD = MonitorConfig().slt_threshold
 
 
-def _g(value: float) -> float:
-    """``value`` as the monitor stream carries it: ``%g``, 6 significant digits."""
-    return float(f"{value:g}")
+def _printed(values: list[float]) -> list[float]:
+    """``values`` as the monitor stream carries them: ``%g``, 6 significant digits (one format
+    for them all: half the cost of one each, every other cycle)."""
+    return list(map(float, ("%g " * len(values) % tuple(values)).split()))
 
 
 class _TorsoView:
@@ -85,19 +86,12 @@ class _TorsoView:
             sent = self._sent[index]
             if not sent or max(abs(a - b) for a, b in zip(pose, sent)) > _SLT_THRESHOLD:
                 self._sent[index] = sent = pose
-            robots.append(
-                RobotPose(
-                    state.side,
-                    state.unum,
-                    state.robot_type,
-                    (_g(sent[12]), _g(sent[13]), _g(sent[14])),
-                    (_g(sent[8]), _g(sent[9]), _g(sent[10])),
-                    (_g(sent[4]), _g(sent[5]), _g(sent[6])),
-                )
-            )
+            # the torso's position, up and forward axes
+            x, y, z, ux, uy, uz, fx, fy, fz = _printed(sent[12:15] + sent[8:11] + sent[4:7])
+            robots.append(RobotPose(state.side, state.unum, state.robot_type, (x, y, z), (ux, uy, uz), (fx, fy, fz)))
         game = sim.game
         return MonitorState(
-            _g(game.time),
+            _printed([game.time])[0],
             game.play_mode,
             game.half,
             game.score_left,
