@@ -9,8 +9,9 @@ change start from an empty folder.
 
 The folder is ``kernels-<hash>`` under ``NUMBA_CACHE_DIR`` when that is set, else under the
 package's ``__pycache__`` (per checkout, as numba's own default), else, when that cannot be
-written (an installed package), under the user's cache folder, starting from a copy of the
-package's own when it has one (kernels compiled at install, ``docker/Dockerfile``). Folders of
+written (an installed package), under the user's cache folder (or the temporary folder),
+starting from a copy of the package's own when it has one (kernels compiled at install,
+``docker/Dockerfile``). Folders of
 older sources left in the package's ``__pycache__`` are removed once nothing has been written to
 them for a day.
 """
@@ -54,8 +55,11 @@ def _writable(folder: Path) -> bool:
     return True
 
 
-def _user_cache() -> Path:
-    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "gala-kernels"
+def _elsewhere() -> tuple[Path, ...]:
+    """Where the kernels go when the package cannot be written: the user's cache folder, else
+    (a container run as a user without a home) the temporary folder."""
+    user = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    return user / "gala-kernels", Path(tempfile.gettempdir()) / "gala-kernels"
 
 
 def cache_folder(root: Path = PACKAGE, base: str | None = None) -> Path:
@@ -68,11 +72,17 @@ def cache_folder(root: Path = PACKAGE, base: str | None = None) -> Path:
     if _writable(in_tree):
         return in_tree
     # an installed package (a container's): numba writes beside every kernel it loads, so kernels
-    # compiled into the package when it was installed are used from a copy in the user's folder
-    mine = _user_cache() / name
-    if in_tree.is_dir() and not mine.exists():
-        shutil.copytree(in_tree, mine, dirs_exist_ok=True)
-    return mine
+    # compiled into the package when it was installed are used from a copy
+    for folder in (place / name for place in _elsewhere()):
+        fresh = not folder.exists()
+        if _writable(folder):
+            if fresh and in_tree.is_dir():
+                try:
+                    shutil.copytree(in_tree, folder, dirs_exist_ok=True)
+                except OSError:  # what is not copied is compiled
+                    pass
+            return folder
+    return in_tree  # nowhere to write: numba's own fallbacks decide
 
 
 def _remove_stale(folder: Path) -> None:

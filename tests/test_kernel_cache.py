@@ -98,6 +98,18 @@ def test_kernels_compiled_into_an_unwritable_package_are_copied_to_the_users_cac
     assert (folder / "k.nbi").read_text() == "compiled"
 
 
+def test_without_a_writable_user_folder_the_temporary_folder_holds_them(tmp_path, monkeypatch):
+    """A container run as a user without a home (``docker/compose.yaml`` takes the host's uid)."""
+    pkg = _package(tmp_path, 1.0)
+    (pkg / "__pycache__").write_text("")
+    (tmp_path / "nohome").write_text("")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "nohome"))
+    monkeypatch.setattr(kernel_cache.tempfile, "gettempdir", lambda: str(tmp_path / "tmp"))
+    folder = kernel_cache.cache_folder(pkg)
+    assert folder == tmp_path / "tmp" / "gala-kernels" / ("kernels-" + kernel_cache.sources_hash(pkg))
+    assert folder.is_dir()
+
+
 def test_folders_of_older_sources_go_after_a_day_unwritten(tmp_path, monkeypatch):
     pkg = _package(tmp_path, 1.0)
     monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
