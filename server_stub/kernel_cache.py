@@ -73,16 +73,25 @@ def cache_folder(root: Path = PACKAGE, base: str | None = None) -> Path:
         return in_tree
     # an installed package (a container's): numba writes beside every kernel it loads, so kernels
     # compiled into the package when it was installed are used from a copy
-    for folder in (place / name for place in _elsewhere()):
-        fresh = not folder.exists()
+    for place in _elsewhere():
+        folder = place / name
+        if not folder.is_dir() and in_tree.is_dir() and _writable(place):
+            _copy_whole(in_tree, folder)
         if _writable(folder):
-            if fresh and in_tree.is_dir():
-                try:
-                    shutil.copytree(in_tree, folder, dirs_exist_ok=True)
-                except OSError:  # what is not copied is compiled
-                    pass
             return folder
     return in_tree  # nowhere to write: numba's own fallbacks decide
+
+
+def _copy_whole(source: Path, folder: Path) -> None:
+    """Copy ``source`` to ``folder`` so that no process sees it half copied: into a folder of
+    this process's own, then renamed. Where another process's copy came first, or the copy
+    failed, nothing is put in place (what is missing is compiled)."""
+    part = folder.with_name(f"{folder.name}.{os.getpid()}")
+    try:
+        shutil.copytree(source, part)
+        os.rename(part, folder)
+    except OSError:
+        shutil.rmtree(part, ignore_errors=True)
 
 
 def _remove_stale(folder: Path) -> None:

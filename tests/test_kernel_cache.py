@@ -4,6 +4,7 @@ change to a kernel's callee is never run as the old code from the cache."""
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -96,6 +97,29 @@ def test_kernels_compiled_into_an_unwritable_package_are_copied_to_the_users_cac
     folder = kernel_cache.cache_folder(pkg)
     assert folder == tmp_path / "user" / "gala-kernels" / name
     assert (folder / "k.nbi").read_text() == "compiled"
+
+
+def test_a_copy_put_in_place_first_by_another_process_is_kept(tmp_path, monkeypatch):
+    """Two processes of a new container copy the package's kernels at once: the first renamed
+    into place stays, the other's copy is dropped (no process reads a half-made copy)."""
+    pkg = _package(tmp_path, 1.0)
+    name = "kernels-" + kernel_cache.sources_hash(pkg)
+    (pkg / "__pycache__" / name).mkdir(parents=True)
+    (pkg / "__pycache__" / name / "k.nbi").write_text("compiled")
+    monkeypatch.setattr(kernel_cache, "_writable", lambda folder: not folder.is_relative_to(pkg))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "user"))
+    theirs = tmp_path / "user" / "gala-kernels" / name
+    real_copy = shutil.copytree
+
+    def raced(source, target):
+        theirs.mkdir(parents=True)
+        (theirs / "k.nbi").write_text("theirs")
+        return real_copy(source, target)
+
+    monkeypatch.setattr(kernel_cache.shutil, "copytree", raced)
+    assert kernel_cache.cache_folder(pkg) == theirs
+    assert (theirs / "k.nbi").read_text() == "theirs"
+    assert sorted(p.name for p in theirs.parent.iterdir()) == [name]
 
 
 def test_without_a_writable_user_folder_the_temporary_folder_holds_them(tmp_path, monkeypatch):
