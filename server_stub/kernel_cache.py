@@ -11,9 +11,8 @@ The folder is ``kernels-<hash>`` under ``NUMBA_CACHE_DIR`` when that is set, els
 package's ``__pycache__`` (per checkout, as numba's own default), else, when that cannot be
 written (an installed package), under the user's cache folder (or the temporary folder),
 starting from a copy of the package's own when it has one (kernels compiled at install,
-``docker/Dockerfile``). Folders of
-older sources left in the package's ``__pycache__`` are removed once nothing has been written to
-them for a day.
+``docker/Dockerfile``). Folders of older sources left in the package's ``__pycache__`` are
+removed once nothing has been written to them for a day.
 """
 
 from __future__ import annotations

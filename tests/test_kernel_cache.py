@@ -166,7 +166,6 @@ def test_the_package_sets_it_before_its_first_kernel():
         """
         import numba
         from server_stub.physics import linalg
-        from server_stub import kernel_cache
         print(linalg.cross3._cache._cache_path.startswith(numba.config.CACHE_DIR))
         """
     )
