@@ -85,30 +85,32 @@ def test_an_unwritable_package_folder_falls_back_to_the_users_cache(tmp_path, mo
     assert folder == tmp_path / "user" / "gala-kernels" / ("kernels-" + kernel_cache.sources_hash(pkg))
 
 
-def test_kernels_compiled_into_an_unwritable_package_are_copied_to_the_users_cache(tmp_path, monkeypatch):
-    """A container's user cannot write the installed package, where its image compiled the
-    kernels: they are used from a copy in the user's folder (numba writes beside what it loads)."""
+def _installed(tmp_path: Path, monkeypatch) -> tuple[Path, Path]:
+    """A package that cannot be written (only ``_writable`` says so: the tests run as root), its
+    kernels compiled into its ``__pycache__`` (one file, "compiled"); and where the user's copy of
+    them goes."""
     pkg = _package(tmp_path, 1.0)
     name = "kernels-" + kernel_cache.sources_hash(pkg)
     (pkg / "__pycache__" / name).mkdir(parents=True)
     (pkg / "__pycache__" / name / "k.nbi").write_text("compiled")
     monkeypatch.setattr(kernel_cache, "_writable", lambda folder: not folder.is_relative_to(pkg))
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "user"))
+    return pkg, tmp_path / "user" / "gala-kernels" / name
+
+
+def test_kernels_compiled_into_an_unwritable_package_are_copied_to_the_users_cache(tmp_path, monkeypatch):
+    """A container's user cannot write the installed package, where its image compiled the
+    kernels: they are used from a copy in the user's folder (numba writes beside what it loads)."""
+    pkg, mine = _installed(tmp_path, monkeypatch)
     folder = kernel_cache.cache_folder(pkg)
-    assert folder == tmp_path / "user" / "gala-kernels" / name
+    assert folder == mine
     assert (folder / "k.nbi").read_text() == "compiled"
 
 
 def test_a_copy_put_in_place_first_by_another_process_is_kept(tmp_path, monkeypatch):
     """Two processes of a new container copy the package's kernels at once: the first renamed
     into place stays, the other's copy is dropped (no process reads a half-made copy)."""
-    pkg = _package(tmp_path, 1.0)
-    name = "kernels-" + kernel_cache.sources_hash(pkg)
-    (pkg / "__pycache__" / name).mkdir(parents=True)
-    (pkg / "__pycache__" / name / "k.nbi").write_text("compiled")
-    monkeypatch.setattr(kernel_cache, "_writable", lambda folder: not folder.is_relative_to(pkg))
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "user"))
-    theirs = tmp_path / "user" / "gala-kernels" / name
+    pkg, theirs = _installed(tmp_path, monkeypatch)
     real_copy = shutil.copytree
 
     def raced(source, target):
@@ -119,7 +121,7 @@ def test_a_copy_put_in_place_first_by_another_process_is_kept(tmp_path, monkeypa
     monkeypatch.setattr(kernel_cache.shutil, "copytree", raced)
     assert kernel_cache.cache_folder(pkg) == theirs
     assert (theirs / "k.nbi").read_text() == "theirs"
-    assert sorted(p.name for p in theirs.parent.iterdir()) == [name]
+    assert sorted(p.name for p in theirs.parent.iterdir()) == [theirs.name]
 
 
 def test_without_a_writable_user_folder_the_temporary_folder_holds_them(tmp_path, monkeypatch):
