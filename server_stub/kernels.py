@@ -106,7 +106,7 @@ PARTS: dict[str, Callable[[], None]] = {
     "field": _field,
     "shared": _shared_backwards,
 }
-#: The parts an in-process walk takes (``optimizer.episode.direct``).
+#: The parts an in-process walk takes (``optimizer.episode.inprocess``).
 WALK: tuple[str, ...] = ("robot", "island", "motors", "field")
 #: The parts a server takes: all (the shared kernels are a robot's and an island's).
 SERVER: tuple[str, ...] = tuple(name for name in PARTS if name != "shared")

@@ -24,7 +24,7 @@ from optimizer.compare.statistics import holm, pairwise, summarise
 from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask
 from optimizer.run.driver import Driver
 from optimizer.run.folder import EpisodeLog
-from optimizer.search.ga import Batch
+from optimizer.search.protocol import Batch
 
 TINY = [
     "--methods",

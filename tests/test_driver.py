@@ -11,13 +11,14 @@ import numpy as np
 import pytest
 
 from gait import GENE_BOUNDS, repair_genes
-from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask, stable_seed
+from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.driver import BarProgress, Driver, ResumeMismatch
 from optimizer.run.folder import EpisodeLog, read_episode_log
 from optimizer.search.config import GAConfig, GALAConfig
 from optimizer.search.ga import GARun
 from optimizer.search.gala import GALA
+from optimizer.seeds import stable_seed
 
 TARGET = GENE_BOUNDS.mean(axis=1)
 SPAN = GENE_BOUNDS[:, 1] - GENE_BOUNDS[:, 0]

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from optimizer.episode.direct import _printed
+from optimizer.episode.inprocess import _printed
 from optimizer.episode.rounding import rounded, rounded_array, warm_up
 
 
@@ -66,7 +66,7 @@ def test_rounded_examples() -> None:
 
 @given(st.lists(st.floats(), max_size=30), st.sampled_from([2, 4]))
 def test_rounded_array_is_round_of_each_element(values: list[float], digits: int) -> None:
-    """The array form (the direct episode's velocity commands) gives the same floats as ``round``."""
+    """The array form (the in-process episode's velocity commands) gives the same floats as ``round``."""
     got = rounded_array(np.array(values, dtype=float), digits)
     assert got.shape == (len(values),)
     for value, mine in zip(values, got.tolist()):
@@ -75,7 +75,7 @@ def test_rounded_array_is_round_of_each_element(values: list[float], digits: int
 
 @given(values=st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=1, max_size=12))
 def test_the_monitor_views_numbers_are_printed_with_g_as_one_at_a_time(values: list[float]) -> None:
-    """The direct episodes' monitor view prints its numbers with one ``%g`` format for them all;
+    """The in-process episodes' monitor view prints its numbers with one ``%g`` format for them all;
     each must come back as ``float(f"{v:g}")`` does alone, to the bit."""
     got = _printed(values)
     assert len(got) == len(values)

@@ -18,8 +18,8 @@ from optimizer.evaluation.pool import (
     EpisodeTask,
     EvaluationError,
     ProcessPoolEvaluator,
-    stable_seed,
 )
+from optimizer.seeds import stable_seed
 
 DIE_ONCE, ALWAYS_DIE, HANG, WAIT_TO_BE_KILLED, RAISE = -1.0, -2.0, -3.0, -4.0, -5.0
 

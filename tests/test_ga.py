@@ -17,9 +17,9 @@ from optimizer.search.ga import (
     one_point_crossover,
     roulette_selection,
     roulette_weights,
-    run_sync,
     uniform_reset_mutation,
 )
+from optimizer.search.protocol import run_sync
 
 # A box shaped like the TFS genes' (degrees, seconds, rad/s) so that per-gene scaling matters.
 BOUNDS = np.array([[-10, 40], [0, 60], [0, 40], [0, 40], [0, 60], [0, 1], [6.28, 25.1]], dtype=float)

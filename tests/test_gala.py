@@ -11,9 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from optimizer.search.config import GAConfig, GALAConfig, LAConfig
-from optimizer.search.ga import run_sync
 from optimizer.search.gala import GALA
 from optimizer.search.la import LinearRewardInaction, LinearRewardPenalty
+from optimizer.search.protocol import run_sync
 
 BOUNDS = np.tile([0.0, 1.0], (7, 1))
 OPTIMUM = np.linspace(0.2, 0.8, 7)

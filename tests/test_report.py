@@ -19,8 +19,9 @@ from optimizer.run.report import (
     write_table_markdown,
 )
 from optimizer.search.config import GAConfig, GALAConfig
-from optimizer.search.ga import GARun, run_sync
+from optimizer.search.ga import GARun
 from optimizer.search.gala import GALA
+from optimizer.search.protocol import run_sync
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 BOUNDS = np.tile([-1.0, 1.0], (7, 1))

@@ -12,13 +12,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask, stable_seed
+from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.driver import Driver, ResumeMismatch
 from optimizer.run.folder import EpisodeLog, read_episode_log
 from optimizer.run.robust import ScoredGait, jittered_starts
 from optimizer.run.stability import check, check_best, fastest_stable, fastest_walk
 from optimizer.search.config import StabilityConfig
+from optimizer.seeds import stable_seed
 
 BASE = (-3.0, 1.0, 30.0)
 CONFIG = StabilityConfig(repeats=6, jitter=(0.05, 0.05, 10.0), candidates=3)

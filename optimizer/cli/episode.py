@@ -10,7 +10,7 @@
     python -m optimizer.episode --embedded-stub socket   # the embedded stub as a process, over TCP
     python -m optimizer.episode --type 4 --real 1        # robot type 4 (toes) on a real server
 
-The embedded stub runs inside this process (``--embedded-stub direct``, the default: no sockets,
+The embedded stub runs inside this process (``--embedded-stub inprocess``, the default: no sockets,
 no text, the same results as over TCP, faster); ``--embedded-stub socket`` runs it as a
 ``python -m server_stub`` process the agent talks to over TCP, as to any other server.
 
@@ -85,9 +85,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--embedded-stub",
-        choices=("direct", "socket"),
-        default="direct",
-        help="the embedded stub in this process with no sockets (direct, the default; the same results) "
+        choices=("inprocess", "socket"),
+        default="inprocess",
+        help="the embedded stub in this process with no sockets (inprocess, the default; the same results) "
         "or as a process over TCP (socket); ignored with --server or --real",
     )
     p.add_argument(

@@ -30,7 +30,6 @@ from optimizer.cli.common import (
     stability_config,
     write_gait,
 )
-from optimizer.evaluation.pool import stable_seed
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
 from optimizer.run.report import plot_ga_convergence
@@ -44,6 +43,7 @@ from optimizer.search.config import (
     RatePreset,
 )
 from optimizer.search.ga import GAResult, GARun, planned_episodes
+from optimizer.seeds import stable_seed
 from protocol.cli_values import positive_int, probability
 
 PRESETS: dict[str, RatePreset] = {"dejong": DE_JONG, "grefenstette": GREFENSTETTE, "gala": PAPER_GALA_BEST}

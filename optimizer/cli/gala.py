@@ -78,7 +78,6 @@ from optimizer.cli.common import (
 )
 from optimizer.cli.refine import DEFAULTS as REFINE_DEFAULTS
 from optimizer.cli.refine import LEAD_WALKS_HELP, REFINE_QUANTILE, lead_walks, refine, refine_starts
-from optimizer.evaluation.pool import stable_seed
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
 from optimizer.run.report import (
@@ -105,6 +104,7 @@ from optimizer.search.la import (
     LinearRewardInaction,
     LinearRewardPenalty,
 )
+from optimizer.seeds import stable_seed
 from protocol.cli_values import count, positive_float, positive_int, probability
 
 #: The paper's protocol (section VI).

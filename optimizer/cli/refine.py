@@ -49,14 +49,14 @@ from optimizer.cli.common import (
     stability_config,
     stored_quantile,
 )
-from optimizer.evaluation.pool import stable_seed
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
 from optimizer.run.robust import Race
 from optimizer.run.stability import Fastest, fastest_walk, ranked_gaits
 from optimizer.search.cmaes import CMAESRun, population_size
 from optimizer.search.config import ScoringConfig
-from optimizer.search.ga import Batch, Candidate, KeyedSearch, Repair, SearchProgram
+from optimizer.search.protocol import Batch, Candidate, KeyedSearch, Repair, SearchProgram
+from optimizer.seeds import stable_seed
 from protocol.cli_values import count, positive_float, positive_int
 
 #: Keys of the refinement's episodes start with this (in the main job too).

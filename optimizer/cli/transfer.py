@@ -49,12 +49,13 @@ from optimizer.cli.common import (
     stability_config,
 )
 from optimizer.episode import DEFAULT_START, Start, start_problem_on_real_server
-from optimizer.evaluation.pool import EpisodeTask, EvaluationError, stable_seed
+from optimizer.evaluation.pool import EpisodeTask, EvaluationError
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.folder import RunFolder, write_json
 from optimizer.run.robust import jittered_starts
 from optimizer.run.stability import distance_spread
 from optimizer.run.walk_card import CardError, CardWalk, WalkCard, read_card, side_name, write_card
+from optimizer.seeds import stable_seed
 from protocol.cli_values import non_negative, number, positive_int
 
 

@@ -38,11 +38,11 @@ from optimizer.compare.budget import drive
 from optimizer.compare.methods import Method, Problem, discover
 from optimizer.compare.report import RunOutcome, plot_convergence, write_tables
 from optimizer.compare.statistics import pairwise, summarise
-from optimizer.evaluation.pool import stable_seed
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
 from optimizer.run.robust import ScoredGait
 from optimizer.run.stability import check_best
+from optimizer.seeds import stable_seed
 from protocol.cli_values import non_negative, positive_int
 
 #: Settings a comparison stores. The default budget runs 6 methods x 10 seeds x 800 episodes,

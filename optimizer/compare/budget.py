@@ -1,6 +1,6 @@
 """A method's search held to an episode budget, and the drive that scores its candidates.
 
-Every method is a search program (a generator of batches; ``optimizer.search.ga.SearchProgram``), so the
+Every method is a search program (a generator of batches; ``optimizer.search.protocol.SearchProgram``), so the
 comparison drives them all the same way and counts their episodes the same way: ``drive`` stops a
 program once it has spent its budget of episodes, cutting its last batch if need be. Candidates
 are scored as every search of the project is (``optimizer.run.robust``): by default over k dithered
@@ -14,7 +14,7 @@ import numpy as np
 
 from optimizer.run.driver import Driver
 from optimizer.run.robust import ScoredGait
-from optimizer.search.ga import Batch, KeyedSearch, SearchProgram
+from optimizer.search.protocol import Batch, KeyedSearch, SearchProgram
 
 
 def program_of(search: KeyedSearch) -> SearchProgram:

@@ -61,10 +61,10 @@ class EpisodeConfig:
     #: protocol (fast, default); "process": a fresh ``python -m agent`` process per episode.
     agent_mode: str = "inprocess"
     #: How an in-process agent meets the runner's own embedded stub (no server given):
-    #: "direct": the stub's core and the agent's behaviour driven in this process, no sockets and
-    #: no text (``optimizer.episode.direct``; the same results, several times faster; default);
+    #: "inprocess": the stub's core and the agent's behaviour driven in this process, no sockets and
+    #: no text (``optimizer.episode.inprocess``; the same results, several times faster; default);
     #: "socket": a ``python -m server_stub`` process over TCP, as any other server.
-    embedded_stub: str = "direct"
+    embedded_stub: str = "inprocess"
     #: Wall seconds an episode may take before the server or agent is declared hung.
     episode_timeout: float = 60.0
     team: str = "GALA"
@@ -102,8 +102,8 @@ class EpisodeConfig:
             raise ValueError(f"drift_penalty must be >= 0, got {self.drift_penalty}")
         if self.agent_mode not in ("inprocess", "process"):
             raise ValueError(f"agent_mode must be 'inprocess' or 'process', got {self.agent_mode!r}")
-        if self.embedded_stub not in ("direct", "socket"):
-            raise ValueError(f"embedded_stub must be 'direct' or 'socket', got {self.embedded_stub!r}")
+        if self.embedded_stub not in ("inprocess", "socket"):
+            raise ValueError(f"embedded_stub must be 'inprocess' or 'socket', got {self.embedded_stub!r}")
         if not self.episode_timeout > 0:
             raise ValueError(f"episode_timeout must be > 0 s, got {self.episode_timeout}")
         last = AgentConfig.settle_cycles - 1

@@ -1,7 +1,7 @@
 """Numbers as the wire would carry them, for the embedded episodes: ``round(v, digits)``, bit for
 bit, i.e. what ``%.{digits}f`` prints and the reader parses back.
 
-A direct episode (``optimizer.episode.direct``) rounds every joint angle, the gyro and the
+An in-process episode (``optimizer.episode.inprocess``) rounds every joint angle, the gyro and the
 accelerometer (2 decimals) and every velocity command (4) each cycle, as the text would: about 50
 numbers a cycle. A Python loop (with ``round`` only near halves) took about 11 us for a cycle's
 22 angles; this compiled loop, called from Python, about 4.5 us, with the same floats.

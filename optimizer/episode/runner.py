@@ -31,7 +31,7 @@ from pathlib import Path
 from agent import AgentConfig, AgentError, NaoAgent
 from gait import Gait, family_named, save_gait
 from optimizer.episode.config import EpisodeConfig, EpisodeResult, Start, parked_ball
-from optimizer.episode.direct import DirectStub
+from optimizer.episode.inprocess import InProcessStub
 from optimizer.episode.monitor_link import EpisodeFailure, MonitorLink
 from optimizer.episode.scoring import Judge, TracePoint, find_robot
 from optimizer.episode.servers import (
@@ -70,8 +70,8 @@ class EpisodeRunner:
     server run elsewhere (an address).
 
     The embedded stub runs in this process by default, its core and the agent's behaviour driven
-    directly with no sockets and no text (``optimizer.episode.direct``, ``config.embedded_stub``
-    "direct", for an in-process agent), with the same results as the stub over sockets
+    directly with no sockets and no text (``optimizer.episode.inprocess``, ``config.embedded_stub``
+    "inprocess", for an in-process agent), with the same results as the stub over sockets
     (``embedded_stub="socket"``, or ``agent_mode="process"``: a ``python -m server_stub`` process).
 
     A server or agent that dies or hangs is detected, an owned server restarted, the episode retried once;
@@ -98,10 +98,10 @@ class EpisodeRunner:
         self._fixed_server = server if isinstance(server, ServerAddress) else None
         self._owned: ManagedServer | None = None
         self._seed = seed
-        #: the embedded stub in this process (made at the first episode), when episodes go direct
-        self._direct: DirectStub | None = None
-        self._goes_direct = server is None and config.agent_mode == "inprocess" and config.embedded_stub == "direct"
-        if server is None and not self._goes_direct:
+        #: the embedded stub in this process (made at the first episode), when episodes go in process
+        self._in_process_stub: InProcessStub | None = None
+        self._in_process = server is None and config.agent_mode == "inprocess" and config.embedded_stub == "inprocess"
+        if server is None and not self._in_process:
             self._owned = StubProcess(seed=seed)
         elif not isinstance(server, ServerAddress):
             self._owned = server
@@ -142,15 +142,15 @@ class EpisodeRunner:
 
     def close(self) -> None:
         self._close_monitor()
-        self._close_direct()
+        self._close_in_process()
         if self._owned is not None:
             self._owned.stop()
         self._tmp.cleanup()
 
-    def _close_direct(self) -> None:
-        if self._direct is not None:
-            self._direct.close()
-            self._direct = None
+    def _close_in_process(self) -> None:
+        if self._in_process_stub is not None:
+            self._in_process_stub.close()
+            self._in_process_stub = None
 
     def __enter__(self) -> EpisodeRunner:
         return self
@@ -172,7 +172,7 @@ class EpisodeRunner:
 
     def _reset_server(self) -> None:
         self._close_monitor()
-        self._close_direct()
+        self._close_in_process()
         if self._owned is not None:
             self._owned.restart()
 
@@ -209,11 +209,11 @@ class EpisodeRunner:
         )
 
     def _episode(self, gait: Gait, config: EpisodeConfig, traced: bool) -> EpisodeResult:
-        if self._goes_direct:
+        if self._in_process:
             judge = Judge(config, traced)
-            if self._direct is None:
-                self._direct = DirectStub(self._seed)
-            self._direct.run(gait, config, judge)
+            if self._in_process_stub is None:
+                self._in_process_stub = InProcessStub(self._seed)
+            self._in_process_stub.run(gait, config, judge)
             assert judge.result is not None
             self.last_trace = judge.trace if self.trace else None
             return judge.result

@@ -17,7 +17,6 @@ reason, and the search goes on.
 
 from __future__ import annotations
 
-import hashlib
 import math
 import multiprocessing
 import os
@@ -35,13 +34,6 @@ from optimizer.episode import EpisodeConfig, EpisodeResult, EpisodeRunner, Serve
 from optimizer.episode.real_server import RealServerProcess
 from optimizer.episode.runner import quiet_agent_logs
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
-
-
-def stable_seed(run_seed: int, name: str) -> int:
-    """A 32-bit seed for the part ``name`` of a run (an episode key, a worker, a crossover row):
-    a hash, so it is the same in every process and every Python run (``hash()`` is salted)."""
-    digest = hashlib.blake2b(f"{run_seed}/{name}".encode(), digest_size=4).digest()
-    return int.from_bytes(digest, "big")
 
 
 @dataclass(frozen=True)

@@ -16,12 +16,13 @@ import numpy as np
 from tqdm import tqdm
 
 from optimizer.episode import DEFAULT_START, Start
-from optimizer.evaluation.pool import EpisodeTask, Evaluator, stable_seed
+from optimizer.evaluation.pool import EpisodeTask, Evaluator
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.folder import EpisodeLog
 from optimizer.run.robust import Race, ScoredGait, extra_key, moved_starts
 from optimizer.search.config import ScoringConfig
-from optimizer.search.ga import AskTellSearch
+from optimizer.search.protocol import AskTellSearch
+from optimizer.seeds import stable_seed
 
 
 class ResumeMismatch(RuntimeError):

@@ -21,11 +21,11 @@ from typing import Any
 import numpy as np
 
 from optimizer.episode import Start
-from optimizer.evaluation.pool import stable_seed
 from optimizer.evaluation.record import CHECK_PREFIX, EpisodeRecord, WalkKind
 from optimizer.run.driver import Driver
 from optimizer.run.robust import ScoredGait, moved_starts
 from optimizer.search.config import StabilityConfig
+from optimizer.seeds import stable_seed
 
 
 def ranked_gaits(scored: Mapping[str, ScoredGait]) -> list[ScoredGait]:

@@ -24,7 +24,7 @@ from typing import Any
 import cma
 import numpy as np
 
-from optimizer.search.ga import Batch, KeyedSearch, Repair, SearchProgram
+from optimizer.search.protocol import Batch, KeyedSearch, Repair, SearchProgram
 
 #: Initial step size from a random point, as a fraction of the box (the library's advice: about a
 #: quarter to a third of the range the optimum may lie in).

@@ -30,18 +30,9 @@ from typing import Any
 import numpy as np
 
 from optimizer.search.config import GALAConfig
-from optimizer.search.ga import (
-    GAOperators,
-    GenerationStats,
-    GeneticAlgorithm,
-    KeyedSearch,
-    Repair,
-    SearchProgram,
-    check_bounds,
-    evolve,
-    spawn_rngs,
-)
+from optimizer.search.ga import GAOperators, GenerationStats, GeneticAlgorithm, check_bounds, evolve, spawn_rngs
 from optimizer.search.la import LearningAutomaton, LearningScheme, LinearRewardPenalty
+from optimizer.search.protocol import KeyedSearch, Repair, SearchProgram
 
 
 @dataclass(frozen=True)

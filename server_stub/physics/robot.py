@@ -123,7 +123,7 @@ class Robot:
 
     def command_joints(self, velocities: np.ndarray) -> None:
         """``command_joint`` for every joint at once, ``velocities`` in ``joints_of`` order (the
-        optimizer's direct episodes, which hand over an agent's commands without text)."""
+        optimizer's in-process episodes, which hand over an agent's commands without text)."""
         # np.logical_and.reduce: ``.all()`` without its Python wrapper, once a cycle
         if velocities.shape != self._requested.shape or not np.logical_and.reduce(np.isfinite(velocities)):
             raise ValueError(f"velocities must be {len(self._requested)} finite numbers, got {velocities!r}")

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optimizer.search.ga import Repair, SearchProgram
+from optimizer.search.protocol import Repair, SearchProgram
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ import cma
 
 from optimizer.compare.methods import Method, Problem
 from optimizer.search.cmaes import SIGMA0, cmaes_program
-from optimizer.search.ga import SearchProgram
+from optimizer.search.protocol import SearchProgram
 
 
 def _program(problem: Problem) -> SearchProgram:

@@ -21,8 +21,9 @@ from optimizer.search.config import (
     GALAConfig,
     RatePreset,
 )
-from optimizer.search.ga import GARun, SearchProgram
+from optimizer.search.ga import GARun
 from optimizer.search.gala import GALA
+from optimizer.search.protocol import SearchProgram
 
 
 def _generations(problem: Problem) -> int:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from optimizer.compare.methods import Method, Problem
-from optimizer.search.ga import Batch, SearchProgram
+from optimizer.search.protocol import Batch, SearchProgram
 
 
 def _program(problem: Problem) -> SearchProgram:

@@ -1,8 +1,8 @@
-"""The optimizer's direct episodes (``optimizer.episode.direct``: the embedded stand-in's core and
+"""The optimizer's in-process episodes (``optimizer.episode.inprocess``: the embedded stand-in's core and
 the agent's behaviour in one process, no sockets, no text) against the same episodes over sockets
 (a ``python -m server_stub`` process, the agent over TCP, the judge reading the monitor stream).
 
-The direct path is a shortcut of the socket path, so it must give the same outcome for every
+The in-process path is a shortcut of the socket path, so it must give the same outcome for every
 gait: here, a set of slow and fast gaits (walkers and fallers, straight and turning, the shipped
 gait and the fastest real walk) give the same distance, fall, time and fitness to the last bit,
 and the same torso track the judge saw, from the default start and from a moved one.
@@ -58,36 +58,36 @@ def _walks(embedded_stub: str, starts: list[Start | None]) -> dict[tuple[str, in
     return out
 
 
-def test_direct_episodes_walk_as_the_socket_path_does() -> None:
+def test_inprocess_episodes_walk_as_the_socket_path_does() -> None:
     starts: list[Start | None] = [None, (-4.97, 0.03, 7.5)]
-    direct = _walks("direct", starts)
+    inprocess = _walks("inprocess", starts)
     sockets = _walks("socket", starts)
-    assert direct.keys() == sockets.keys()
-    for key in direct:
-        assert direct[key][:4] == sockets[key][:4], key  # exact: distance, fell, time, fitness
-        assert direct[key][4] == sockets[key][4], key  # the judge saw the same torso, state by state
-    outcomes = [d[:3] for d in direct.values()]
+    assert inprocess.keys() == sockets.keys()
+    for key in inprocess:
+        assert inprocess[key][:4] == sockets[key][:4], key  # exact: distance, fell, time, fitness
+        assert inprocess[key][4] == sockets[key][4], key  # the judge saw the same torso, state by state
+    outcomes = [d[:3] for d in inprocess.values()]
     assert any(fell for _, fell, _ in outcomes) and any(not fell for _, fell, _ in outcomes)
     assert max(distance for distance, _, _ in outcomes) > 5.0
 
 
 def test_a_dithered_walk_is_the_same_on_both_paths_and_its_seed_decides_it() -> None:
     """The agent's command dither (``EpisodeConfig.command_noise``, seeded per episode) reaches the
-    agent alike on the direct path and over sockets: the same seed walks the same to the last bit,
+    agent alike on the in-process path and over sockets: the same seed walks the same to the last bit,
     another seed, or none, walks elsewhere."""
     params = _gaits()["line-05"]
     walks = {}
-    for mode, noise in (("direct", 0.001), ("socket", 0.001), ("direct", 0.0)):
+    for mode, noise in (("inprocess", 0.001), ("socket", 0.001), ("inprocess", 0.0)):
         with EpisodeRunner(EpisodeConfig(walk_time=4.0, embedded_stub=mode, command_noise=noise)) as runner:
             for seed in (1, 2):
                 result = runner.evaluate(params, seed=seed)
                 assert result.status == "ok", result.reason
                 walks[mode, noise, seed] = (result.distance, result.fell, result.time)
     for seed in (1, 2):
-        assert walks["direct", 0.001, seed] == walks["socket", 0.001, seed]
-    assert walks["direct", 0.001, 1] != walks["direct", 0.001, 2]
-    assert walks["direct", 0.0, 1] == walks["direct", 0.0, 2]  # no dither: the seed is bookkeeping
-    assert walks["direct", 0.001, 1] != walks["direct", 0.0, 1]
+        assert walks["inprocess", 0.001, seed] == walks["socket", 0.001, seed]
+    assert walks["inprocess", 0.001, 1] != walks["inprocess", 0.001, 2]
+    assert walks["inprocess", 0.0, 1] == walks["inprocess", 0.0, 2]  # no dither: the seed is bookkeeping
+    assert walks["inprocess", 0.001, 1] != walks["inprocess", 0.0, 1]
     with pytest.raises(ValueError, match="command_noise"):
         EpisodeConfig(command_noise=-1.0)
 
@@ -116,13 +116,13 @@ def test_an_agent_process_is_told_the_dither_and_the_episodes_seed(monkeypatch) 
     assert (args.command_noise, args.noise_seed) == (0.001, 7)
 
 
-def test_direct_is_the_embedded_stubs_default_and_can_be_refused() -> None:
-    assert EpisodeConfig().embedded_stub == "direct"
-    with pytest.raises(ValueError, match="embedded_stub must be 'direct' or 'socket'"):
+def test_inprocess_is_the_embedded_stubs_default_and_can_be_refused() -> None:
+    assert EpisodeConfig().embedded_stub == "inprocess"
+    with pytest.raises(ValueError, match="embedded_stub must be 'inprocess' or 'socket'"):
         EpisodeConfig(embedded_stub="pipes")
 
 
-def test_direct_episodes_repeat_exactly_one_after_another() -> None:
+def test_inprocess_episodes_repeat_exactly_one_after_another() -> None:
     """One stub serves episode after episode (robots parked and reused), as over sockets."""
     with EpisodeRunner(EpisodeConfig(walk_time=2.0)) as runner:
         first = runner.evaluate(load_gait())
@@ -135,7 +135,7 @@ def test_the_episode_command_takes_either_path_and_refuses_others(capsys) -> Non
     from optimizer.cli.episode import main
 
     outputs = []
-    for path in ("direct", "socket"):
+    for path in ("inprocess", "socket"):
         assert main(["--embedded-stub", path, "--walk-time", "1", "--json"]) == 0
         walk = json.loads(capsys.readouterr().out)
         outputs.append({k: v for k, v in walk.items() if k != "wall"})

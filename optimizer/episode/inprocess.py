@@ -17,7 +17,7 @@ socket path, and scores with the same ``Judge``:
 - what this agent does not read is not made: vision, the gyro, foot pressure, hearing, and all
   body parts but the torso for the judge.
 
-``tests/test_episode_direct.py`` checks that fast and slow gaits walk the same distances and fall
+``tests/test_episode_inprocess.py`` checks that fast and slow gaits walk the same distances and fall
 the same way, to the last digit, here and over the sockets.
 """
 
@@ -145,7 +145,7 @@ def _warn(problem: str, key: str) -> None:
     _stub_log.warning("agent in process: %s", problem)
 
 
-class DirectStub:
+class InProcessStub:
     """The embedded stand-in as a library in this process, for one episode after another: the
     same settings as ``StubProcess`` (sync, exact beams, its seed)."""
 
