@@ -29,11 +29,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from optimizer.cli.common import episode_config, run_family  # noqa: E402
 from optimizer.episode.runner import EpisodeRunner  # noqa: E402
 from optimizer.evaluation.pool import EpisodeTask  # noqa: E402
 from optimizer.evaluation.record import EpisodeRecord, WalkKind  # noqa: E402
 from optimizer.run.folder import RunFolder, RunFolderError, read_episode_log  # noqa: E402
+from optimizer.run.run_settings import episode_config, run_family  # noqa: E402
 
 #: What a re-walk may change: how long it took and which worker ran it.
 NOT_COMPARED = {"wall", "worker"}

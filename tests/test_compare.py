@@ -15,7 +15,6 @@ from hypothesis import strategies as st
 from test_driver import FakeEvaluator, Killed, synthetic_fitness
 
 from gait import GENE_BOUNDS, repair_genes
-from optimizer.cli.transfer import reported_gaits
 from optimizer.compare import methods as methods_package
 from optimizer.compare.__main__ import main
 from optimizer.compare.budget import drive
@@ -24,6 +23,7 @@ from optimizer.compare.statistics import holm, pairwise, summarise
 from optimizer.evaluation.pool import EpisodeOutcome, EpisodeTask
 from optimizer.run.driver import Driver
 from optimizer.run.folder import EpisodeLog
+from optimizer.run.transfer_report import reported_gaits
 from optimizer.search.protocol import Batch
 
 TINY = [

@@ -15,10 +15,10 @@ import pytest
 from test_driver import FakeEvaluator, Killed
 
 from gait import DEFAULT_GAIT_PATH, GENE_BOUNDS, LEGACY_GENE_BOUNDS, TFS, TFS_PLUS, load_gait
+from optimizer import job
 from optimizer.cli import episode as episode_command
 from optimizer.cli import ga as ga_command
 from optimizer.cli import gala as gala_command
-from optimizer.cli.refine import Arm, heat_gaits, refinement_arms
 from optimizer.episode import EpisodeResult
 from optimizer.evaluation.pool import EpisodeOutcome
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
@@ -28,7 +28,9 @@ from optimizer.run.stability import check_candidates
 from optimizer.run.walk_card import REAL_SERVER, STAND_IN, read_card
 from optimizer.search.config import GAConfig, GALAConfig
 from optimizer.search.ga import GARun
+from optimizer.search.ga import planned_episodes as ga_episodes
 from optimizer.search.gala import GALA
+from optimizer.search.refine import Arm, heat_gaits, refinement_arms
 
 BOUNDS = [[0.0, 1.0]] * 3
 #: the paper's protocol, small: one walk a gait, no refinement phase
@@ -152,7 +154,7 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
     assert list(load_gait(out / "best_gait-pc0.3.json").genes) == results[1]["best_genes"]
     episodes = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
     searched = [r for r in episodes if not r["key"].startswith("check/")]
-    assert len(searched) == 2 * gala_command.planned_episodes(gala_command.gala_config(manifest["settings"]))
+    assert len(searched) == 2 * job.planned_episodes(job.gala_config(manifest["settings"]))
     by_key = {r["key"]: r for r in episodes}
     for row, result in zip(rows, results):  # each row's best walked 10 times from moved starts
         key = result["best_episode"]["key"]
@@ -382,10 +384,10 @@ def test_planned_episodes_match_what_the_searches_ask(restart: bool, elitism: bo
             search.tell({c.key: float(sum(c.genes)) for c in batch})
 
     count(GALA(BOUNDS, config, 0.5, 1))
-    assert len(asked) == gala_command.planned_episodes(config)
+    assert len(asked) == job.planned_episodes(config)
     asked.clear()
     count(GARun(BOUNDS, ga, 1))
-    assert len(asked) == ga_command.planned_episodes(ga)
+    assert len(asked) == ga_episodes(ga)
 
 
 class _RecordingRunner:
@@ -579,12 +581,12 @@ def test_the_refinement_can_start_from_the_reference_walk_too(tmp_path: Path) ->
 
 def test_the_reference_walk_is_lifted_into_the_runs_family_and_refused_outside_its_box() -> None:
     reference = load_gait(DEFAULT_GAIT_PATH).genes
-    assert gala_command.reference_start(TFS, LEGACY_GENE_BOUNDS) == reference
-    assert gala_command.reference_start(TFS_PLUS, TFS_PLUS.bounds)[:7] == reference
+    assert job.reference_start(TFS, LEGACY_GENE_BOUNDS) == reference
+    assert job.reference_start(TFS_PLUS, TFS_PLUS.bounds)[:7] == reference
     narrow = LEGACY_GENE_BOUNDS.copy()
     narrow[6] = (20.0, 25.0)  # w: the reference walk's 15.7 rad/s lies below
     with pytest.raises(ValueError, match="the reference walk lies outside the tfs family's search box"):
-        gala_command.reference_start(TFS, narrow)
+        job.reference_start(TFS, narrow)
 
 
 class WalkToWalk(FakeEvaluator):

@@ -14,11 +14,12 @@ from test_driver import FakeEvaluator
 from gait import load_gait
 from optimizer.cli import gala as gala_command
 from optimizer.cli import transfer
-from optimizer.cli.common import EvaluationSetup
 from optimizer.episode import DEFAULT_START
 from optimizer.episode.real_server import RCSSSERVER3D_ENV
 from optimizer.evaluation.pool import EpisodeOutcome
 from optimizer.evaluation.record import EpisodeRecord
+from optimizer.run import transfer_report
+from optimizer.run.session import EvaluationSetup
 from optimizer.run.walk_card import (
     REAL_SERVER,
     STAND_IN,
@@ -77,16 +78,16 @@ def test_each_reported_gait_is_listed_once_under_all_its_names() -> None:
         "fastest_episode": {"genes": [2.0] * 7, "distance": 4.0, "fell": False},
         "fastest_check": None,
     }
-    first, second = transfer.reported_gaits(results)
+    first, second = transfer_report.reported_gaits(results)
     assert first.names == ["Table I pc 0.8"] and first.run_distances == [2.0, 1.0] and first.run_falls == 1
     assert second.names == ["Table I pc 0.3", "fastest"] and second.run_distances == [4.0] and second.run_falls == 0
     assert first.files == ["best_gait-pc0.8.json", "best_gait.json"]  # which row best_gait.json holds: by genes
     assert second.files == ["best_gait-pc0.3.json", "best_gait.json", "fastest_gait.json"]
-    [ga] = transfer.reported_gaits(
+    [ga] = transfer_report.reported_gaits(
         {"best_genes": [3.0] * 7, "check": None, "best_episode": {"distance": 1.5, "fell": True}}
     )
     assert ga.name == "GA best" and ga.run_distances == [1.5] and ga.run_falls == 1 and ga.files == ["best_gait.json"]
-    [compared] = transfer.reported_gaits({"reported": [{"name": "gala s00", "genes": [3.0] * 7}]})
+    [compared] = transfer_report.reported_gaits({"reported": [{"name": "gala s00", "genes": [3.0] * 7}]})
     assert compared.files == []  # a comparison writes no gait file
 
 
@@ -101,7 +102,7 @@ def test_transfer_walks_every_gait_and_writes_its_files(tmp_path: Path) -> None:
 
     assert transfer.main([str(out), "--repeats", "3"], make_evaluator=make) == 0
     results = json.loads((out / "results.json").read_text())
-    gaits = transfer.reported_gaits(results)
+    gaits = transfer_report.reported_gaits(results)
     rows = list(csv.DictReader((out / "transfer.csv").open()))
     assert [r["gait"] for r in rows] == [g.name for g in gaits] and len(rows) >= 2
     assert len(evaluator.evaluated) == 3 * len(gaits) and all(r["walks"] == "3" for r in rows)
@@ -157,7 +158,7 @@ def test_a_tfs_start_hand_over_is_walked_as_one_beside_the_tfs_rows(tmp_path: Pa
 
     evaluator.evaluate = spying  # type: ignore[method-assign]
     assert transfer.main([str(out), "--repeats", "2"], make_evaluator=lambda setup: evaluator) == 0
-    gaits = transfer.reported_gaits(json.loads((out / "results.json").read_text()))
+    gaits = transfer_report.reported_gaits(json.loads((out / "results.json").read_text()))
     expected = [None] * (len(gaits) - 1) + ["tfs-start"]  # the rows, then the fastest walk
     families = {t.key.split("/")[1]: t.family for t in tasks}
     assert [families[f"g{j}"] for j in range(len(gaits))] == expected
@@ -188,8 +189,8 @@ def test_transfer_puts_its_walks_on_the_cards_beside_the_gait_files(tmp_path: Pa
     assert "| | real server | stand-in |" in (out / "fastest_gait.card.md").read_text()
 
     results = json.loads((out / "results.json").read_text())
-    for gait in transfer.reported_gaits(results):
-        files = transfer.gait_files(out, gait)
+    for gait in transfer_report.reported_gaits(results):
+        files = transfer_report.gait_files(out, gait)
         assert files  # a GALA run writes every gait it reports
         for path in files:
             written = read_card(path)
@@ -202,7 +203,7 @@ def test_transfer_puts_its_walks_on_the_cards_beside_the_gait_files(tmp_path: Pa
     assert best is not None and best.genes == tuple(float(g) for g in load_gait(out / "best_gait.json").as_array())
 
 
-def gait_walks(out: Path, gait: transfer.ReportedGait) -> list[EpisodeRecord]:
+def gait_walks(out: Path, gait: transfer_report.ReportedGait) -> list[EpisodeRecord]:
     """The gait's walks as transfer.json lists them."""
     [entry] = [g for g in json.loads((out / "transfer.json").read_text())["gaits"] if tuple(g["genes"]) == gait.genes]
     return [EpisodeRecord.from_json(w) for w in entry["walks"]]

@@ -30,19 +30,14 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 from gait import DEFAULT_GAIT_PATH, Gait, GaitFileError, load_gait
-from optimizer.cli.common import (
-    EPISODE_DEFAULTS,
-    add_episode_arguments,
-    add_server_arguments,
-    check_start_for_real_server,
-    episode_config,
-    real_server_command,
-)
+from optimizer.cli.arguments import add_episode_arguments, add_server_arguments
 from optimizer.episode import EpisodeConfig, EpisodeResult, EpisodeRunner, Start
 from optimizer.episode.real_server import RealServerError, RealServerProcess
 from optimizer.episode.runner import quiet_agent_logs
 from optimizer.episode.servers import ManagedServer, ServerAddress
 from optimizer.run.robust import jittered_starts
+from optimizer.run.run_settings import EPISODE_DEFAULTS, episode_config
+from optimizer.run.session import check_start_for_real_server, real_server_command
 from optimizer.run.stability import distance_spread
 from protocol.cli_values import non_negative, positive_int
 from protocol.nao import ROBOT_TYPES

@@ -14,42 +14,18 @@ robustly over dithered walks by default (``--robust-walks``, ``--command-noise``
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 from collections.abc import Sequence
 from typing import Any
 
-from optimizer.cli.common import (
-    EvaluatorMaker,
-    add_run_arguments,
-    best_gait,
-    card_of,
-    pool_evaluator,
-    prepare_run,
-    run_session,
-    search_box,
-    stability_config,
-    write_gait,
-)
-from optimizer.run.driver import Driver
-from optimizer.run.folder import write_json
-from optimizer.run.report import plot_ga_convergence
-from optimizer.run.stability import check_best
-from optimizer.run.walk_card import write_card
+from optimizer.cli.arguments import add_run_arguments
+from optimizer.job_ga import PRESETS, ga_job, planned_episodes
+from optimizer.run.session import EvaluatorMaker, pool_evaluator, prepare_run, run_session
 from optimizer.search.config import (
-    DE_JONG,
-    GREFENSTETTE,
-    PAPER_GALA_BEST,
     GAConfig,
-    RatePreset,
 )
-from optimizer.search.ga import GAResult, GARun, planned_episodes
-from optimizer.seeds import stable_seed
 from protocol.cli_values import positive_int, probability
-
-PRESETS: dict[str, RatePreset] = {"dejong": DE_JONG, "grefenstette": GREFENSTETTE, "gala": PAPER_GALA_BEST}
-
-#: Keys of the GA's episodes start with this.
-PREFIX = "ga"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -85,58 +61,11 @@ def defaults(preset: str | None) -> dict[str, Any]:
     }
 
 
-def ga_config(settings: dict[str, Any]) -> GAConfig:
-    return GAConfig(
-        population_size=settings["population"],
-        generations=settings["generations"],
-        crossover_rate=settings["crossover"],
-        mutation_rate=settings["mutation"],
-        elitism=settings["elitism"],
-    )
-
-
-def title(settings: dict[str, Any]) -> str:
-    name = PRESETS[settings["preset"]].name + ": " if settings["preset"] else ""
-    return f"GA, {name}crossover {settings['crossover']:g}, mutation {settings['mutation']:g}"
-
-
 def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = pool_evaluator) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     args = parser.parse_args(argv)
     run = prepare_run(parser, args, "ga", defaults(args.preset), argv)
-    config = ga_config(run.settings)
-    stability = stability_config(run.settings)
-    bounds, repair = search_box(run.settings)
 
-    def body(driver: Driver) -> str:
-        search = GARun(bounds, config, stable_seed(run.seed, PREFIX), repair=repair, prefix=PREFIX)
-        result: GAResult = driver.run(search)
-        folder = run.folder.path
-        best = best_gait(driver, search.best_key(PREFIX + "/"))
-        checked = check_best(driver, best, run.setup.start, stability)
-        verdict = "" if checked is None else f"; {checked.summary()}"
-        write_json(
-            folder / "results.json",
-            {
-                **result.to_dict(),
-                "settings": run.settings,
-                "best_episode": None if best is None else best.walks[0].to_json(),
-                "check": None if checked is None else checked.to_dict(),
-            },
-        )
-        plot_ga_convergence(result.history, folder / "ga.png", title(run.settings))
-        write_gait(
-            run,
-            folder / "best_gait.json",
-            result.best_genes,
-            f"{title(run.settings)}: fitness {result.best_fitness:.4f}{verdict} (run {folder})",
-        )
-        if checked is not None:
-            write_card(card_of(run, "GA best", checked), folder / "best_gait.json")
-        distance = "-" if best is None else best.describe()
-        return f"best fitness {result.best_fitness:.4f} ({distance}{verdict}); results in {folder}"
-
-    return run_session(
-        run, planned_episodes(config) + stability.repeats, body, make_evaluator=make_evaluator, quiet=args.quiet
-    )
+    body = functools.partial(ga_job, run=run)
+    return run_session(run, planned_episodes(run), body, make_evaluator=make_evaluator, quiet=args.quiet)

@@ -50,61 +50,20 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Sequence
 from typing import Any
 
-import numpy as np
-
-from gait import DEFAULT_GAIT_PATH, FAMILIES, TFS, TFS_START, GaitFamily, family_named, load_gait
-from optimizer.cli.common import (
+from gait import FAMILIES, TFS, TFS_START
+from optimizer.cli.arguments import LEAD_WALKS_HELP, add_run_arguments, lead_walks, quantile_or_mean
+from optimizer.job import JobPlan, JobRefused, main_job
+from optimizer.run.run_settings import (
     HAND_OVER_DEFAULTS,
-    EvaluatorMaker,
-    Run,
-    add_run_arguments,
     apply_preset,
-    best_gait,
-    card_of,
-    hand_over,
-    in_box,
-    pool_evaluator,
-    prepare_run,
-    quantile_or_mean,
-    run_family,
-    run_session,
-    search_box,
-    stability_config,
-    write_gait,
 )
-from optimizer.cli.refine import DEFAULTS as REFINE_DEFAULTS
-from optimizer.cli.refine import LEAD_WALKS_HELP, REFINE_QUANTILE, lead_walks, refine, refine_starts
-from optimizer.run.driver import Driver
-from optimizer.run.folder import write_json
-from optimizer.run.report import (
-    TableRow,
-    plot_ga_convergence,
-    plot_gala_convergence,
-    write_table_csv,
-    write_table_markdown,
-)
-from optimizer.run.robust import ScoredGait
-from optimizer.run.stability import (
-    Fastest,
-    StabilityReport,
-    check_best,
-    fastest_walk,
-    scored_summary,
-)
-from optimizer.run.walk_card import write_card
+from optimizer.run.session import EvaluatorMaker, pool_evaluator, prepare_run, run_session
 from optimizer.search.config import GAConfig, GALAConfig
-from optimizer.search.ga import planned_episodes as ga_episodes
-from optimizer.search.gala import GALA, GALAResult
-from optimizer.search.la import (
-    LearningScheme,
-    LinearRewardInaction,
-    LinearRewardPenalty,
-)
-from optimizer.seeds import stable_seed
+from optimizer.search.refine import DEFAULTS as REFINE_DEFAULTS
+from optimizer.search.refine import REFINE_QUANTILE
 from protocol.cli_values import count, positive_float, positive_int, probability
 
 #: The paper's protocol (section VI).
@@ -158,19 +117,6 @@ BUDGETS: dict[str, dict[str, Any]] = {
         "refine_reference": True,
     },
 }
-
-
-def planned_episodes(config: GALAConfig, check_repeats: int = 0) -> int:
-    """Episodes of one GALA row: the search iterations, the final GA, and the checks of the row's
-    best and (an estimate: once a row) of the fastest walk."""
-    ga = config.ga
-    if config.restart_each_iteration:
-        search = config.iterations * ga_episodes(ga)
-    else:
-        search = ga.population_size + config.iterations * config.generations_per_iteration * (
-            ga.population_size - int(ga.elitism)
-        )
-    return search + ga_episodes(ga) + 2 * check_repeats
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -310,123 +256,12 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def reference_start(family: GaitFamily, bounds: np.ndarray) -> tuple[float, ...]:
-    """The reference walk (``DEFAULT_GAIT_PATH``) as genes of the run's ``family``, where
-    ``--refine-reference`` starts a refinement: a ValueError when the family cannot take a TFS walk
-    or the walk lies outside the run's box."""
-    genes = family.from_gait(load_gait(DEFAULT_GAIT_PATH)).genes
-    if not in_box(genes, bounds):
-        raise ValueError(f"the reference walk lies outside the {family.name} family's search box")
-    return genes
-
-
-def refinement_families(settings: Mapping[str, Any]) -> list[GaitFamily]:
-    """The families the refinement searches, in turn: ``refine_family`` (one name, stored as runs
-    made before several were possible stored it, or a list of names), else (a run from before the
-    setting) the run's own."""
-    named = settings.get("refine_family") or run_family(settings)
-    return [family_named(name) for name in ([named] if isinstance(named, str) else named)]
-
-
 def family_setting(names: Sequence[str] | None) -> str | list[str] | None:
     """``--refine-family`` as stored: one family as its name (so that a run of one family has the
     manifest it always had, and resumes as it was made), several as a list."""
     if names is None:
         return None
     return names[0] if len(names) == 1 else list(names)
-
-
-def gala_config(settings: dict[str, Any]) -> GALAConfig:
-    return GALAConfig(
-        ga=GAConfig(
-            population_size=settings["population"], generations=settings["generations"], elitism=settings["elitism"]
-        ),
-        iterations=settings["iterations"],
-        generations_per_iteration=settings["generations_per_iteration"],
-        restart_each_iteration=settings["restart_each_iteration"],
-        baseline_window=settings["baseline_window"],
-        crossover_rates=tuple(settings["crossover"]),
-    )
-
-
-def scheme(settings: dict[str, Any], config: GALAConfig) -> LearningScheme:
-    la = config.la
-    if settings["scheme"] == "lri":
-        return LinearRewardInaction(la.reward_step)
-    return LinearRewardPenalty(la.reward_step, la.penalty_step)
-
-
-@dataclass
-class Row:
-    """A finished Table I row: the GALA result, its best gait as the search scored it, and that
-    gait's check."""
-
-    result: GALAResult
-    best: ScoredGait | None
-    check: StabilityReport | None
-    walk_time: float
-
-    def table_row(self) -> TableRow:
-        best, check = self.best, self.check
-        spread = None if check is None else check.spread()
-        return TableRow.from_gala(
-            self.result,
-            None if best is None else best.mean_distance,
-            None if best is None else best.mean_distance / self.walk_time,
-            None if check is None else len(check.repeats),
-            None if check is None else check.falls,
-            spread,
-            None if check is None else check.stable,
-        )
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            **self.result.to_dict(),
-            "best_episode": None if self.best is None else self.best.walks[0].to_json(),
-            "best_score": None if self.best is None else scored_summary(self.best),
-            "check": None if self.check is None else self.check.to_dict(),
-        }
-
-
-def write_outputs(run: Run, rows: list[Row], fastest: Fastest | None) -> None:
-    """Every result file, for the rows finished so far (rewritten after each row and after the
-    refinement): the tables, plots and gait files, and a walk card beside every gait file."""
-    path, settings = run.folder.path, run.settings
-    table = [row.table_row() for row in rows]
-    write_table_csv(table, path / "table1.csv")
-    write_table_markdown(table, path / "table1.md")
-    write_json(
-        path / "results.json",
-        {
-            "settings": settings,
-            "rows": [row.to_dict() for row in rows],
-            **hand_over(run, fastest, "GALA run"),
-        },
-    )
-    if not rows:
-        return
-    latest = rows[-1]
-    result, best = latest.result, latest.best
-    tag = f"pc{result.crossover:g}"
-    plot_gala_convergence(result, path / f"gala-{tag}.png")
-    plot_ga_convergence(
-        result.final_ga_history,
-        path / f"ga-{tag}.png",
-        f"Final GA: crossover {result.crossover:g}, mutation {result.optimal_mutation:g}",
-    )
-    verdict = "" if latest.check is None else ("; holds" if latest.check.stable else "; FALLS")
-    notes = (
-        f"GALA row pc={result.crossover:g}, pm={result.optimal_mutation:g}: fitness {result.best_fitness:.4f}"
-        + ("" if best is None else f", {best.describe()}")
-        + ("" if latest.check is None else f"; check: {latest.check.summary()}{verdict}")
-    )
-    names = [f"best_gait-{tag}.json"]
-    if max(range(len(rows)), key=lambda k: rows[k].result.best_fitness) == len(rows) - 1:
-        names.append("best_gait.json")
-    for name in names:
-        write_gait(run, path / name, result.best_genes, notes)
-        if latest.check is not None:
-            write_card(card_of(run, f"Table I row pc {result.crossover:g}", latest.check), path / name)
 
 
 def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = pool_evaluator) -> int:
@@ -441,79 +276,14 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     if len(set(tags)) != len(tags):
         parser.error(f"--crossover: a rate is given twice ({' '.join(t[2:] for t in tags)})")
     run = prepare_run(parser, args, "gala", PAPER, argv)
-    families = refinement_families(run.settings)
-    # the check candidates' families: the refinement's, when it runs (the rows' gaits count as TFS)
-    checked_families = len(families) if run.settings.get("refine") else 1
-    for refined in families:
-        if refined is not run.family and refined.extends is not run.family:
-            parser.error(
-                f"--refine-family {refined.name}: it cannot refine {run.family.name} walks; give the run's own "
-                f"family (--refine-family {run.family.name}) or one that extends it"
-            )
-        if run.settings.get("bounds", "legacy") not in refined.boxes:
-            parser.error(
-                f"--refine-family {refined.name}: it has no {run.settings.get('bounds', 'legacy')} box (its "
-                f"boxes: {', '.join(refined.boxes)}); give --refine-family {run.family.name}"
-            )
-    config = gala_config(run.settings)
-    stability = stability_config(run.settings)
-    bounds, repair = search_box(run.settings)
-    reference: list[tuple[float, ...]] = []
-    if run.settings.get("refine") and run.settings.get("refine_reference"):  # a run from before it: none
-        try:
-            reference.append(reference_start(run.family, bounds))
-        except ValueError as exc:
-            parser.error(f"--refine-reference: {exc}; give --no-refine-reference")
-    rates = config.crossover_rates
-
-    def body(driver: Driver) -> str:
-        rows: list[Row] = []
-        fastest: Fastest | None = None
-        walk_time = run.setup.walk_time
-        for pc in rates:
-            tag = f"pc{pc:g}"
-            search = GALA(
-                bounds, config, pc, stable_seed(run.seed, tag), scheme=scheme(run.settings, config), repair=repair
-            )
-            result: GALAResult = driver.run(search)
-            best = best_gait(driver, search.best_key(f"{tag}/final/"))
-            rows.append(Row(result, best, check_best(driver, best, run.setup.start, stability), walk_time))
-            fastest = fastest_walk(driver, run.setup.start, stability)
-            write_outputs(run, rows, fastest)
-        fallback: list[ScoredGait] = []
-        if run.settings.get("refine", 0) and fastest is not None:  # a run from before it: none
-            starts = refine_starts(driver, fastest) if run.settings.get("refine_race") else [fastest.gait.genes]
-            starts += [start for start in reference if start not in starts]
-            share, extra = divmod(run.settings["refine"], len(families))
-            first = 0
-            for j, refined in enumerate(families):
-                lifted = [refined.from_gait(run.family.gait(start)).genes for start in starts]
-                box, box_repair = search_box(run.settings, refined)
-                named = None if refined is run.family else refined.name
-                own = {**run.settings, "refine": share + (j < extra)}
-                first += refine(driver, own, run.seed, box, box_repair, lifted, refined.held, named, first)
-            fallback.append(fastest.gait)  # when no refined walk holds, the rows' may
-        if fastest is not None:  # the walk handed over: its candidates walk on (--hand-over-walks)
-            fastest = fastest_walk(
-                driver, run.setup.start, stability, hand_over=True, fallback=fallback, by_family=checked_families > 1
-            )
-            write_outputs(run, rows, fastest)
-        falling = [f"{row.result.crossover:g}" for row in rows if row.check is not None and not row.check.stable]
-        lines = [(run.folder.path / "table1.md").read_text().rstrip("\n")]
-        if falling:
-            lines.append(f"FALLS: the best gait of the row(s) with crossover {', '.join(falling)} fell in its check")
-        if fastest is not None:
-            lines.append(f"{fastest.describe()}; in fastest_gait.json (walk card: fastest_gait.card.md)")
-        lines.append(f"results in {run.folder.path}")
-        return "\n".join(lines)
-
-    # the racing walks and how many candidates the checks walk are not known ahead: an estimate
-    planned = len(rates) * planned_episodes(config, stability.repeats) + run.settings.get("refine", 0)
-    planned += stability.candidates * checked_families * (stability.repeats + stability.confirm) + stability.hand_over
+    try:
+        plan = JobPlan.of(run)
+    except JobRefused as exc:
+        parser.error(str(exc))
     return run_session(
         run,
-        planned,
-        body,
+        plan.planned_episodes(),
+        lambda driver: main_job(driver, plan),
         make_evaluator=make_evaluator,
         quiet=args.quiet,
     )

@@ -24,16 +24,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from optimizer.cli.common import (
-    EvaluatorMaker,
-    add_run_arguments,
-    apply_preset,
-    pool_evaluator,
-    prepare_run,
-    run_session,
-    search_box,
-    stability_config,
-)
+from optimizer.cli.arguments import add_run_arguments
 from optimizer.compare.budget import drive
 from optimizer.compare.methods import Method, Problem, discover
 from optimizer.compare.report import RunOutcome, plot_convergence, write_tables
@@ -41,6 +32,8 @@ from optimizer.compare.statistics import pairwise, summarise
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
 from optimizer.run.robust import ScoredGait
+from optimizer.run.run_settings import apply_preset, search_box, stability_config
+from optimizer.run.session import EvaluatorMaker, pool_evaluator, prepare_run, run_session
 from optimizer.run.stability import check_best
 from optimizer.seeds import stable_seed
 from protocol.cli_values import non_negative, positive_int

@@ -1,0 +1,83 @@
+"""The plain GA command's job (``python -m optimizer.ga``): one GA with fixed rates (paper Fig. 4,
+5, 7), its best gait checked, written as a gait file with its walk card.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from optimizer.run.driver import Driver
+from optimizer.run.folder import write_json
+from optimizer.run.report import plot_ga_convergence
+from optimizer.run.results import best_gait, card_of, write_gait
+from optimizer.run.run_settings import search_box, stability_config
+from optimizer.run.session import Run
+from optimizer.run.stability import check_best
+from optimizer.run.walk_card import write_card
+from optimizer.search.config import DE_JONG, GREFENSTETTE, PAPER_GALA_BEST, GAConfig, RatePreset
+from optimizer.search.ga import GAResult, GARun
+from optimizer.search.ga import planned_episodes as ga_episodes
+from optimizer.seeds import stable_seed
+
+#: The paper's rate pairs, by the name ``--preset`` takes.
+PRESETS: dict[str, RatePreset] = {"dejong": DE_JONG, "grefenstette": GREFENSTETTE, "gala": PAPER_GALA_BEST}
+
+
+#: Keys of the GA's episodes start with this.
+PREFIX = "ga"
+
+
+def ga_config(settings: Mapping[str, Any]) -> GAConfig:
+    """The GA the settings stand for."""
+    return GAConfig(
+        population_size=settings["population"],
+        generations=settings["generations"],
+        crossover_rate=settings["crossover"],
+        mutation_rate=settings["mutation"],
+        elitism=settings["elitism"],
+    )
+
+
+def title(settings: Mapping[str, Any]) -> str:
+    """The GA named by its preset and rates, for its plot and gait file."""
+    name = PRESETS[settings["preset"]].name + ": " if settings["preset"] else ""
+    return f"GA, {name}crossover {settings['crossover']:g}, mutation {settings['mutation']:g}"
+
+
+def ga_job(driver: Driver, run: Run) -> str:
+    """The GA, then its best gait checked and written; returns the summary."""
+    config = ga_config(run.settings)
+    stability = stability_config(run.settings)
+    bounds, repair = search_box(run.settings)
+    search = GARun(bounds, config, stable_seed(run.seed, PREFIX), repair=repair, prefix=PREFIX)
+    result: GAResult = driver.run(search)
+    folder = run.folder.path
+    best = best_gait(driver, search.best_key(PREFIX + "/"))
+    checked = check_best(driver, best, run.setup.start, stability)
+    verdict = "" if checked is None else f"; {checked.summary()}"
+    write_json(
+        folder / "results.json",
+        {
+            **result.to_dict(),
+            "settings": run.settings,
+            "best_episode": None if best is None else best.walks[0].to_json(),
+            "check": None if checked is None else checked.to_dict(),
+        },
+    )
+    plot_ga_convergence(result.history, folder / "ga.png", title(run.settings))
+    write_gait(
+        run,
+        folder / "best_gait.json",
+        result.best_genes,
+        f"{title(run.settings)}: fitness {result.best_fitness:.4f}{verdict} (run {folder})",
+    )
+    if checked is not None:
+        write_card(card_of(run, "GA best", checked), folder / "best_gait.json")
+    distance = "-" if best is None else best.describe()
+    return f"best fitness {result.best_fitness:.4f} ({distance}{verdict}); results in {folder}"
+
+
+def planned_episodes(run: Run) -> int:
+    """The GA's episodes and its best gait's check."""
+    return ga_episodes(ga_config(run.settings)) + stability_config(run.settings).repeats
