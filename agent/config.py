@@ -51,7 +51,7 @@ class AgentConfig:
     #: moves a joint 2e-5 rad a cycle) moves where a walk ends and how far it turns as much as the
     #: real server's own run-to-run spread does. So the same dither and seeds on two servers draw
     #: from each one's spread alike, which is how the fidelity benchmark compares them
-    #: (``optimizer.episode.fidelity``).
+    #: (``bench.fidelity``).
     command_noise: float = 0.0
     noise_seed: int = 0
 

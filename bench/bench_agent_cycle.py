@@ -2,7 +2,7 @@
 
 Replays every perception of the real-server captures through the agent's cycle (the same
 ``WalkBehaviour`` the agent runs, walking from the first cycle) and sends each reply over a
-loopback socket pair with TCP-like framing. Run: ``python bench/bench_agent_cycle.py``.
+loopback socket pair with TCP-like framing. Run: ``python -m bench.bench_agent_cycle``.
 """
 
 from __future__ import annotations
@@ -11,17 +11,14 @@ import logging
 import platform
 import socket
 import statistics
-import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from agent.behaviour import WalkBehaviour  # noqa: E402
-from agent.config import AgentConfig  # noqa: E402
-from gait import load_gait  # noqa: E402
-from protocol.framing import encode_frame  # noqa: E402
-from protocol.perception import parse_perception  # noqa: E402
+from agent.behaviour import WalkBehaviour
+from agent.config import AgentConfig
+from gait import load_gait
+from protocol.framing import encode_frame
+from protocol.perception import parse_perception
 
 FIXTURES = Path(__file__).resolve().parents[1] / "tests" / "data" / "rcssserver3d"
 

@@ -7,8 +7,8 @@ This runs ``python -m optimizer.episode --json`` (the shipped gait on the embedd
 new process with an empty cache directory (cold), then again with the cache it left (warm), and
 prints both wall times.
 
-    python bench/bench_cold_start.py             # 3 cold and 3 warm runs
-    python bench/bench_cold_start.py --runs 1
+    python -m bench.bench_cold_start             # 3 cold and 3 warm runs
+    python -m bench.bench_cold_start --runs 1
 """
 
 from __future__ import annotations
@@ -39,7 +39,11 @@ def episode(cache: Path) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m bench.bench_cold_start",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("--runs", type=int, default=3, help="cold runs (each with a new empty cache), default 3")
     args = parser.parse_args(argv)
     if args.runs < 1:

@@ -16,7 +16,7 @@ uses the second core for its agent while its server steps. So it also measures o
 to one core (``sched_setaffinity``; stub and agent take turns on it), the baseline of "one worker
 per core", and prints the 2-worker rate against twice that as well.
 
-Run: ``python bench/bench_episodes.py [--episodes 60] [--gait FILE] [--agent-mode inprocess|process] [--dask]``
+Run: ``python -m bench.bench_episodes [--episodes 60] [--gait FILE] [--agent-mode inprocess|process] [--dask]``
 (``--dask`` also runs the 2-worker case on a Dask LocalCluster and prints its overhead).
 """
 
@@ -24,22 +24,19 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from gait import GENE_BOUNDS, load_gait, repair_genes  # noqa: E402
-from optimizer.episode import EpisodeConfig  # noqa: E402
-from optimizer.evaluation.pool import (  # noqa: E402
+from gait import GENE_BOUNDS, load_gait, repair_genes
+from optimizer.episode import EpisodeConfig
+from optimizer.evaluation.pool import (
     EpisodeRunnerFactory,
     EpisodeTask,
     ProcessPoolEvaluator,
 )
-from protocol.nao import CYCLE  # noqa: E402
+from protocol.nao import CYCLE
 
 
 def gaits(count: int, seed: int) -> list[tuple[float, ...]]:
@@ -125,7 +122,7 @@ def measure_on_one_core(genes: list[tuple[float, ...]], config: EpisodeConfig) -
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__)
+    p = argparse.ArgumentParser(prog="python -m bench.bench_episodes", description=__doc__)
     p.add_argument("--episodes", type=int, default=60)
     p.add_argument("--gait", type=Path, default=None, help="walk this gait file every episode")
     p.add_argument("--agent-mode", choices=("inprocess", "process"), default="inprocess")

@@ -13,10 +13,10 @@ A walk is one draw of a chaotic process: ``--command-noise`` dithers the agent's
 (walk k of a gait gets seed k on both servers), so each server's figures are over draws from its
 own spread, compared pair by pair of seeds:
 
-    python bench/bench_fidelity.py --set all --real-repeats 5 --stand-in-repeats 5 --command-noise 0.001 --out /tmp/f
-    python bench/bench_fidelity.py --set all --real-repeats 3 --out /tmp/fidelity   # one undithered stand-in walk
-    python bench/bench_fidelity.py --set held_aside --gaits line-01,line-10 --real-repeats 1 --out /tmp/f
-    python bench/bench_fidelity.py --from-json /tmp/fidelity/fidelity.json --out /tmp/again   # no walking
+    python -m bench.bench_fidelity --set all --real-repeats 5 --stand-in-repeats 5 --command-noise 0.001 --out /tmp/f
+    python -m bench.bench_fidelity --set all --real-repeats 3 --out /tmp/fidelity   # one undithered stand-in walk
+    python -m bench.bench_fidelity --set held_aside --gaits line-01,line-10 --real-repeats 1 --out /tmp/f
+    python -m bench.bench_fidelity --from-json /tmp/fidelity/fidelity.json --out /tmp/again   # no walking
 
 Exit status 0 whatever the figures (they are a measurement), 1 when no real server is found or a
 gait named in ``--gaits`` is not in the set.
@@ -30,9 +30,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from optimizer.episode.fidelity import (  # noqa: E402
+from bench.fidelity import (
     GAIT_SET_DIR,
     SET_NAMES,
     FidelityConfig,
@@ -47,14 +45,14 @@ from optimizer.episode.fidelity import (  # noqa: E402
     write_csv,
     write_tracks,
 )
-from optimizer.episode.runner import quiet_agent_logs  # noqa: E402
-from protocol.cli_values import non_negative, positive_float, positive_int  # noqa: E402
-from protocol.nao import ROBOT_TYPES  # noqa: E402
+from optimizer.episode.runner import quiet_agent_logs
+from protocol.cli_values import non_negative, positive_float, positive_int
+from protocol.nao import ROBOT_TYPES
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="python bench/bench_fidelity.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+        prog="python -m bench.bench_fidelity", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     p.add_argument(
         "--set",
@@ -153,7 +151,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         about = {
             "set": args.gait_set,
             "real_command": command,
-            "command_line": " ".join(["python", "bench/bench_fidelity.py", *(sys.argv[1:] if argv is None else argv)]),
+            "command_line": " ".join(["python -m bench.bench_fidelity", *(sys.argv[1:] if argv is None else argv)]),
         }
     summary = summarize(comparisons, config.targets)
     args.out.mkdir(parents=True, exist_ok=True)

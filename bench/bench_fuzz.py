@@ -1,7 +1,7 @@
 """Long fuzzing run of the stand-in server (``server_stub.fuzz``): mutated real messages on both
 ports, framing abuse, connect/reset storms, against a stub in sync mode and one in real time.
 
-    python bench/bench_fuzz.py [--messages 1000000] [--seed 0] [--realtime-share 0.2] [--fixtures DIR]
+    python -m bench.bench_fuzz [--messages 1000000] [--seed 0] [--realtime-share 0.2] [--fixtures DIR]
 
 Prints, per mode and in total: messages sent (and survived: a crash is counted when the stub
 exits or stops serving a well-behaved agent, and the stub is then restarted), sessions, reset
@@ -15,16 +15,14 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from server_stub import fuzz  # noqa: E402
+from server_stub import fuzz
 
 #: The real server's captured traffic, kept with the tests.
 FIXTURES = Path(__file__).resolve().parents[1] / "tests" / "data" / "rcssserver3d"
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m bench.bench_fuzz", description=__doc__.splitlines()[0])
     parser.add_argument("--messages", type=int, default=1_000_000)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(

@@ -12,9 +12,9 @@ included) and its play mode; this prints their percentiles
 and the cycles over 20 ms, for the players joining and for the play. Issue 28's target: on 2
 cores, 10 minutes of play with no cycle's physics over 20 ms.
 
-    python bench/bench_match.py                 # 10 minutes
-    python bench/bench_match.py --minutes 1 --players 4
-    python bench/bench_match.py --types 0,1,2,3,0,1,2,3,4,4,4   # every robot type, the toes on 9-11
+    python -m bench.bench_match                 # 10 minutes
+    python -m bench.bench_match --minutes 1 --players 4
+    python -m bench.bench_match --types 0,1,2,3,0,1,2,3,4,4,4   # every robot type, the toes on 9-11
 """
 
 from __future__ import annotations
@@ -33,12 +33,11 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from protocol.framing import encode_frame
+from protocol.monitor import MonitorReader
+from protocol.nao import PLAY_MODES
 
-from protocol.framing import encode_frame  # noqa: E402
-from protocol.monitor import MonitorReader  # noqa: E402
-from protocol.nao import PLAY_MODES  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def start_server(times: Path) -> tuple[subprocess.Popen, int, int]:
@@ -157,7 +156,9 @@ def percentiles(ms: np.ndarray) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m bench.bench_match", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--minutes", type=float, default=10.0, help="minutes of play in real time (default 10)")
     parser.add_argument("--players", type=int, default=11, help="agents a side (default 11)")
     parser.add_argument(

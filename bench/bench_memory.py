@@ -5,7 +5,7 @@ creates its robot (``scene``), ``init``s, beams, runs a few cycles and disconnec
 the robot. The stub runs as its own process (``python -m server_stub --sync``); its resident set
 is read from ``/proc/PID/status`` every ``--every`` episodes.
 
-    python bench/bench_memory.py [--episodes 10000] [--cycles 5] [--every 1000] [--repo DIR]
+    python -m bench.bench_memory [--episodes 10000] [--cycles 5] [--every 1000] [--repo DIR]
 
 ``--repo`` runs the stub of another checkout (e.g. an older commit unpacked with ``git archive``),
 to compare before and after.
@@ -66,7 +66,7 @@ def rss_mib(pid: int) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m bench.bench_memory", description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=10_000)
     parser.add_argument("--cycles", type=int, default=5, help="cycles each agent runs (default 5)")
     parser.add_argument("--every", type=int, default=1000, help="print RSS every N episodes")

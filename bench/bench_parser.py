@@ -1,6 +1,6 @@
 """Perception parser speed on every real perception, side by side with ``sexpdata``.
 
-Run: ``python bench/bench_parser.py`` (from the repository root). Prints per-message times:
+Run: ``python -m bench.bench_parser`` (from the repository root). Prints per-message times:
 typical = median over all messages, and the mean for messages with and without vision, for
 ``parse_perception`` alone and with its lazily read ``.vision`` used; the comparator is
 ``sexpdata.loads("(" + msg + ")")`` (a tree only, no typed result) on the same messages in the
@@ -10,18 +10,16 @@ same run. Also times the monitor reader on ``monitor_full_run.txt``.
 from __future__ import annotations
 
 import statistics
-import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
 
+import sexpdata
+
+from protocol.monitor import MonitorReader
+from protocol.perception import parse_perception
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-import sexpdata  # noqa: E402
-
-from protocol.monitor import MonitorReader  # noqa: E402
-from protocol.perception import parse_perception  # noqa: E402
 
 FIXTURES = ROOT / "tests" / "data" / "rcssserver3d"
 PATTERNS = ("agent_perceptions_*.txt", "walk_calibration/run*_perceptions.txt")

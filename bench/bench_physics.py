@@ -2,21 +2,17 @@
 
 Prints steps per second and the multiple of real time (one step = 0.02 s simulated) for:
 one standing NAO, one NAO walking the real calibration gait (the controller's own time is left
-out), and 11 and 22 NAOs standing spread over the field. Run: ``python bench/bench_physics.py``.
+out), and 11 and 22 NAOs standing spread over the field. Run: ``python -m bench.bench_physics``.
 """
 
 from __future__ import annotations
 
-import sys
 import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from protocol.nao import CYCLE  # noqa: E402
-from server_stub.physics import calibration_walk  # noqa: E402
-from server_stub.physics.robot import Robot  # noqa: E402
-from server_stub.physics.world import World  # noqa: E402
+from protocol.nao import CYCLE
+from server_stub.physics import calibration_walk
+from server_stub.physics.robot import Robot
+from server_stub.physics.world import World
 
 
 def read_all(robot: Robot) -> None:

@@ -8,8 +8,8 @@ the middle) and driven with random joint speeds, changed every 10 cycles, so the
 tangle. Prints the percentiles of the wall time of ``World.step`` per cycle and the most touching
 points a cycle had; issue 28's target is <= 20 ms a cycle for a pile of 6.
 
-    python bench/bench_pile.py                 # 6 robots, 250 cycles
-    python bench/bench_pile.py --robots 4 --cycles 500 --seed 2
+    python -m bench.bench_pile                 # 6 robots, 250 cycles
+    python -m bench.bench_pile --robots 4 --cycles 500 --seed 2
 """
 
 from __future__ import annotations
@@ -18,15 +18,12 @@ import argparse
 import math
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from protocol.nao import JOINTS  # noqa: E402
-from server_stub.kernels import warm_up  # noqa: E402
-from server_stub.physics.world import World  # noqa: E402
+from protocol.nao import JOINTS
+from server_stub.kernels import warm_up
+from server_stub.physics.world import World
 
 
 def pile(robots: int, cycles: int, spread: float, seed: int) -> tuple[np.ndarray, int, float]:
@@ -59,7 +56,9 @@ def pile(robots: int, cycles: int, spread: float, seed: int) -> tuple[np.ndarray
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m bench.bench_pile", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--robots", type=int, default=6, help="robots in the pile (default 6)")
     parser.add_argument("--cycles", type=int, default=250, help="cycles to step (default 250)")
     parser.add_argument("--spread", type=float, default=0.15, help="radius of the ring they are beamed on (m)")

@@ -12,7 +12,7 @@ rows' full walks, the refinement's and the checks'. So ms per episode here is wh
 job's workers pay per walk, and the figure to compare two versions of the in-process path by
 (alternate them in one sitting: the machine's speed drifts).
 
-    python bench/bench_rewalk.py runs/gala-.../ [--episodes 300] [--sample-seed 0]
+    python -m bench.bench_rewalk runs/gala-.../ [--episodes 300] [--sample-seed 0]
 
 Exit status 1 when an outcome differs from the log.
 """
@@ -27,13 +27,11 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from optimizer.episode.runner import EpisodeRunner  # noqa: E402
-from optimizer.evaluation.pool import EpisodeTask  # noqa: E402
-from optimizer.evaluation.record import EpisodeRecord, WalkKind  # noqa: E402
-from optimizer.run.folder import RunFolder, RunFolderError, read_episode_log  # noqa: E402
-from optimizer.run.run_settings import episode_config, run_family  # noqa: E402
+from optimizer.episode.runner import EpisodeRunner
+from optimizer.evaluation.pool import EpisodeTask
+from optimizer.evaluation.record import EpisodeRecord, WalkKind
+from optimizer.run.folder import RunFolder, RunFolderError, read_episode_log
+from optimizer.run.run_settings import episode_config, run_family
 
 #: What a re-walk may change: how long it took and which worker ran it.
 NOT_COMPARED = {"wall", "worker"}
@@ -78,7 +76,9 @@ def differences(logged: EpisodeRecord, again: EpisodeRecord) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m bench.bench_rewalk", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("run", type=Path, help="a run folder (manifest.json and episodes.jsonl)")
     parser.add_argument("--episodes", type=int, default=300, help="how many logged walks to re-walk")
     parser.add_argument("--sample-seed", type=int, default=0, help="seed of the sample drawn from the log")

@@ -9,7 +9,7 @@ Walking: the calibration walk (the shipped gait) and ``--gaits`` of the fidelity
 walks each on each server, walk k with seed k of a 0.001 rad/s command dither (as
 ``bench/bench_fidelity.py`` walks them), compared as it compares them.
 
-    RCSSSERVER3D=/opt/rcss/bin/rcss-sync python bench/bench_robot_type.py --type 4 --walks 5 \\
+    RCSSSERVER3D=/opt/rcss/bin/rcss-sync python -m bench.bench_robot_type --type 4 --walks 5 \\
         --gaits line-01,line-10 --out /tmp/type4 [--data tests/data/rcssserver3d/robot_type4.json]
 
 ``--data FILE`` writes the real server's figures (standing, the perception, each gait's walks)
@@ -29,10 +29,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from gait import DEFAULT_GAIT_PATH, load_gait  # noqa: E402
-from optimizer.episode.fidelity import (  # noqa: E402
+from bench.fidelity import (
     FidelityConfig,
     FidelityGait,
     GaitComparison,
@@ -44,15 +41,16 @@ from optimizer.episode.fidelity import (  # noqa: E402
     summarize,
     write_tracks,
 )
-from optimizer.episode.monitor_link import MonitorLink  # noqa: E402
-from optimizer.episode.real_server import RealServerProcess  # noqa: E402
-from optimizer.episode.runner import quiet_agent_logs  # noqa: E402
-from optimizer.episode.servers import ServerProcess, StubProcess  # noqa: E402
-from protocol import commands, trainer  # noqa: E402
-from protocol.cli_values import positive_int  # noqa: E402
-from protocol.framing import FrameDecoder, encode_frame  # noqa: E402
-from protocol.nao import ROBOT_TYPES  # noqa: E402
-from protocol.perception import parse_perception  # noqa: E402
+from gait import DEFAULT_GAIT_PATH, load_gait
+from optimizer.episode.monitor_link import MonitorLink
+from optimizer.episode.real_server import RealServerProcess
+from optimizer.episode.runner import quiet_agent_logs
+from optimizer.episode.servers import ServerProcess, StubProcess
+from protocol import commands, trainer
+from protocol.cli_values import positive_int
+from protocol.framing import FrameDecoder, encode_frame
+from protocol.nao import ROBOT_TYPES
+from protocol.perception import parse_perception
 
 #: Where the robot stands and for how long (cycles after the beam).
 STAND_AT = (-3.0, 2.0, 0.0)
@@ -140,7 +138,7 @@ def _standing_line(label: str, figures: dict) -> str:
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="python bench/bench_robot_type.py",
+        prog="python -m bench.bench_robot_type",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -26,7 +26,7 @@ turn in one process, to say whether sharing a world pays.
 The machine is shared: the load average is printed before and after, and CPU times are the figures
 the load moves least.
 
-    python bench/bench_speed_vs_real.py [--rounds 3] [--episodes 3] [--pool-episodes 10] [--cycles 300]
+    python -m bench.bench_speed_vs_real [--rounds 3] [--episodes 3] [--pool-episodes 10] [--cycles 300]
         [--skip-real] [--skip-pool] [--skip-robots]
 """
 
@@ -45,21 +45,19 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from agent.behaviour import WalkBehaviour  # noqa: E402
-from agent.config import AgentConfig  # noqa: E402
-from gait import TFS, Gait, load_gait  # noqa: E402
-from optimizer.episode import EpisodeConfig, EpisodeRunner  # noqa: E402
-from optimizer.episode.direct import DirectStub, _perception  # noqa: E402
-from optimizer.episode.real_server import RealServerProcess  # noqa: E402
-from optimizer.episode.runner import quiet_agent_logs  # noqa: E402
-from optimizer.episode.servers import ServerProcess, StubProcess  # noqa: E402
-from protocol import commands  # noqa: E402
-from protocol.cli_values import positive_int  # noqa: E402
-from protocol.nao import CYCLE  # noqa: E402
-from server_stub.config import ServerConfig  # noqa: E402
-from server_stub.simulation import Simulation  # noqa: E402
+from agent.behaviour import WalkBehaviour
+from agent.config import AgentConfig
+from gait import TFS, Gait, load_gait
+from optimizer.episode import EpisodeConfig, EpisodeRunner
+from optimizer.episode.direct import DirectStub, _perception
+from optimizer.episode.real_server import RealServerProcess
+from optimizer.episode.runner import quiet_agent_logs
+from optimizer.episode.servers import ServerProcess, StubProcess
+from protocol import commands
+from protocol.cli_values import positive_int
+from protocol.nao import CYCLE
+from server_stub.config import ServerConfig
+from server_stub.simulation import Simulation
 
 GAITS_DIR = Path(__file__).resolve().parent / "fidelity_gaits"
 WAYS = ("direct", "socket", "real")
@@ -241,7 +239,11 @@ def robots(count: int, cycles: int, shared: bool) -> tuple[float, float]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(
+        prog="python -m bench.bench_speed_vs_real",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--rounds", type=positive_int, default=3)
     p.add_argument("--episodes", type=positive_int, default=3, help="episodes per gait, way and round (default 3)")
     p.add_argument("--pool-episodes", type=positive_int, default=10, help="episodes per worker (default 10)")
@@ -253,7 +255,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     quiet_agent_logs()
     real_command = None
     if not args.skip_real:
-        from optimizer.episode.fidelity import real_server_or_none
+        from bench.fidelity import real_server_or_none
 
         real_command = real_server_or_none()
         if real_command is None:

@@ -6,7 +6,7 @@ settle cycle 8 or 10, or not at all, and walks about 3 m otherwise; a stand-in s
 (``tests/test_fidelity_start.py`` holds the real server's walks and checks the stand-in against
 them). One JSON line per re-beam cycle: distances, falls and walk times.
 
-    python bench/bench_start_timing.py [--real] [--repeats R]
+    python -m bench.bench_start_timing [--real] [--repeats R]
 """
 
 from __future__ import annotations
@@ -15,23 +15,20 @@ import argparse
 import dataclasses
 import json
 import sys
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from gait import load_gait  # noqa: E402
-from optimizer.episode import EpisodeConfig, EpisodeRunner  # noqa: E402
-from optimizer.episode.fidelity import real_server_or_none  # noqa: E402
-from optimizer.episode.real_server import RealServerProcess  # noqa: E402
-from optimizer.episode.runner import quiet_agent_logs  # noqa: E402
-from protocol.cli_values import positive_int  # noqa: E402
+from bench.fidelity import real_server_or_none
+from gait import load_gait
+from optimizer.episode import EpisodeConfig, EpisodeRunner
+from optimizer.episode.real_server import RealServerProcess
+from optimizer.episode.runner import quiet_agent_logs
+from protocol.cli_values import positive_int
 
 #: Settle cycles of the repeated beam to try (None: no repeated beam).
 CASES = (8, 10, 11, 12, 13, 14, 16, None)
 
 
 def main() -> int:
-    p = argparse.ArgumentParser(prog="python bench/bench_start_timing.py", description=__doc__)
+    p = argparse.ArgumentParser(prog="python -m bench.bench_start_timing", description=__doc__)
     p.add_argument("--real", action="store_true", help="on a real server (RCSSSERVER3D, then PATH)")
     p.add_argument("--repeats", type=positive_int, default=1, help="walks per case (default 1)")
     args = p.parse_args()

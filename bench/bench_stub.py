@@ -7,7 +7,7 @@
 3. 11 and 22 agents (separate ``python -m agent`` processes) on one stub.
 
 Targets (issue): >= 80x real time for 1, and sockets + protocol + agent costing <= 15% of the raw
-rate. Run: ``python bench/bench_stub.py [--seconds 60]``.
+rate. Run: ``python -m bench.bench_stub [--seconds 60]``.
 """
 
 from __future__ import annotations
@@ -22,11 +22,10 @@ import sys
 import time
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
+from agent import AgentConfig, NaoAgent
+from protocol.nao import CYCLE
 
-from agent import AgentConfig, NaoAgent  # noqa: E402
-from protocol.nao import CYCLE  # noqa: E402
+REPO = Path(__file__).resolve().parents[1]
 
 
 def start_stub() -> tuple[subprocess.Popen, int]:
@@ -100,7 +99,7 @@ def many_agents(port: int, count: int, seconds: float) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser()
+    parser = argparse.ArgumentParser(prog="python -m bench.bench_stub")
     parser.add_argument("--seconds", type=float, default=60.0)
     args = parser.parse_args()
     logging.disable(logging.WARNING)

@@ -1,25 +1,21 @@
 """Cost of the stub's wire text: perception, vision (See) and monitor messages.
 
-Run: ``python bench/bench_stub_formats.py`` from the repository. Prints microseconds per call.
+Run: ``python -m bench.bench_stub_formats`` from the repository. Prints microseconds per call.
 """
 
 from __future__ import annotations
 
 import math
-import sys
 import timeit
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from protocol.nao import JOINTS  # noqa: E402
-from server_stub.physics import nao_model  # noqa: E402
-from server_stub.physics.rotations import body_poses  # noqa: E402
-from server_stub.sensors.monitor_scene import GameHeader, MonitorScene, RobotView  # noqa: E402
-from server_stub.sensors.perception_text import GameStateText, format_perception  # noqa: E402
-from server_stub.sensors.vision import SeenRobot, VisionSensor  # noqa: E402
+from protocol.nao import JOINTS
+from server_stub.physics import nao_model
+from server_stub.physics.rotations import body_poses
+from server_stub.sensors.monitor_scene import GameHeader, MonitorScene, RobotView
+from server_stub.sensors.perception_text import GameStateText, format_perception
+from server_stub.sensors.vision import SeenRobot, VisionSensor
 
 _PARTS = nao_model.part_names()
 

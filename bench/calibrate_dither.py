@@ -36,10 +36,10 @@ stand-in rounds alike), so a dither below 1e-4 rad/s moves a command only where 
 a rounding boundary, about amplitude / 2e-4 of the commands: a sparse set of 1e-4 rad/s kicks
 (1e-8 rad/s: about one in a 15-s walk of 22 joints) rather than a smaller perturbation.
 
-    python bench/calibrate_dither.py --out runs/calib/calib.json
-    python bench/calibrate_dither.py --gaits 4 --repeats 4 --amplitudes 0 1e-3 --out /tmp/calib.json
-    python bench/calibrate_dither.py --real-from runs/calib/calib.json --amplitudes 1e-8 --out /tmp/more.json
-    python bench/calibrate_dither.py --from-json runs/calib/calib.json   # figures again, no walking
+    python -m bench.calibrate_dither --out runs/calib/calib.json
+    python -m bench.calibrate_dither --gaits 4 --repeats 4 --amplitudes 0 1e-3 --out /tmp/calib.json
+    python -m bench.calibrate_dither --real-from runs/calib/calib.json --amplitudes 1e-8 --out /tmp/more.json
+    python -m bench.calibrate_dither --from-json runs/calib/calib.json   # figures again, no walking
 
 Exit status 0 whatever the figures (they are a measurement), 1 when no real server is found.
 """
@@ -60,10 +60,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from optimizer.episode import EpisodeConfig, EpisodeRunner  # noqa: E402
-from optimizer.episode.fidelity import (  # noqa: E402
+from bench.fidelity import (
     FAST_REAL,
     SET_NAMES,
     FidelityGait,
@@ -72,9 +69,10 @@ from optimizer.episode.fidelity import (  # noqa: E402
     real_server_or_none,
     walk_gaits,
 )
-from optimizer.episode.runner import quiet_agent_logs  # noqa: E402
-from optimizer.run.folder import write_json  # noqa: E402
-from protocol.cli_values import count, non_negative, positive_float, positive_int  # noqa: E402
+from optimizer.episode import EpisodeConfig, EpisodeRunner
+from optimizer.episode.runner import quiet_agent_logs
+from optimizer.run.folder import write_json
+from protocol.cli_values import count, non_negative, positive_float, positive_int
 
 AMPLITUDES = (0.0, 1e-5, 1e-4, 3e-4, 1e-3, 3e-3)
 #: a std below this (m) counts as this: the distances are read to ~0.1 mm, and a gait that walks
@@ -426,7 +424,7 @@ def figures(document: dict[str, Any]) -> dict[str, Any]:
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="python bench/calibrate_dither.py",
+        prog="python -m bench.calibrate_dither",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -535,9 +533,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.from_json is not None:
         document = figures(json.loads(args.from_json.read_text()))
     else:
-        document = walk(
-            args, " ".join(["python", "bench/calibrate_dither.py", *(sys.argv[1:] if argv is None else argv)])
-        )
+        document = walk(args, " ".join(["python -m bench.calibrate_dither", *(sys.argv[1:] if argv is None else argv)]))
         if document is None:
             return 1
         document["seconds"]["total"] = time.monotonic() - started

@@ -6,8 +6,8 @@ an empty cache of its own, records numba's compile events, and prints each part'
 compiles that took longest: with their callees (inclusive) and without (exclusive), and for a
 compile of numba's own (its error messages, say) the kernel of ours that asked for it.
 
-    python bench/compile_profile.py                 # the walk's parts
-    python bench/compile_profile.py robot sensors   # the parts named
+    python -m bench.compile_profile                 # the walk's parts
+    python -m bench.compile_profile robot sensors   # the parts named
 """
 
 from __future__ import annotations
@@ -17,12 +17,10 @@ import os
 import sys
 import tempfile
 import time
+from typing import TYPE_CHECKING
 
-os.environ["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="gala-numba-")  # cold: before numba is imported
-
-from numba.core import event  # noqa: E402
-
-from server_stub import kernels  # noqa: E402
+if TYPE_CHECKING:
+    from numba.core import event
 
 
 def compiles(recorder: event.RecordingListener) -> list[tuple[float, float, str]]:
@@ -42,7 +40,17 @@ def compiles(recorder: event.RecordingListener) -> list[tuple[float, float, str]
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    # cold: an empty cache of this run's own, set before numba is imported (here, not at the top)
+    os.environ["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="gala-numba-")
+    from numba.core import event
+
+    from server_stub import kernels
+
+    parser = argparse.ArgumentParser(
+        prog="python -m bench.compile_profile",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("parts", nargs="*", help=f"parts to compile, of {', '.join(kernels.PARTS)} (default: a walk's)")
     parser.add_argument("--top", type=int, default=25, help="how many compiles to list (default 25)")
     args = parser.parse_args(argv)

@@ -8,25 +8,22 @@ same starts on both), the stand-in with the calibrated command dither (walk k wi
 real server undithered (its own spread). Prints, per case and server: falls, mean distance and
 speed, the shortest walk, median |sideways drift| and |heading change|.
 
-    python bench/family_ablation.py GAIT.json [--repeats 10] [--no-real]
+    python -m bench.family_ablation GAIT.json [--repeats 10] [--no-real]
 """
 
 from __future__ import annotations
 
 import argparse
 import statistics
-import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from gait import TFS_PLUS, Gait, GaitFileError, load_gait  # noqa: E402
-from optimizer.episode import CALIBRATED_COMMAND_NOISE, DEFAULT_START, EpisodeConfig, EpisodeRunner  # noqa: E402
-from optimizer.episode.fidelity import real_server_or_none  # noqa: E402
-from optimizer.episode.real_server import RealServerProcess  # noqa: E402
-from optimizer.episode.runner import quiet_agent_logs  # noqa: E402
-from optimizer.run.robust import jittered_starts  # noqa: E402
-from protocol.cli_values import positive_int  # noqa: E402
+from bench.fidelity import real_server_or_none
+from gait import TFS_PLUS, Gait, GaitFileError, load_gait
+from optimizer.episode import CALIBRATED_COMMAND_NOISE, DEFAULT_START, EpisodeConfig, EpisodeRunner
+from optimizer.episode.real_server import RealServerProcess
+from optimizer.episode.runner import quiet_agent_logs
+from optimizer.run.robust import jittered_starts
+from protocol.cli_values import positive_int
 
 #: The additions' genes, by what they do.
 ADDITIONS: dict[str, tuple[str, ...]] = {"ankle": ("c_a", "P"), "sway": ("S",), "arms": ("R",)}
@@ -65,7 +62,11 @@ def line(case: str, server: str, walks: list, walk_time: float) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(
+        prog="python -m bench.family_ablation",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("gait", type=Path, help="a tfs-plus gait file")
     p.add_argument("--repeats", type=positive_int, default=10)
     p.add_argument("--no-real", action="store_true", help="the stand-in only")

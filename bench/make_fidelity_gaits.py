@@ -20,7 +20,7 @@ within each family, so each family is in both. Everything is seeded (``--seed``)
 the same seed and run folders draws the same candidates (the real server's screen walks vary a
 few per cent, so a gait near a threshold can go either way).
 
-    python bench/make_fidelity_gaits.py --real-run runs/real-pc0.8 --stub-run runs/stub-pc0.8
+    python -m bench.make_fidelity_gaits --real-run runs/real-pc0.8 --stub-run runs/stub-pc0.8
 """
 
 from __future__ import annotations
@@ -32,11 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from gait import GENE_BOUNDS, GENE_NAMES, load_gait, repair_genes  # noqa: E402
-from optimizer.episode import EpisodeRunner  # noqa: E402
-from optimizer.episode.fidelity import (  # noqa: E402
+from bench.fidelity import (
     FAST_REAL,
     GAIT_SET_DIR,
     FidelityConfig,
@@ -47,9 +43,11 @@ from optimizer.episode.fidelity import (  # noqa: E402
     save_gait_set,
     walk_gaits,
 )
-from optimizer.episode.real_server import RealServerProcess  # noqa: E402
-from optimizer.episode.runner import quiet_agent_logs  # noqa: E402
-from optimizer.run.folder import EPISODES, read_episode_log  # noqa: E402
+from gait import GENE_BOUNDS, GENE_NAMES, load_gait, repair_genes
+from optimizer.episode import EpisodeRunner
+from optimizer.episode.real_server import RealServerProcess
+from optimizer.episode.runner import quiet_agent_logs
+from optimizer.run.folder import EPISODES, read_episode_log
 
 #: Each gene's range: distances in gene space are in these units, so no gene dominates.
 _SPAN = GENE_BOUNDS[:, 1] - GENE_BOUNDS[:, 0]
@@ -115,7 +113,11 @@ def _split(
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(
+        prog="python -m bench.make_fidelity_gaits",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--seed", type=int, default=15)
     p.add_argument("--real-run", type=Path, required=True, help="a GALA run folder walked on real servers")
     p.add_argument("--stub-run", type=Path, required=True, help="a GALA run folder walked on the stand-in")
@@ -237,7 +239,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     training, held = _split(kept, args.seed, args.training_share)
     about = {
-        "made_by": "python bench/make_fidelity_gaits.py " + " ".join(sys.argv[1:] if argv is None else argv),
+        "made_by": "python -m bench.make_fidelity_gaits " + " ".join(sys.argv[1:] if argv is None else argv),
         "seed": args.seed,
         "gene_names": list(GENE_NAMES),
         "real_server": command,

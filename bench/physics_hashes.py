@@ -6,10 +6,10 @@ torso position and rotation, joint angles, gyro, accelerometer, foot pressure an
 (with their solved forces), the ball's position, and each episode's score. Equal hashes before
 and after a redesign mean the same numbers, bit for bit, at every step.
 
-    python bench/physics_hashes.py --write bench/physics_hashes.json   # record (before a change)
-    python bench/physics_hashes.py --check bench/physics_hashes.json   # compare (after it)
-    python bench/physics_hashes.py --only walker,ball                  # some scenarios
-    python bench/physics_hashes.py --without-ball --write F            # robots and scores only
+    python -m bench.physics_hashes --write bench/physics_hashes.json   # record (before a change)
+    python -m bench.physics_hashes --check bench/physics_hashes.json   # compare (after it)
+    python -m bench.physics_hashes --only walker,ball                  # some scenarios
+    python -m bench.physics_hashes --without-ball --write F            # robots and scores only
 
 Scenarios: the shipped walker, the fast gait (``gait/walks/fastest.json``), the ball (rolled,
 bounced off a post, walked into), two robots (beamed into each other, walking into each other),
@@ -33,15 +33,14 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from bench.fidelity import gait_set
+from gait import load_gait
+from optimizer.episode import EpisodeConfig, EpisodeRunner
+from protocol.nao import JOINTS
+from server_stub.physics import calibration_walk
+from server_stub.physics.world import World
 
-from gait import load_gait  # noqa: E402
-from optimizer.episode import EpisodeConfig, EpisodeRunner  # noqa: E402
-from optimizer.episode.fidelity import gait_set  # noqa: E402
-from protocol.nao import JOINTS  # noqa: E402
-from server_stub.physics import calibration_walk  # noqa: E402
-from server_stub.physics.world import World  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 #: Two starts of the fidelity walks: the default one and one moved and turned.
 SHIPPED = ROOT / "gait" / "default_gait.json"
@@ -243,7 +242,9 @@ SCENARIOS: dict[str, Callable[[Digest], None]] = {
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m bench.physics_hashes", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--write", type=Path, help="record the hashes in this JSON file")
     parser.add_argument("--check", type=Path, help="compare with the hashes in this JSON file; exit 1 on a difference")
     parser.add_argument("--only", default="", help="comma-separated scenarios (default: all)")

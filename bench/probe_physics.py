@@ -1,8 +1,8 @@
 """The probes behind the choices in ``server_stub/config.py``: how a physics setting walks and
 whether it keeps a flailing robot on the ground.
 
-    python bench/probe_physics.py walk [--seed 7] [name=value ...]
-    python bench/probe_physics.py flail [--seed 0] [--sigma 3] [name=value ...]
+    python -m bench.probe_physics walk [--seed 7] [name=value ...]
+    python -m bench.probe_physics flail [--seed 0] [--sigma 3] [name=value ...]
 
 ``walk``: the real calibration gait (``server_stub.physics.calibration_walk``) from 24 perturbed starts
 (repeated beam at cycle 10-14 or none, beams 0 or 1 step late, heading +-1 deg, anywhere on the
@@ -21,19 +21,16 @@ import argparse
 import dataclasses
 import json
 import random
-import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from protocol.cli_values import positive_float, whole  # noqa: E402
-from protocol.nao import JOINTS  # noqa: E402
-from server_stub.config import PhysicsConfig  # noqa: E402
-from server_stub.physics import calibration_walk  # noqa: E402
-from server_stub.physics.world import World  # noqa: E402
+from protocol.cli_values import positive_float, whole
+from protocol.nao import JOINTS
+from server_stub.config import PhysicsConfig
+from server_stub.physics import calibration_walk
+from server_stub.physics.world import World
 
 RUNS = 24
 #: The real server's walks from the probe's starts (seeds 7, 11, 12), recorded by a probe client.
@@ -102,7 +99,9 @@ def _flail(job: tuple[dict, int, float]) -> float:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(
+        prog="python -m bench.probe_physics", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("probe", choices=("walk", "flail"))
     p.add_argument("--seed", type=whole, default=None, help="walk: start draw (7); flail: first robot's seed (0)")
     p.add_argument("--sigma", type=positive_float, default=3.0, help="flail: spread of the random motor speeds, rad/s")

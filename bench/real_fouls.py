@@ -11,9 +11,9 @@ event per player and type (a new one after 0.5 s without a record) and prints th
 ``--stand-in`` the same game is played on the stand-in, which has the "incapable" foul only
 (docs/robot_and_server.md section 8).
 
-    RCSSSERVER3D=/opt/rcss/bin/rcss-sync python bench/real_fouls.py            # 4 a side, 60 s
-    RCSSSERVER3D=/opt/rcss/bin/rcss-sync python bench/real_fouls.py --players 2 --seconds 20
-    python bench/real_fouls.py --stand-in                                      # the same game on the stand-in
+    RCSSSERVER3D=/opt/rcss/bin/rcss-sync python -m bench.real_fouls            # 4 a side, 60 s
+    RCSSSERVER3D=/opt/rcss/bin/rcss-sync python -m bench.real_fouls --players 2 --seconds 20
+    python -m bench.real_fouls --stand-in                                      # the same game on the stand-in
 """
 
 from __future__ import annotations
@@ -27,14 +27,12 @@ import sys
 import time
 from pathlib import Path
 
+from bench.bench_match import monitor_frames, play_when_joined, start_players
+from bench.record_referee import foul_runs
+from optimizer.episode.real_server import find_rcssserver3d, free_port, kill_sim
+from optimizer.episode.servers import ServerAddress
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from bench_match import monitor_frames, play_when_joined, start_players  # noqa: E402
-from record_referee import foul_runs  # noqa: E402
-
-from optimizer.episode.real_server import find_rcssserver3d, free_port, kill_sim  # noqa: E402
-from optimizer.episode.servers import ServerAddress  # noqa: E402
 
 #: SimSpark 0.7.3's EFoulType, in order (soccerruleaspect.h).
 FOULS = (
@@ -70,7 +68,9 @@ def fouls(messages, seconds: float) -> tuple[list[tuple[float, str, int, int]], 
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m bench.real_fouls", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--players", type=int, default=4, help="agents a side (default 4)")
     parser.add_argument("--seconds", type=float, default=60.0, help="game seconds of play (default 60)")
     parser.add_argument("--stand-in", action="store_true", help="play on the stand-in (sync mode) instead")

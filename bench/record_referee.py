@@ -3,9 +3,9 @@ time it began, the score, where the ball was left and where the first robot stoo
 agent's perceptions report them. Recorded on a real rcssserver3d 0.7.3, the files in
 ``tests/data/referee/`` are what ``tests/test_referee_scenarios.py`` replays on the stand-in.
 
-    python bench/record_referee.py                      # every scenario, real server -> tests/data/referee/
-    python bench/record_referee.py --only kick_in,say   # some of them
-    python bench/record_referee.py --stub               # on the stand-in, printed beside the recording
+    python -m bench.record_referee                      # every scenario, real server -> tests/data/referee/
+    python -m bench.record_referee --only kick_in,say   # some of them
+    python -m bench.record_referee --stub               # on the stand-in, printed beside the recording
 
 A scenario is data: its robots (team, number, beam, the cycle it joins at), the trainer's commands
 and the robots' ``say`` messages and beams at given cycles, and how many cycles it runs. Cycle k is the agents'
@@ -43,13 +43,12 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from optimizer.episode.real_server import RealServerProcess, find_rcssserver3d
+from optimizer.episode.servers import ServerAddress
+from protocol.framing import FrameDecoder, encode_frame
+from protocol.perception import Perception, parse_perception
 
-from optimizer.episode.real_server import RealServerProcess, find_rcssserver3d  # noqa: E402
-from optimizer.episode.servers import ServerAddress  # noqa: E402
-from protocol.framing import FrameDecoder, encode_frame  # noqa: E402
-from protocol.perception import Perception, parse_perception  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 DATA = ROOT / "tests" / "data" / "referee"
 #: Cycle at which every robot beams (after ``init`` at its first perception).
@@ -456,7 +455,7 @@ def table(recording: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m bench.record_referee", description=__doc__.split("\n\n")[0])
     parser.add_argument("--only", help="comma-separated scenario names")
     parser.add_argument("--stub", action="store_true", help="run on the stand-in and print, beside the recordings")
     args = parser.parse_args(argv)

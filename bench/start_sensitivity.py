@@ -6,23 +6,19 @@ Moves are fractions of the gene's box (default -2% .. +2%). One walk per case fr
 start, the stand-in with the calibrated command dither (seed 1000), the real server undithered.
 Prints, per gene, each move's distance (m) and, after an ``F``, the seconds it walked before it fell.
 
-    python bench/start_sensitivity.py GAIT.json [--moves -0.02 -0.01 0.01 0.02] [--real]
+    python -m bench.start_sensitivity GAIT.json [--moves -0.02 -0.01 0.01 0.02] [--real]
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 from dataclasses import replace
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from gait import TFS, TFS_START, Gait, GaitFileError, load_gait  # noqa: E402
-from optimizer.episode import CALIBRATED_COMMAND_NOISE, EpisodeConfig, EpisodeResult, EpisodeRunner  # noqa: E402
-from optimizer.episode.fidelity import real_server_or_none  # noqa: E402
-from optimizer.episode.real_server import RealServerProcess  # noqa: E402
-from optimizer.episode.runner import quiet_agent_logs  # noqa: E402
+from bench.fidelity import real_server_or_none
+from gait import TFS, TFS_START, Gait, GaitFileError, load_gait
+from optimizer.episode import CALIBRATED_COMMAND_NOISE, EpisodeConfig, EpisodeResult, EpisodeRunner
+from optimizer.episode.real_server import RealServerProcess
+from optimizer.episode.runner import quiet_agent_logs
 
 MOVES = (-0.02, -0.01, -0.005, -0.002, 0.002, 0.005, 0.01, 0.02)
 
@@ -40,7 +36,11 @@ def shown(result: EpisodeResult) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(
+        prog="python -m bench.start_sensitivity",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("gait", help="a TFS gait file")
     p.add_argument("--moves", type=float, nargs="+", default=list(MOVES), help="fractions of each gene's box")
     p.add_argument("--real", action="store_true", help="on a real rcssserver3d ($RCSSSERVER3D)")

@@ -1,5 +1,5 @@
-"""The fidelity benchmark (``bench/bench_fidelity.py``): its statistics on data with known answers, the stored gait
-sets, its output files, the episode trace it reads, and a small end-to-end gate on a real server."""
+"""The fidelity benchmark (``python -m bench.bench_fidelity``): its statistics on data with known answers, the
+stored gait sets, its output files, the episode trace it reads, and a small end-to-end gate on a real server."""
 
 from __future__ import annotations
 
@@ -16,9 +16,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from gait import GENE_BOUNDS, GENE_NAMES, load_gait, repair_genes
-from optimizer.episode import EpisodeConfig, EpisodeRunner, TracePoint, fidelity
-from optimizer.episode.fidelity import (
+from bench import fidelity
+from bench.fidelity import (
     CSV_COLUMNS,
     FAST_REAL,
     Draws,
@@ -34,6 +33,8 @@ from optimizer.episode.fidelity import (
     summarize,
     turn_factor,
 )
+from gait import GENE_BOUNDS, GENE_NAMES, load_gait, repair_genes
+from optimizer.episode import EpisodeConfig, EpisodeRunner, TracePoint
 from optimizer.episode.scoring import heading_change, sideways_drift
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -343,7 +344,7 @@ def test_the_fast_real_walk_walks_on_the_stand_in() -> None:
 #: a stand-in find that falls on the real server, a fast walk of the GALA row on real servers.
 GATE_GAITS = ("line-00", "line-05", "line-10", "found-stub0", "centre-realrun0")
 #: Walks per gait on each server, walk k with seed k of a 0.001 rad/s command dither: a walk is one
-#: draw of a chaotic process, so each server is judged by its draws (``optimizer.episode.fidelity``).
+#: draw of a chaotic process, so each server is judged by its draws (``bench.fidelity``).
 #: A gait's median turn and fall verdict need about 20 of them to settle. With 10, centre-realrun0
 #: (a coin-flip gait: it fell in 6 of 20 walks on the stand-in, 9 of 20 on the real server)
 #: fell in 2 of the stand-in's first 10 and 6 of the real server's, and the real server's median
@@ -357,7 +358,8 @@ def gate(rcssserver3d: str, tmp_path_factory: pytest.TempPathFactory) -> Path:
     done = subprocess.run(
         [
             sys.executable,
-            str(ROOT / "bench" / "bench_fidelity.py"),
+            "-m",
+            "bench.bench_fidelity",
             "--set",
             "all",
             "--gaits",

@@ -1,17 +1,17 @@
 """``say`` and ``hear`` as rcssserver3d 0.7.3 relays them (docs/robot_and_server.md section 8):
 the stand-in's rules one by one, in process, and the ``say`` scenario recorded on the real server
-(``tests/data/referee/say.json``, ``bench/record_referee.py --only say``) played again on the
+(``tests/data/referee/say.json``, ``python -m bench.record_referee --only say``) played again on the
 stand-in over its sockets: the same lines, at the same cycles, from the same directions."""
 
 from __future__ import annotations
 
 import json
-import sys
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 import pytest
 
+from bench import record_referee
 from protocol.nao import LAYOUT
 from protocol.perception import parse_perception
 from server_stub.agent_state import AgentState
@@ -21,9 +21,6 @@ from server_stub.sensors.sensing import hear_direction, within_hearing
 from server_stub.simulation import Simulation
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "bench"))
-
-import record_referee  # noqa: E402
 
 RECORDED = json.loads((ROOT / "tests" / "data" / "referee" / "say.json").read_text())
 _SAY = next(s for s in record_referee.SCENARIOS if s.name == "say")

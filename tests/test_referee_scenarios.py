@@ -7,15 +7,13 @@ real one was put. One scenario also runs live on a real server where one is conf
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "bench"))
+from bench import record_referee
 
-import record_referee  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 DATA = ROOT / "tests" / "data" / "referee"
 SCENARIOS = {s.name: s for s in record_referee.SCENARIOS}

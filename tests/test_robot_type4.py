@@ -1,7 +1,7 @@
 """Robot type 4, the toes (``nao_hetero.rsg 4``), against the real server's files and figures.
 
 The real server's figures are in ``tests/data/rcssserver3d/robot_type4.json`` (written by
-``bench/bench_robot_type.py --data``): a standing type-4 robot's torso height, its FRPs and one
+``python -m bench.bench_robot_type --data``): a standing type-4 robot's torso height, its FRPs and one
 whole perception, and every walk of the calibration walk and ten fidelity gaits, 5 dithered walks
 each. The last tests walk a real server where one is configured (``RCSSSERVER3D``).
 """

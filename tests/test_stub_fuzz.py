@@ -2,7 +2,7 @@
 real time: mutated captures of the real server's traffic on both ports, framing abuse, clients
 leaving by FIN, RST or mid-frame, and connect/reset storms. The stub must never stop serving a
 well-behaved agent, and its log must stay small, short-lined and free of control bytes. The long
-run is ``bench/bench_fuzz.py``."""
+run is ``python -m bench.bench_fuzz``."""
 
 from __future__ import annotations
 

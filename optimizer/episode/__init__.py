@@ -1,7 +1,7 @@
 """One episode (paper eq. 9) on one server: its settings (``config``), the runner (``runner``),
 where it is scored (``scoring``), the trainer's monitor link (``monitor_link``), the servers it
-runs on (``servers``: the embedded stand-in; ``real_server``: a real rcssserver3d), and the
-stand-in measured against the real server (``fidelity``).
+runs on (``servers``: the embedded stand-in; ``real_server``: a real rcssserver3d). The stand-in
+measured against the real server is a benchmark of the source checkout (``bench.fidelity``).
 
 ``python -m optimizer.episode`` walks one gait from the command line (``optimizer.cli.episode``).
 """

@@ -17,7 +17,7 @@ Over a set it reports (``summarize``): the Spearman rank correlation of the mean
 often fall or no fall agrees (a server's verdict is the majority of its walks), the median and
 worst |1 - stand-in/real mean distance| over the gaits that walk >= 3 m on the real server without
 a fall, and how far the turns are apart (each server's median |heading change|, as a factor, with
-a few degrees of slack so that two straight walks compare as equal). ``bench/bench_fidelity.py``
+a few degrees of slack so that two straight walks compare as equal). ``python -m bench.bench_fidelity``
 is the command; the gait sets live in ``bench/fidelity_gaits/`` (made by
 ``bench/make_fidelity_gaits.py``).
 """
@@ -50,8 +50,8 @@ from optimizer.episode import (
 from optimizer.episode.scoring import heading_change, sideways_drift
 from optimizer.run.folder import write_json
 
-#: Where the stored gait sets are (a source checkout: they are data of the benchmark, not of the package).
-GAIT_SET_DIR = Path(__file__).resolve().parents[2] / "bench" / "fidelity_gaits"
+#: Where the stored gait sets are: beside this module, data of the benchmark.
+GAIT_SET_DIR = Path(__file__).resolve().parent / "fidelity_gaits"
 #: The stored sets; ``all`` is their union.
 SET_NAMES: tuple[str, ...] = ("training", "held_aside")
 GAIT_SET_FORMAT = "fidelity-gaits/1"
