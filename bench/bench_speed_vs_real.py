@@ -2,7 +2,7 @@
 
 Three ways to run one optimizer episode (``EpisodeRunner``, 15-s walks from (-5, 0, 0)):
 
-- ``direct``: the embedded stand-in in the worker's process, no sockets (the optimizer's default);
+- ``inprocess``: the embedded stand-in in the worker's process, no sockets (the optimizer's default);
 - ``socket``: the stand-in as a ``python -m server_stub`` process, the agent over TCP;
 - ``real``: a real rcssserver3d (``RCSSSERVER3D``, then PATH; sync profile), the agent over TCP.
 
@@ -15,11 +15,11 @@ The ratios are per episode of the same gait (the stand-in's fast walk falls afte
 real server's walks 15 s, so for that gait it also gives the ratio of x real time).
 
 **Two workers.** ``--pool-episodes`` shipped-gait episodes on one worker, then the same number on
-each of two workers at once (processes, one runner each), for ``direct`` and ``real``: episodes
+each of two workers at once (processes, one runner each), for ``inprocess`` and ``real``: episodes
 per wall second and the 2-vs-1 scaling.
 
 **Robots.** The stand-in's cycle with 1, 2, 11 and 22 walking robots in one world (teams of at most
-11, placed 3 m apart, each driven by its own ``WalkBehaviour`` as in a direct episode): CPU per cycle,
+11, placed 3 m apart, each driven by its own ``WalkBehaviour`` as in an in-process episode): CPU per cycle,
 its physics step alone, and per robot; then the same robots each in a world of its own, stepped in
 turn in one process, to say whether sharing a world pays.
 
@@ -49,7 +49,7 @@ from agent.behaviour import WalkBehaviour
 from agent.config import AgentConfig
 from gait import TFS, Gait, load_gait
 from optimizer.episode import EpisodeConfig, EpisodeRunner
-from optimizer.episode.direct import DirectStub, _perception
+from optimizer.episode.inprocess import InProcessStub, _perception
 from optimizer.episode.real_server import RealServerProcess
 from optimizer.episode.runner import quiet_agent_logs
 from optimizer.episode.servers import ServerProcess, StubProcess
@@ -60,7 +60,7 @@ from server_stub.config import ServerConfig
 from server_stub.simulation import Simulation
 
 GAITS_DIR = Path(__file__).resolve().parent / "fidelity_gaits"
-WAYS = ("direct", "socket", "real")
+WAYS = ("inprocess", "socket", "real")
 
 
 def fast_gait() -> Gait:
@@ -97,8 +97,8 @@ class Tally:
 
 
 def _runner(way: str, real_command: str | None) -> tuple[EpisodeRunner, ServerProcess | None]:
-    if way == "direct":
-        return EpisodeRunner(EpisodeConfig(embedded_stub="direct")), None
+    if way == "inprocess":
+        return EpisodeRunner(EpisodeConfig(embedded_stub="inprocess")), None
     process: ServerProcess = StubProcess() if way == "socket" else RealServerProcess(real_command or "")
     return EpisodeRunner(EpisodeConfig(), process), process
 
@@ -147,7 +147,7 @@ def _pool_worker(way: str, real_command: str | None, episodes: int, out, go) -> 
 def workers(way: str, count: int, episodes: int, real_command: str | None) -> tuple[float, float]:
     """Episodes per wall second of ``count`` workers walking ``episodes`` each: all warmed up
     (server started, one walk), then started together; the slowest worker's time counts. And the
-    workers' own CPU seconds per episode (for ``direct`` the whole episode's CPU): if it does not
+    workers' own CPU seconds per episode (for ``inprocess`` the whole episode's CPU): if it does not
     grow with two workers, two free cores give two workers twice the rate."""
     context = multiprocessing.get_context("spawn")
     queue, go = context.Queue(), context.Event()
@@ -189,7 +189,7 @@ def _walkers(sim: Simulation, count: int, first: int = 0) -> list[Walker]:
 
 
 def _cycle(sims: Sequence[Simulation], walkers: Sequence[Walker], physics: list[float]) -> None:
-    """One cycle of every world as a direct episode runs it: commands, step, perceptions, replies."""
+    """One cycle of every world as an in-process episode runs it: commands, step, perceptions, replies."""
     for walker in walkers:
         for message in walker.inbox:
             if isinstance(message, bytes):
@@ -208,7 +208,7 @@ def _cycle(sims: Sequence[Simulation], walkers: Sequence[Walker], physics: list[
         if delivered is not None:
             walker.inbox = [
                 np.array(list(m.values())) if isinstance(m, dict) else m
-                for m in DirectStub._reply(walker.behaviour, delivered)
+                for m in InProcessStub._reply(walker.behaviour, delivered)
             ]
 
 
@@ -278,7 +278,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if real_command:
         for name in gaits:
             real = tallies["real", name]
-            for way in ("direct", "socket"):
+            for way in ("inprocess", "socket"):
                 mine = tallies[way, name]
                 print(
                     f"  {way} vs real, {name}: {real.wall() / mine.wall():5.2f}x per episode (wall), "
@@ -287,7 +287,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 )
     if not args.skip_pool:
         print("\nworkers (shipped gait, one process per worker):")
-        for way in [w for w in ("direct", "real") if w in ways]:
+        for way in [w for w in ("inprocess", "real") if w in ways]:
             one, one_cpu = workers(way, 1, args.pool_episodes, real_command)
             two, two_cpu = workers(way, 2, args.pool_episodes, real_command)
             print(
