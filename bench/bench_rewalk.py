@@ -31,7 +31,7 @@ from optimizer.episode.runner import EpisodeRunner
 from optimizer.evaluation.pool import EpisodeTask
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.folder import RunFolder, RunFolderError, read_episode_log
-from optimizer.run.run_settings import episode_config, run_family
+from optimizer.run.run_settings import episode_config, manifest_settings
 
 #: What a re-walk may change: how long it took and which worker ran it.
 NOT_COMPARED = {"wall", "worker"}
@@ -39,14 +39,10 @@ NOT_COMPARED = {"wall", "worker"}
 
 def runner_of(folder: RunFolder) -> EpisodeRunner:
     """One runner as the run's workers had it (the embedded stand-in, in process)."""
-    settings = folder.manifest["settings"]
+    settings = manifest_settings(folder.manifest)
+    episode, scoring = settings.episode, settings.scoring
     config = episode_config(
-        settings["walk_time"],
-        settings["start"],
-        "inprocess",
-        settings.get("command_noise", 0.0),
-        run_family(settings),
-        settings.get("drift_penalty", 0.0),
+        episode.walk_time, episode.start, "inprocess", scoring.command_noise, episode.family, scoring.drift_penalty
     )
     return EpisodeRunner(config, seed=0)
 

@@ -9,8 +9,7 @@ Why each stage is there: docs/optimizer.md.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -27,7 +26,7 @@ from optimizer.run.report import (
 )
 from optimizer.run.results import best_gait, card_of, hand_over, write_gait
 from optimizer.run.robust import ScoredGait
-from optimizer.run.run_settings import in_box, run_family, search_box, stability_config
+from optimizer.run.run_settings import in_box, search_box, stability_config
 from optimizer.run.session import Run
 from optimizer.run.stability import Fastest, StabilityReport, check_best, fastest_walk, scored_summary
 from optimizer.run.walk_card import write_card
@@ -38,6 +37,7 @@ from optimizer.search.la import LearningScheme, LinearRewardInaction, LinearRewa
 from optimizer.search.protocol import Repair
 from optimizer.search.refine import refine, refine_starts
 from optimizer.seeds import stable_seed
+from optimizer.settings import RefinementSettings, SearchSettings
 
 
 def main_job(driver: Driver, plan: JobPlan) -> str:
@@ -72,39 +72,39 @@ class JobPlan:
         """The plan of ``run``; a JobRefused when a refinement family cannot refine the run's walks
         or the reference walk lies outside the box."""
         settings = run.settings
-        families = refinement_families(settings)
+        families = refinement_families(settings.refinement)
         for refined in families:
             if refined is not run.family and refined.extends is not run.family:
                 raise JobRefused(
                     f"--refine-family {refined.name}: it cannot refine {run.family.name} walks; give the run's own "
                     f"family (--refine-family {run.family.name}) or one that extends it"
                 )
-            if settings.get("bounds", "legacy") not in refined.boxes:
+            if settings.episode.bounds not in refined.boxes:
                 raise JobRefused(
-                    f"--refine-family {refined.name}: it has no {settings.get('bounds', 'legacy')} box (its "
+                    f"--refine-family {refined.name}: it has no {settings.episode.bounds} box (its "
                     f"boxes: {', '.join(refined.boxes)}); give --refine-family {run.family.name}"
                 )
         bounds, repair = search_box(settings)
         reference: list[tuple[float, ...]] = []
-        if settings.get("refine") and settings.get("refine_reference"):  # a run from before it: none
+        if settings.refinement.budget and settings.refinement.reference:
             try:
                 reference.append(reference_start(run.family, bounds))
             except ValueError as exc:
                 raise JobRefused(f"--refine-reference: {exc}; give --no-refine-reference") from None
-        return cls(run, gala_config(settings), stability_config(settings), bounds, repair, families, reference)
+        return cls(run, gala_config(settings.search), stability_config(settings), bounds, repair, families, reference)
 
     @property
     def checked_families(self) -> int:
         """How many families' best gaits the checks walk: the refinement's, when it runs (the rows'
         gaits count as TFS)."""
-        return len(self.families) if self.run.settings.get("refine") else 1
+        return len(self.families) if self.run.settings.refinement.budget else 1
 
     def planned_episodes(self) -> int:
         """The episodes planned, an estimate: the racing walks and how many candidates the checks
         walk are not known ahead (the progress bar's total grows as they come)."""
         stability = self.stability
         planned = len(self.config.crossover_rates) * planned_episodes(self.config, stability.repeats)
-        planned += self.run.settings.get("refine", 0)
+        planned += self.run.settings.refinement.budget
         planned += stability.candidates * self.checked_families * (stability.repeats + stability.confirm)
         return planned + stability.hand_over
 
@@ -126,7 +126,7 @@ def table_rows(driver: Driver, plan: JobPlan) -> tuple[list[Row], Fastest | None
             plan.config,
             pc,
             stable_seed(run.seed, tag),
-            scheme=scheme(run.settings, plan.config),
+            scheme=scheme(run.settings.search, plan.config),
             repair=plan.repair,
         )
         result: GALAResult = driver.run(search)
@@ -143,17 +143,18 @@ def refinement(driver: Driver, plan: JobPlan, fastest: Fastest | None) -> list[S
     gaits in turn; returns the walk it started from, which the hand-over falls back on when no
     refined walk holds (none when the run does not refine)."""
     settings = plan.run.settings
-    if not settings.get("refine", 0) or fastest is None:  # a run from before it: none
+    refinement = settings.refinement
+    if not refinement.budget or fastest is None:
         return []
-    starts = refine_starts(driver, fastest) if settings.get("refine_race") else [fastest.gait.genes]
+    starts = refine_starts(driver, fastest) if refinement.race else [fastest.gait.genes]
     starts += [start for start in plan.reference if start not in starts]
-    share, extra = divmod(settings["refine"], len(plan.families))
+    share, extra = divmod(refinement.budget, len(plan.families))
     first = 0
     for j, refined in enumerate(plan.families):
         lifted = [refined.from_gait(plan.run.family.gait(start)).genes for start in starts]
         box, box_repair = search_box(settings, refined)
         named = None if refined is plan.run.family else refined.name
-        own = {**settings, "refine": share + (j < extra)}
+        own = replace(refinement, budget=share + (j < extra))
         first += refine(driver, own, plan.run.seed, box, box_repair, lifted, refined.held, named, first)
     return [fastest.gait]
 
@@ -217,32 +218,31 @@ def reference_start(family: GaitFamily, bounds: np.ndarray) -> tuple[float, ...]
     return genes
 
 
-def refinement_families(settings: Mapping[str, Any]) -> list[GaitFamily]:
-    """The families the refinement searches, in turn: ``refine_family`` (one name, stored as runs
-    made before several were possible stored it, or a list of names), else (a run from before the
-    setting) the run's own."""
-    named = settings.get("refine_family") or run_family(settings)
+def refinement_families(settings: RefinementSettings) -> list[GaitFamily]:
+    """The families the refinement searches, in turn: one name (stored as runs made before several
+    were possible stored it) or several."""
+    named = settings.family
+    assert named is not None  # a main job stores its refinement's families
     return [family_named(name) for name in ([named] if isinstance(named, str) else named)]
 
 
-def gala_config(settings: Mapping[str, Any]) -> GALAConfig:
+def gala_config(search: SearchSettings) -> GALAConfig:
     """The GALA of every row (paper section VI, or the budget's numbers)."""
+    rates = search.crossover
     return GALAConfig(
-        ga=GAConfig(
-            population_size=settings["population"], generations=settings["generations"], elitism=settings["elitism"]
-        ),
-        iterations=settings["iterations"],
-        generations_per_iteration=settings["generations_per_iteration"],
-        restart_each_iteration=settings["restart_each_iteration"],
-        baseline_window=settings["baseline_window"],
-        crossover_rates=tuple(settings["crossover"]),
+        ga=GAConfig(population_size=search.population, generations=search.generations, elitism=search.elitism),
+        iterations=search.iterations,
+        generations_per_iteration=search.generations_per_iteration,
+        restart_each_iteration=search.restart_each_iteration,
+        baseline_window=search.baseline_window,
+        crossover_rates=(rates,) if isinstance(rates, float) else tuple(rates),
     )
 
 
-def scheme(settings: Mapping[str, Any], config: GALAConfig) -> LearningScheme:
+def scheme(search: SearchSettings, config: GALAConfig) -> LearningScheme:
     """The automaton's learning scheme: L_R-P (eq. 7-8) or L_R-I (eq. 6)."""
     la = config.la
-    if settings["scheme"] == "lri":
+    if search.scheme == "lri":
         return LinearRewardInaction(la.reward_step)
     return LinearRewardPenalty(la.reward_step, la.penalty_step)
 
@@ -292,7 +292,11 @@ def write_outputs(run: Run, rows: list[Row], fastest: Fastest | None) -> None:
     write_table_markdown(table, path / "table1.md")
     write_json(
         path / "results.json",
-        {"settings": run.settings, "rows": [row.to_dict() for row in rows], **hand_over(run, fastest, "GALA run")},
+        {
+            "settings": run.settings.stored(),
+            "rows": [row.to_dict() for row in rows],
+            **hand_over(run, fastest, "GALA run"),
+        },
     )
     if rows:
         write_row_files(run, rows)

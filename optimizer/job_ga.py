@@ -4,9 +4,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any
-
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
 from optimizer.run.report import plot_ga_convergence
@@ -19,6 +16,7 @@ from optimizer.search.config import DE_JONG, GREFENSTETTE, PAPER_GALA_BEST, GACo
 from optimizer.search.ga import GAResult, GARun
 from optimizer.search.ga import planned_episodes as ga_episodes
 from optimizer.seeds import stable_seed
+from optimizer.settings import SearchSettings
 
 #: The paper's rate pairs, by the name ``--preset`` takes.
 PRESETS: dict[str, RatePreset] = {"dejong": DE_JONG, "grefenstette": GREFENSTETTE, "gala": PAPER_GALA_BEST}
@@ -28,26 +26,27 @@ PRESETS: dict[str, RatePreset] = {"dejong": DE_JONG, "grefenstette": GREFENSTETT
 PREFIX = "ga"
 
 
-def ga_config(settings: Mapping[str, Any]) -> GAConfig:
+def ga_config(search: SearchSettings) -> GAConfig:
     """The GA the settings stand for."""
+    assert isinstance(search.crossover, float)  # a GA has one crossover rate
     return GAConfig(
-        population_size=settings["population"],
-        generations=settings["generations"],
-        crossover_rate=settings["crossover"],
-        mutation_rate=settings["mutation"],
-        elitism=settings["elitism"],
+        population_size=search.population,
+        generations=search.generations,
+        crossover_rate=search.crossover,
+        mutation_rate=search.mutation,
+        elitism=search.elitism,
     )
 
 
-def title(settings: Mapping[str, Any]) -> str:
+def title(search: SearchSettings) -> str:
     """The GA named by its preset and rates, for its plot and gait file."""
-    name = PRESETS[settings["preset"]].name + ": " if settings["preset"] else ""
-    return f"GA, {name}crossover {settings['crossover']:g}, mutation {settings['mutation']:g}"
+    name = PRESETS[search.preset].name + ": " if search.preset else ""
+    return f"GA, {name}crossover {search.crossover:g}, mutation {search.mutation:g}"
 
 
 def ga_job(driver: Driver, run: Run) -> str:
     """The GA, then its best gait checked and written; returns the summary."""
-    config = ga_config(run.settings)
+    config = ga_config(run.settings.search)
     stability = stability_config(run.settings)
     bounds, repair = search_box(run.settings)
     search = GARun(bounds, config, stable_seed(run.seed, PREFIX), repair=repair, prefix=PREFIX)
@@ -60,17 +59,17 @@ def ga_job(driver: Driver, run: Run) -> str:
         folder / "results.json",
         {
             **result.to_dict(),
-            "settings": run.settings,
+            "settings": run.settings.stored(),
             "best_episode": None if best is None else best.walks[0].to_json(),
             "check": None if checked is None else checked.to_dict(),
         },
     )
-    plot_ga_convergence(result.history, folder / "ga.png", title(run.settings))
+    plot_ga_convergence(result.history, folder / "ga.png", title(run.settings.search))
     write_gait(
         run,
         folder / "best_gait.json",
         result.best_genes,
-        f"{title(run.settings)}: fitness {result.best_fitness:.4f}{verdict} (run {folder})",
+        f"{title(run.settings.search)}: fitness {result.best_fitness:.4f}{verdict} (run {folder})",
     )
     if checked is not None:
         write_card(card_of(run, "GA best", checked), folder / "best_gait.json")
@@ -80,4 +79,4 @@ def ga_job(driver: Driver, run: Run) -> str:
 
 def planned_episodes(run: Run) -> int:
     """The GA's episodes and its best gait's check."""
-    return ga_episodes(ga_config(run.settings)) + stability_config(run.settings).repeats
+    return ga_episodes(ga_config(run.settings.search)) + stability_config(run.settings).repeats

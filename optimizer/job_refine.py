@@ -4,6 +4,8 @@ from it (``optimizer.search.refine``), and the fastest refined walk that holds h
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
 from optimizer.run.results import hand_over
@@ -18,13 +20,18 @@ def refine_job(driver: Driver, run: Run) -> str:
     refinement from it, then the hand-over with the start as the fallback; returns the summary."""
     stability = stability_config(run.settings)
     bounds, repair = search_box(run.settings)
-    start_genes = run.settings["start_gait"]
+    start_genes = run.settings.refinement.start_gait
+    assert start_genes is not None  # a refine run stores the gait it starts from
     driver.run(StartGait(start_genes))
-    refine(driver, run.settings, run.seed, bounds, repair, [start_genes], run.family.held)
+    # the whole run is a refinement: its gaits are scored by the run's own quantile
+    refinement = replace(run.settings.refinement, quantile=run.settings.scoring.quantile)
+    refine(driver, refinement, run.seed, bounds, repair, [start_genes], run.family.held)
     start = driver.scored.get(f"{START_KEY}/i000")
     fallback = [] if start is None else [start]  # when no refined walk holds, the given one may
     fastest = fastest_walk(driver, run.setup.start, stability, hand_over=True, fallback=fallback)
-    write_json(run.folder.path / "results.json", {"settings": run.settings, **hand_over(run, fastest, "refined")})
+    write_json(
+        run.folder.path / "results.json", {"settings": run.settings.stored(), **hand_over(run, fastest, "refined")}
+    )
     lines = []
     if fastest is not None:
         lines.append(f"{fastest.describe()}; in fastest_gait.json (walk card: fastest_gait.card.md)")
@@ -38,5 +45,5 @@ def planned_episodes(run: Run) -> int:
     """The episodes planned, an estimate: the start, the refinement's gaits (their racing walks
     not known ahead), the checks and the hand-over."""
     stability = stability_config(run.settings)
-    planned = 1 + run.settings["refine"] + stability.candidates * (stability.repeats + stability.confirm)
+    planned = 1 + run.settings.refinement.budget + stability.candidates * (stability.repeats + stability.confirm)
     return planned + stability.hand_over

@@ -8,6 +8,7 @@ import json
 import os
 import signal
 from collections import Counter
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +32,7 @@ from optimizer.search.ga import GARun
 from optimizer.search.ga import planned_episodes as ga_episodes
 from optimizer.search.gala import GALA
 from optimizer.search.refine import Arm, heat_gaits, refinement_arms
+from optimizer.settings import LEGACY, RefinementSettings, Settings, defaults
 
 BOUNDS = [[0.0, 1.0]] * 3
 #: the paper's protocol, small: one walk a gait, no refinement phase
@@ -154,7 +156,7 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
     assert list(load_gait(out / "best_gait-pc0.3.json").genes) == results[1]["best_genes"]
     episodes = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
     searched = [r for r in episodes if not r["key"].startswith("check/")]
-    assert len(searched) == 2 * job.planned_episodes(job.gala_config(manifest["settings"]))
+    assert len(searched) == 2 * job.planned_episodes(job.gala_config(Settings.from_stored(manifest["settings"], "gala").search))
     by_key = {r["key"]: r for r in episodes}
     for row, result in zip(rows, results):  # each row's best walked 10 times from moved starts
         key = result["best_episode"]["key"]
@@ -274,6 +276,7 @@ def test_a_run_made_before_start_checks_and_the_robot_box_existed_resumes_as_it_
     earlier += ("refine_population", "family", "refine_patience", "refine_family")
     for name in earlier:
         del manifest["settings"][name]
+    del manifest["settings_version"]  # nor the version of its settings
     (out / "manifest.json").write_text(json.dumps(manifest))
     setups = []
 
@@ -481,8 +484,9 @@ def test_the_refinement_phase_searches_on_from_the_best_and_leaves_table_i_alone
     # two CMA-ES runs (steps 0.05 and 0.1), 20 gaits each: one generation of the default 20
     generations = Counter("/".join(r["key"].split("/")[:2]) for r in tried)
     assert generations == {"refine0/g000": 20, "refine1/g000": 20}
-    assert gala_command.PAPER["refine_population"] == 20 and gala_command.PAPER["refine_sigma"] == [0.05, 0.1]
-    assert gala_command.PAPER["refine_patience"] is None  # no restarts by default (yet)
+    paper = defaults("gala")
+    assert paper["refine_population"] == 20 and paper["refine_sigma"] == [0.05, 0.1]
+    assert paper["refine_patience"] is None  # no restarts by default (yet)
     wide = tmp_path / "wide"
     argv = [*base, "--refine", "40", "--refine-population", "8", "--refine-sigma", "0.2", "--out", str(wide)]
     argv += ["--refine-patience", "30"]
@@ -496,25 +500,25 @@ def test_the_refinement_phase_searches_on_from_the_best_and_leaves_table_i_alone
 
 def test_the_refinement_runs_one_cma_es_per_start_and_step_and_an_older_run_keeps_its_one_run() -> None:
     a, b = (1.0, 2.0), (3.0, 4.0)
-    arms = refinement_arms({"refine_sigma": [0.05, 0.1]}, [a, b])
+    arms = refinement_arms(RefinementSettings(sigma=(0.05, 0.1)), [a, b])
     assert [(arm.prefix, arm.start, arm.sigma) for arm in arms] == [
         ("refine0", a, 0.05),
         ("refine1", a, 0.1),
         ("refine2", b, 0.05),
         ("refine3", b, 0.1),
     ]
-    assert refinement_arms({"refine_sigma": 0.05}, [a]) == [Arm("refine", a, 0.05)]  # keyed as it was made
+    assert refinement_arms(RefinementSettings(sigma=0.05), [a]) == [Arm("refine", a, 0.05)]  # keyed as it was made
 
 
 def test_the_race_heat_is_whole_generations_of_a_quarter_of_the_budget_over_two_runs() -> None:
-    race = {"refine": 1600, "refine_population": 20, "refine_race": True}
+    race = RefinementSettings(budget=1600, population=20, race=True)
     assert heat_gaits(race, 4, 7) == 200 and heat_gaits(race, 2, 7) == 400
-    assert heat_gaits({**race, "refine": 1619}, 4, 7) == 200  # whole generations only
+    assert heat_gaits(replace(race, budget=1619), 4, 7) == 200  # whole generations only
     assert heat_gaits(race, 1, 7) == 0  # nothing to race
-    assert heat_gaits({**race, "refine": 40}, 2, 7) == 0  # not a generation each: shared
-    assert heat_gaits({**race, "refine_race": False}, 4, 7) == 0
-    assert heat_gaits({"refine": 1600, "refine_sigma": [0.05, 0.1]}, 2, 7) == 0  # a run from before the race
-    assert heat_gaits({"refine": 360, "refine_race": True}, 2, 7) == 90  # the library's 9 a generation
+    assert heat_gaits(replace(race, budget=40), 2, 7) == 0  # not a generation each: shared
+    assert heat_gaits(replace(race, race=False), 4, 7) == 0
+    assert heat_gaits(replace(race, race=LEGACY["refine_race"]), 2, 7) == 0  # a run from before the race
+    assert heat_gaits(replace(race, budget=360, population=None), 2, 7) == 90  # the library's 9 a generation
 
 
 def _refined(folder: Path) -> list[dict]:

@@ -36,11 +36,15 @@ from optimizer.episode.real_server import RealServerError, RealServerProcess
 from optimizer.episode.runner import quiet_agent_logs
 from optimizer.episode.servers import ManagedServer, ServerAddress
 from optimizer.run.robust import jittered_starts
-from optimizer.run.run_settings import EPISODE_DEFAULTS, episode_config
+from optimizer.run.run_settings import episode_config
 from optimizer.run.session import check_start_for_real_server, real_server_command
 from optimizer.run.stability import distance_spread
+from optimizer.settings import EpisodeSettings
 from protocol.cli_values import non_negative, positive_int
 from protocol.nao import ROBOT_TYPES
+
+#: An episode's defaults: a search's.
+EPISODE = EpisodeSettings()
 
 
 def gait_file(text: str) -> Gait:
@@ -124,7 +128,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     gait = args.gait or load_gait(DEFAULT_GAIT_PATH)
-    start = args.start or EPISODE_DEFAULTS["start"]
+    start = args.start or list(EPISODE.start)
     server: ServerAddress | ManagedServer | None = args.server
     if args.real is not None:
         if args.real != 1:
@@ -132,9 +136,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         server = RealServerProcess(real_server_command(parser))
     if server is not None:
         check_start_for_real_server(parser, start, "--real" if args.real else "--server")
-    base = episode_config(
-        args.walk_time or EPISODE_DEFAULTS["walk_time"], start, args.agent_mode or EPISODE_DEFAULTS["agent_mode"]
-    )
+    base = episode_config(args.walk_time or EPISODE.walk_time, start, args.agent_mode or EPISODE.agent_mode)
     base = replace(base, embedded_stub=args.embedded_stub, robot_type=args.robot_type)
     points = jittered_starts((*base.start, base.heading), args.jitter, args.repeat, args.seed)
     if isinstance(server, RealServerProcess):

@@ -4,7 +4,7 @@
     python -m optimizer.refine fastest_gait.json --family tfs-plus             # the TFS walk, then the additions
     python -m optimizer.refine my_walk.json --budget 800 --real 2              # on real servers
 
-CMA-ES (the main job's refinement phase, ``optimizer.cli.gala``) starts from the gait in the file,
+CMA-ES (the main job's refinement phase, ``optimizer.job``) starts from the gait in the file,
 scored as every search of the project scores (robustly: ``--robust-walks`` dithered walks of the
 gaits that could enter the top, ``optimizer.run.robust``), but by the worst of a gait's walks
 (``--robust-quantile``, default 0 here: what it finds is handed over). The start itself is scored
@@ -25,88 +25,21 @@ continues from) into the run folder.
 
 from __future__ import annotations
 
-import argparse
 import functools
 import sys
 from collections.abc import Sequence
 
 from gait import FAMILIES, GaitFileError, load_gait
-from optimizer.cli.arguments import LEAD_WALKS_HELP, add_walk_run_arguments, lead_walks
+from optimizer import settings
 from optimizer.job_refine import planned_episodes, refine_job
-from optimizer.run.run_settings import (
-    HAND_OVER_DEFAULTS,
-    apply_preset,
-    in_box,
-    search_box,
-)
+from optimizer.run.run_settings import apply_preset, in_box, search_box
 from optimizer.run.session import EvaluatorMaker, pool_evaluator, prepare_run, run_session
-from optimizer.search.refine import DEFAULTS, REFINE_QUANTILE
-from protocol.cli_values import positive_float, positive_int
-
-
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog="python -m optimizer.refine", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    p.add_argument("gait", metavar="GAIT", nargs="?", help="gait file to start from (not with --resume)")
-    p.add_argument(
-        "--budget",
-        dest="refine",
-        type=positive_int,
-        default=None,
-        metavar="N",
-        help=f"gaits CMA-ES tries, all its runs together (default {DEFAULTS['refine']})",
-    )
-    p.add_argument(
-        "--sigma",
-        dest="refine_sigma",
-        type=positive_float,
-        nargs="+",
-        default=None,
-        metavar="S",
-        help="the first step of each CMA-ES run, a fraction of the gene box; one run per step, the "
-        f"budget shared (default {' '.join(map(str, DEFAULTS['refine_sigma']))})",
-    )
-    p.add_argument(
-        "--population",
-        dest="refine_population",
-        type=positive_int,
-        default=None,
-        metavar="N",
-        help=f"gaits per CMA-ES generation (default {DEFAULTS['refine_population']})",
-    )
-    p.add_argument(
-        "--patience",
-        dest="refine_patience",
-        type=positive_int,
-        default=None,
-        metavar="G",
-        help="start a CMA-ES run again from its best, with twice the gaits a generation, when its best has "
-        "not gained 1%% in G generations (default: only when CMA-ES itself stops)",
-    )
-    p.add_argument(
-        "--race",
-        dest="refine_race",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="race the CMA-ES runs (one per step) and give the winner half the gaits (default); "
-        "--no-race: the gaits shared evenly among the steps",
-    )
-    p.add_argument(
-        "--lead-walks",
-        dest="refine_lead_walks",
-        type=lead_walks,
-        default=None,
-        metavar="N",
-        help=LEAD_WALKS_HELP,
-    )
-    add_walk_run_arguments(p, REFINE_QUANTILE, hand_over=True)
-    return p
 
 
 def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = pool_evaluator) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    parser = build_parser()
+    parser = settings.build_parser("refine", "python -m optimizer.refine", __doc__)
+    parser.add_argument("gait", metavar="GAIT", nargs="?", help="gait file to start from (not with --resume)")
     args = parser.parse_args(argv)
     args.start_gait = None
     if args.resume is None:
@@ -126,8 +59,8 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     elif args.gait is not None:
         parser.error("GAIT: --resume continues from the run's own start gait; give no file")
     if args.resume is None:  # a resumed run keeps the quantile it was made with
-        apply_preset(args, {"robust_quantile": REFINE_QUANTILE})
-    run = prepare_run(parser, args, "refine", {**DEFAULTS, **HAND_OVER_DEFAULTS, "start_gait": None}, argv)
+        apply_preset(args, settings.REFINE_NEW_RUN)
+    run = prepare_run(parser, args, "refine", argv)
     if not in_box(run.settings["start_gait"], search_box(run.settings)[0]):
         parser.error(f"GAIT: the start gait lies outside the {run.family.name} family's search box")
 

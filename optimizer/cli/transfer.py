@@ -30,11 +30,12 @@ import sys
 from collections.abc import Sequence
 
 from gait import family_named
-from optimizer.cli.arguments import add_server_arguments, existing_run
+from optimizer.cli.arguments import add_server_arguments
 from optimizer.episode import DEFAULT_START, Start, start_problem_on_real_server
 from optimizer.evaluation.pool import EvaluationError
 from optimizer.run.folder import RunFolder
-from optimizer.run.run_settings import LEGACY_START, run_family, stability_config
+from optimizer.run.run_settings import jitter as jitter_of
+from optimizer.run.run_settings import manifest_settings
 from optimizer.run.session import (
     EvaluationSetup,
     EvaluatorMaker,
@@ -54,6 +55,7 @@ from optimizer.run.transfer_report import (
     write_transfer_json,
 )
 from optimizer.run.walk_card import side_name
+from optimizer.settings import existing_run
 from protocol.cli_values import non_negative, number, positive_int
 
 
@@ -112,12 +114,17 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     gaits = reported_gaits(results)
     if not gaits:
         parser.error(f"RUN_DIR: {folder.path} reports no gait yet")
-    settings = folder.manifest["settings"]
+    try:  # a run made by an older version: the settings it was made with, every one named
+        settings = manifest_settings(folder.manifest)
+    except ValueError as exc:
+        parser.error(f"RUN_DIR: {exc}")
+    episode = settings.episode
     real = bool(args.real or args.server)
-    start = _start(parser, args, tuple(settings.get("start", LEGACY_START)), real)
-    jitter = tuple(args.jitter) if args.jitter is not None else stability_config(settings).jitter
+    x, y, heading = episode.start
+    start = _start(parser, args, (x, y, heading), real)
+    jitter = tuple(args.jitter) if args.jitter is not None else jitter_of(settings)
     # the dither stands in for the real server's spread, so only the stand-in's walks get it
-    command_noise = 0.0 if real else float(settings.get("command_noise", 0.0))
+    command_noise = 0.0 if real else settings.scoring.command_noise
     if not any(jitter) and not real and command_noise == 0:
         jitter = BEAM_NOISE  # the stand-in is deterministic: unmoved, undithered walks would be one walk
     seed = folder.manifest["seed"] if args.seed is None else args.seed
@@ -125,15 +132,15 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     real_command = real_server_command(parser) if args.real else None
     workers = args.real or len(servers) or 1
     setup = EvaluationSetup(
-        settings["walk_time"],
+        episode.walk_time,
         start,
-        settings["agent_mode"],
+        episode.agent_mode,
         servers,
         workers,
         seed,
         real_command=real_command,
         command_noise=command_noise,
-        family=run_family(settings),
+        family=episode.family,
     )
     target = "real server" if real else "stand-in"
     tasks = transfer_tasks(gaits, start, jitter, args.repeats, seed)
@@ -172,7 +179,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     write_markdown(gaits, folder.path / "transfer.md", run_kind, target)
     plot(gaits, folder.path / "transfer.png", run_kind, target)
     write_transfer_json(folder.path / "transfer.json", gaits, measured)
-    cards, notes = update_cards(folder.path, gaits, side_name(real), settings["walk_time"], start[2], setup.family)
+    cards, notes = update_cards(folder.path, gaits, side_name(real), episode.walk_time, start[2], setup.family)
     for note in notes:
         print(f"note: {note}", file=sys.stderr)
     written = "".join(f"\nwalk card ({target} side): {p.stem}.card.{{json,md,png}}" for p in cards)

@@ -19,12 +19,11 @@ episodes.jsonl as each episode finishes (what ``--resume`` continues from).
 
 from __future__ import annotations
 
-import argparse
 import sys
 from collections.abc import Sequence
 from typing import Any
 
-from optimizer.cli.arguments import add_run_arguments
+from optimizer import settings as table
 from optimizer.compare.budget import drive
 from optimizer.compare.methods import Method, Problem, discover
 from optimizer.compare.report import RunOutcome, plot_convergence, write_tables
@@ -36,76 +35,6 @@ from optimizer.run.run_settings import apply_preset, search_box, stability_confi
 from optimizer.run.session import EvaluatorMaker, pool_evaluator, prepare_run, run_session
 from optimizer.run.stability import check_best
 from optimizer.seeds import stable_seed
-from protocol.cli_values import non_negative, positive_int
-
-#: Settings a comparison stores. The default budget runs 6 methods x 10 seeds x 800 episodes,
-#: about 48,000 search episodes: 2-3 hours on the stub with 2 workers (5-7 episodes a second).
-DEFAULTS: dict[str, Any] = {
-    "methods": None,  # None: every method found
-    "seeds": 10,
-    "budget": 800,
-    "population": 40,
-    "elitism": True,
-    "success_distance": 4.95,  # the paper's headline walk
-}
-
-PRESETS: dict[str, dict[str, Any]] = {
-    "default": {},
-    #: ~1,900 episodes: 4-7 minutes on the stub with 2 workers
-    "quick": {"seeds": 3, "budget": 100, "population": 10, "check_repeats": 5},
-}
-
-
-def method_list(text: str) -> list[str]:
-    names = [n.strip() for n in text.split(",") if n.strip()]
-    known = discover()
-    unknown = [n for n in names if n not in known]
-    if unknown or not names:
-        raise argparse.ArgumentTypeError(
-            f"unknown method(s) {', '.join(unknown) or '(none given)'}; known: {', '.join(known)}"
-        )
-    if len(set(names)) != len(names):
-        raise argparse.ArgumentTypeError(f"a method is named twice in {text!r}")
-    return names
-
-
-def build_parser() -> argparse.ArgumentParser:
-    known = discover()
-    p = argparse.ArgumentParser(
-        prog="python -m optimizer.compare", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    p.add_argument(
-        "--preset",
-        choices=sorted(PRESETS),
-        default=None,
-        help="quick: 3 seeds x 100 episodes, population 10, 5 check walks (minutes); flags given override it",
-    )
-    p.add_argument(
-        "--methods",
-        type=method_list,
-        default=None,
-        metavar="A,B,...",
-        help=f"methods to compare (default all: {', '.join(known)})",
-    )
-    p.add_argument("--seeds", type=positive_int, default=None, help="runs per method (default 10)")
-    p.add_argument(
-        "--budget",
-        type=positive_int,
-        default=None,
-        metavar="EPISODES",
-        help="search episodes per run, the same for every method (default 800); a raced gait "
-        "spends --robust-walks of them",
-    )
-    p.add_argument(
-        "--success-distance",
-        type=non_negative,
-        default=None,
-        metavar="M",
-        help="a run succeeds when its best walks at least M metres without a fall in its check "
-        "(default 4.95, the paper's)",
-    )
-    add_run_arguments(p, population=DEFAULTS["population"])
-    return p
 
 
 def _outcome(
@@ -141,16 +70,16 @@ def _outcome(
 
 def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = pool_evaluator) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    parser = build_parser()
+    parser = table.build_parser("compare", "python -m optimizer.compare", __doc__)
     args = parser.parse_args(argv)
-    apply_preset(args, PRESETS[args.preset or "default"])
-    run = prepare_run(parser, args, "compare", DEFAULTS, argv)
-    settings = run.settings
-    methods = [discover()[name] for name in settings["methods"] or discover()]
-    bounds, repair = search_box(settings)
-    stability = stability_config(settings)
-    budget = settings["budget"]  # episodes, the same for every run (a raced candidate spends several)
-    seeds = settings["seeds"]
+    apply_preset(args, table.COMPARE_PRESETS[args.preset or "default"])
+    run = prepare_run(parser, args, "compare", argv)
+    search = run.settings.search
+    methods = [discover()[name] for name in search.methods or discover()]
+    bounds, repair = search_box(run.settings)
+    stability = stability_config(run.settings)
+    budget = search.budget  # episodes, the same for every run (a raced candidate spends several)
+    seeds = search.seeds
 
     def body(driver: Driver) -> str:
         runs: list[RunOutcome] = []
@@ -158,13 +87,13 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             for index in range(seeds):
                 prefix = f"{method.name}/s{index:02d}"
                 problem = Problem(
-                    bounds, repair, stable_seed(run.seed, prefix), budget, settings["population"], settings["elitism"]
+                    bounds, repair, stable_seed(run.seed, prefix), budget, search.population, search.elitism
                 )
                 scored = drive(driver, method.program(problem), budget, prefix)
                 best = max(scored, key=lambda s: s.fitness)  # the first of equals: the earliest found
                 report = check_best(driver, best, run.setup.start, stability)
-                runs.append(_outcome(method, index, scored, best, report, settings["success_distance"]))
-            _write(run.folder.path, runs, settings, budget)
+                runs.append(_outcome(method, index, scored, best, report, search.success_distance))
+            _write(run.folder.path, runs, run.settings.stored(), budget)
         return (run.folder.path / "comparison.md").read_text() + f"results in {run.folder.path}"
 
     planned = len(methods) * seeds * (budget + stability.repeats)

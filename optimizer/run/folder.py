@@ -118,8 +118,10 @@ class RunFolder:
         seed: int,
         argv: Sequence[str],
         runtime: Mapping[str, Any] | None = None,
+        settings_version: int | None = None,
     ) -> RunFolder:
-        """A new run in ``path`` (created; it may exist only if empty)."""
+        """A new run in ``path`` (created; it may exist only if empty); ``settings_version``: the
+        version of the settings' table they were stored by (``optimizer.settings.upgrade``)."""
         path = Path(path)
         if (path / MANIFEST).exists():
             raise RunFolderError(f"{path} already holds a run ({MANIFEST}); resume it instead")
@@ -130,6 +132,7 @@ class RunFolder:
             "format": MANIFEST_FORMAT,
             "command": command,
             "settings": dict(settings),
+            **({} if settings_version is None else {"settings_version": settings_version}),
             "seed": seed,
             "versions": versions(),
             "argv": list(argv),

@@ -1,9 +1,10 @@
-"""What a run's stored settings mean: their defaults, how a stored run is resumed, and the configs
-(scoring, check, gene box, episode) the settings stand for.
+"""What a run's settings stand for (its scoring, check, gene box and episodes), and how the flags
+given meet the settings a resumed run stored.
 
-Settings are what decides a run's episodes (search numbers, walk time, agent mode) and are stored
-in the manifest; ``--resume`` takes them from there and refuses a flag that contradicts them.
-How the run is executed (workers, servers, progress) is not a setting and may change on resume.
+The table of settings, their defaults and the upgrade of an older run's: ``optimizer.settings``.
+Settings are what decides a run's episodes and are stored in the manifest; ``--resume`` takes them
+from there and refuses a flag that contradicts them. How the run is executed (workers, servers,
+progress) is not a setting and may change on resume.
 """
 
 from __future__ import annotations
@@ -17,93 +18,52 @@ import numpy as np
 
 from gait import DEFAULT_FAMILY, GaitFamily, family_named
 from optimizer.episode import (
-    CALIBRATED_COMMAND_NOISE,
-    DEFAULT_START,
     EpisodeConfig,
 )
 from optimizer.search.config import ScoringConfig, StabilityConfig
-
-#: How the settings store "score by the mean" (None would read as "not given").
-MEAN = "mean"
+from optimizer.settings import Settings, stored_quantile, upgrade
 
 
-def stored_quantile(value: float | str | None) -> float | None:
-    """A quantile setting as ``ScoringConfig`` takes it: the stored ``MEAN`` (the one text a quantile
-    setting holds, ``quantile_or_mean``) is None, the mean."""
-    return None if isinstance(value, str) else value
+def manifest_settings(manifest: Mapping[str, Any]) -> Settings:
+    """The settings of a run folder's manifest, brought up to date (``optimizer.settings.upgrade``):
+    a ValueError when the run's command or settings are not one this version can read."""
+    command = str(manifest.get("command"))
+    stored = upgrade(manifest["settings"], command, manifest.get("settings_version", 0))
+    return Settings.from_stored(stored, command)
 
 
-#: Defaults of the check settings the commands store.
-CHECK_DEFAULTS: dict[str, Any] = {
-    "check_repeats": StabilityConfig().repeats,
-    "check_jitter": list(StabilityConfig().jitter),
-}
-
-
-#: Defaults of the settings of a command that hands over a fastest walk (``fastest_walk``).
-HAND_OVER_DEFAULTS: dict[str, Any] = {
-    "check_confirm": StabilityConfig().confirm,
-    "hand_over_walks": StabilityConfig().hand_over,
-}
-
-
-#: Defaults of the scoring settings the commands store.
-SCORING_DEFAULTS: dict[str, Any] = {
-    "robust_walks": ScoringConfig().walks,
-    "robust_top": ScoringConfig().top,
-    "robust_quantile": ScoringConfig().quantile,
-    "command_noise": CALIBRATED_COMMAND_NOISE,
-    "drift_penalty": 0.0,
-}
-
-
-#: What a run made before robust scoring stored nothing about: one undithered walk a gait, and
-#: checks from starts moved within the real server's beam noise.
-LEGACY_SCORING: dict[str, Any] = {"robust_walks": 1, "robust_quantile": MEAN, "command_noise": 0.0}
-
-
-_LEGACY_JITTER = (0.05, 0.05, 10.0)
-
-
-def stability_config(settings: Mapping[str, Any]) -> StabilityConfig:
-    """The run's check; a run made before checks existed has none, one made before confirming walks
-    hands over on its candidates' checks alone, one made before hand-over walks on its confirmed ones."""
+def stability_config(settings: Settings) -> StabilityConfig:
+    """The run's check, and how the walk it hands over is confirmed (``optimizer.run.stability``)."""
+    check, hand_over = settings.check, settings.hand_over
     return StabilityConfig(
-        repeats=settings.get("check_repeats", 0),
-        jitter=tuple(settings.get("check_jitter", _LEGACY_JITTER)),
-        confirm=settings.get("check_confirm", 0),
-        hand_over=settings.get("hand_over_walks", 0),
+        repeats=check.repeats, jitter=jitter(settings), confirm=hand_over.confirm, hand_over=hand_over.walks
     )
 
 
-def scoring_config(settings: Mapping[str, Any]) -> ScoringConfig:
-    """The run's scoring; a run made before robust scoring scored by one walk."""
-    quantile = settings.get("robust_quantile", LEGACY_SCORING["robust_quantile"])
+def scoring_config(settings: Settings) -> ScoringConfig:
+    """How the run scores a gait (``optimizer.run.robust``)."""
+    scoring = settings.scoring
     return ScoringConfig(
-        walks=settings.get("robust_walks", LEGACY_SCORING["robust_walks"]),
-        top=settings.get("robust_top", ScoringConfig().top),
-        quantile=stored_quantile(quantile),
-        jitter=stability_config(settings).jitter,
+        walks=scoring.walks,
+        top=scoring.top,
+        quantile=stored_quantile(scoring.quantile),
+        jitter=jitter(settings),
     )
 
 
-#: The family and gene box a new run searches; a run folder without the settings searched the TFS
-#: family, in the legacy box.
-BOUNDS_DEFAULTS: dict[str, Any] = {"family": DEFAULT_FAMILY, "bounds": "robot"}
-
-
-def run_family(settings: Mapping[str, Any]) -> str:
-    """The run's gait family (a run from before families: the paper's TFS)."""
-    return str(settings.get("family", DEFAULT_FAMILY))
+def jitter(settings: Settings) -> tuple[float, float, float]:
+    """How far the run moves a check walk's start, and a raced walk's but a gait's first."""
+    dx, dy, degrees = settings.check.jitter
+    return dx, dy, degrees
 
 
 def search_box(
-    settings: Mapping[str, Any], family: GaitFamily | None = None
+    settings: Settings, family: GaitFamily | None = None
 ) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]]:
     """The run's gene bounds and the repair that keeps a chromosome inside them: of the run's own
     family, or of ``family`` (the refinement's), in the run's named box."""
-    family = family_named(run_family(settings)) if family is None else family
-    bounds = family.boxes[settings.get("bounds", "legacy")]
+    family = family_named(settings.episode.family) if family is None else family
+    bounds = family.boxes[settings.episode.bounds]
     return bounds, functools.partial(family.repair, bounds=bounds)
 
 
@@ -112,14 +72,6 @@ def in_box(genes: Sequence[float], bounds: np.ndarray) -> bool:
     its box, since the box's repair would move the start before its first walk."""
     values = np.asarray(genes, dtype=float)
     return bool(np.all(values >= bounds[:, 0]) and np.all(values <= bounds[:, 1]))
-
-
-#: Defaults of the episode settings every command stores.
-EPISODE_DEFAULTS: dict[str, Any] = {"walk_time": 15.0, "start": list(DEFAULT_START), "agent_mode": "inprocess"}
-
-
-#: Where runs made before ``--start`` existed started.
-LEGACY_START: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 def episode_config(

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from gait import DEFAULT_FAMILY, GaitFamily, family_named
+from optimizer import settings as table
 from optimizer.episode import (
     ServerAddress,
     start_problem_on_real_server,
@@ -30,17 +31,12 @@ from optimizer.evaluation.pool import (
 from optimizer.run.driver import BarProgress, Driver, ResumeMismatch
 from optimizer.run.folder import RunFolder, RunFolderError, new_run_path
 from optimizer.run.run_settings import (
-    BOUNDS_DEFAULTS,
-    CHECK_DEFAULTS,
-    EPISODE_DEFAULTS,
-    LEGACY_SCORING,
-    LEGACY_START,
-    SCORING_DEFAULTS,
     episode_config,
+    manifest_settings,
     resolve_settings,
-    run_family,
     scoring_config,
 )
+from optimizer.settings import Settings
 
 #: Exit status of an interrupted run (the shell's convention for SIGINT).
 EXIT_INTERRUPTED = 130
@@ -125,7 +121,7 @@ class Run:
 
     command: str
     folder: RunFolder
-    settings: dict[str, Any]
+    settings: Settings
     seed: int
     setup: EvaluationSetup
     resumed: bool
@@ -140,27 +136,32 @@ def prepare_run(
     parser: argparse.ArgumentParser,
     args: argparse.Namespace,
     command: str,
-    defaults: Mapping[str, Any],
     argv: Sequence[str],
+    defaults: Mapping[str, Any] | None = None,
 ) -> Run:
-    """Resolve settings, seed and workers, and create or reopen the run folder. Every refusal goes
-    through ``parser.error`` (exit status 2, the flag named)."""
+    """Resolve settings (from ``defaults``, else the table's for ``command``), seed and workers, and
+    create or reopen the run folder. Every refusal goes through ``parser.error`` (exit status 2, the
+    flag named)."""
     folder: RunFolder | None = args.resume
     stored = None
     if folder is not None:
         if folder.manifest.get("command") != command:
             parser.error(f"--resume: {folder.path} is a {folder.manifest.get('command')} run, not a {command} run")
-        stored = folder.manifest["settings"]
+        try:  # a run made by an older version: the settings it was made with, every one named
+            stored = manifest_settings(folder.manifest).stored()
+        except ValueError as exc:
+            parser.error(f"--resume: {exc}")
         if args.seed is not None and args.seed != folder.manifest["seed"]:
             parser.error(f"--resume: --seed {args.seed} conflicts with the run's --seed {folder.manifest['seed']}")
-    settings = resolve_settings(
-        parser, args, {**defaults, **EPISODE_DEFAULTS, **SCORING_DEFAULTS, **CHECK_DEFAULTS, **BOUNDS_DEFAULTS}, stored
-    )
-    family = family_named(run_family(settings))
-    if settings.get("bounds", "legacy") not in family.boxes:
-        parser.error(f"--bounds {settings['bounds']}: the {family.name} family has the boxes {', '.join(family.boxes)}")
-    lead, walks = settings.get("refine_lead_walks", 0), scoring_config(settings).walks
-    if lead and lead <= walks:
+    resolved = resolve_settings(parser, args, table.defaults(command) if defaults is None else defaults, stored)
+    settings = Settings.from_stored(resolved, command)
+    family = family_named(settings.episode.family)
+    if settings.episode.bounds not in family.boxes:
+        parser.error(
+            f"--bounds {settings.episode.bounds}: the {family.name} family has the boxes {', '.join(family.boxes)}"
+        )
+    lead, walks = settings.refinement.lead_walks, settings.scoring.walks
+    if "refine_lead_walks" in settings.keys and lead and lead <= walks:
         parser.error(
             f"lead walks {lead}: a leader walks on past its --robust-walks {walks}, "
             "so give more than that, or 0 for none"
@@ -168,7 +169,7 @@ def prepare_run(
     servers = tuple(args.server or ())
     check_where(parser, args, servers)
     real_command = real_server_command(parser) if args.real is not None else None
-    start = tuple(settings.get("start", LEGACY_START))
+    start = settings.episode.start
     if servers or real_command is not None:
         check_start_for_real_server(parser, start, "--real" if real_command else "--server")
     workers = args.dask_local or args.real or len(servers) or args.workers or os.cpu_count() or 1
@@ -179,19 +180,20 @@ def prepare_run(
         "dask": args.scheduler or (f"local:{args.dask_local}" if args.dask_local else None),
     }
     folder, seed = open_folder(parser, args, folder, command, settings, argv, runtime)
+    episode, scoring = settings.episode, settings.scoring
     setup = EvaluationSetup(
-        settings["walk_time"],
-        start,
-        settings["agent_mode"],
+        episode.walk_time,
+        (start[0], start[1], start[2]),
+        episode.agent_mode,
         servers,
         workers,
         seed,
         args.scheduler,
         args.dask_local,
         real_command,
-        settings.get("command_noise", LEGACY_SCORING["command_noise"]),
-        run_family(settings),
-        settings.get("drift_penalty", 0.0),
+        scoring.command_noise,
+        episode.family,
+        scoring.drift_penalty,
     )
     return Run(command, folder, settings, seed, setup, resumed=stored is not None)
 
@@ -225,7 +227,7 @@ def open_folder(
     args: argparse.Namespace,
     folder: RunFolder | None,
     command: str,
-    settings: dict[str, Any],
+    settings: Settings,
     argv: Sequence[str],
     runtime: dict[str, Any],
 ) -> tuple[RunFolder, int]:
@@ -234,7 +236,7 @@ def open_folder(
         seed = args.seed if args.seed is not None else secrets.randbits(32)
         out = args.out or new_run_path(command)
         try:
-            folder = RunFolder.create(out, command, settings, seed, argv, runtime)
+            folder = RunFolder.create(out, command, settings.stored(), seed, argv, runtime, table.SETTINGS_VERSION)
         except RunFolderError as exc:
             parser.error(f"--out: {exc}")
     else:

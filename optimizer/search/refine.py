@@ -16,12 +16,12 @@ import numpy as np
 
 from optimizer.run.driver import Driver
 from optimizer.run.robust import Race
-from optimizer.run.run_settings import stored_quantile
 from optimizer.run.stability import Fastest, ranked_gaits
 from optimizer.search.cmaes import CMAESRun, population_size
 from optimizer.search.config import ScoringConfig
 from optimizer.search.protocol import Batch, Candidate, KeyedSearch, Repair, SearchProgram
 from optimizer.seeds import stable_seed
+from optimizer.settings import RefinementSettings, stored_quantile
 
 #: Keys of the refinement's episodes start with this (in the main job too).
 REFINE_PREFIX = "refine"
@@ -29,25 +29,6 @@ REFINE_PREFIX = "refine"
 
 #: The start gait's episodes are keyed under this.
 START_KEY = "start"
-
-
-#: The refinement's defaults, in the main job and here: 8000 gaits of CMA-ES, 20 a generation, from
-#: each start with a first step of 0.05 of the box and one of 0.1, raced (``refine``): which step
-#: climbs higher depends on the start's neighbourhood (docs/optimizer.md, "Why a refinement phase"),
-#: and so does which start. Restarts after a patience without a gain (``optimizer.search.cmaes``;
-#: docs/optimizer.md, "Restarts") are off until measured on the default rows' seeds.
-DEFAULTS: dict[str, Any] = {
-    "refine": 8000,
-    "refine_sigma": [0.05, 0.1],
-    "refine_population": 20,
-    "refine_race": True,
-    "refine_patience": None,
-    "refine_lead_walks": 20,
-}
-
-
-#: The quantile of its walks a refined gait is scored by: the worst (``refine_scoring``).
-REFINE_QUANTILE = 0.0
 
 
 @dataclass(frozen=True)
@@ -59,22 +40,22 @@ class Arm:
     sigma: float
 
 
-def refinement_arms(settings: Mapping[str, Any], starts: Sequence[Sequence[float]], first: int = 0) -> list[Arm]:
-    """The refinement's CMA-ES runs: one per start and step of ``settings["refine_sigma"]``, the
+def refinement_arms(settings: RefinementSettings, starts: Sequence[Sequence[float]], first: int = 0) -> list[Arm]:
+    """The refinement's CMA-ES runs: one per start and step of ``settings.sigma``, the
     starts in the order given, keyed ``refine<j>`` from j = ``first`` (a refinement of several
     families numbers on from the previous family's runs). A run from before several steps stored
     one number: one run keyed ``refine``, as it was made."""
-    sigmas = settings["refine_sigma"]
+    sigmas = settings.sigma
     if isinstance(sigmas, (int, float)):
         return [Arm(REFINE_PREFIX, tuple(starts[0]), float(sigmas))]
     pairs = [(tuple(start), float(sigma)) for start in starts for sigma in sigmas]
     return [Arm(f"{REFINE_PREFIX}{first + j}", start, sigma) for j, (start, sigma) in enumerate(pairs)]
 
 
-def refine_scoring(settings: Mapping[str, Any], scoring: ScoringConfig) -> ScoringConfig:
-    """How the refinement scores a gait: as the run scores (``scoring``), but, in the main job, by
-    the ``refine_quantile`` of its walks (a main job from before the setting, and this command,
-    whose whole run is a refinement: the run's own quantile, by default here ``REFINE_QUANTILE``).
+def refine_scoring(settings: RefinementSettings, scoring: ScoringConfig) -> ScoringConfig:
+    """How the refinement scores a gait: as the run scores (``scoring``), but by the
+    ``settings.quantile`` of its walks (in the main job ``--refine-quantile``; in
+    ``optimizer.refine``, whose whole run is a refinement, the run's own ``--robust-quantile``).
 
     The rows forgive one fall in five walks, which gives a population of falling gaits its slope
     towards walking. The refinement starts from walks that hold, and what it finds is handed over,
@@ -82,28 +63,26 @@ def refine_scoring(settings: Mapping[str, Any], scoring: ScoringConfig) -> Scori
     time in four (the seed-1 default row: 16.1 m on the stand-in, then 3 falls in 10 real walks);
     by the worst, to 15.5 m, 1 fall in 20 real walks (docs/optimizer.md, "The hand-over").
 
-    A gait that would be the refinement's best walks on to ``refine_lead_walks`` walks first
+    A gait that would be the refinement's best walks on to ``settings.lead_walks`` walks first
     (``ScoringConfig.lead_walks``): the best is where a CMA-ES run starts again, which run wins the
     race, and the hand-over's first candidate."""
-    quantile = settings.get("refine_quantile", scoring.quantile)
-    lead = settings.get("refine_lead_walks", 0)  # a run from before leaders' walks: none, as it was made
-    return replace(scoring, quantile=stored_quantile(quantile), lead_walks=lead)
+    return replace(scoring, quantile=stored_quantile(settings.quantile), lead_walks=settings.lead_walks)
 
 
-def heat_gaits(settings: Mapping[str, Any], arms: int, genes: int) -> int:
+def heat_gaits(settings: RefinementSettings, arms: int, genes: int) -> int:
     """Gaits each run walks in the race's heat: whole generations, a quarter of the budget over two
     runs (half of it over all of them), so the winner keeps half for itself. 0 where the settings
     do not race or the budget is too small for a generation each: then every run takes its share
     (the first ones one more where they do not divide)."""
-    population = population_size(genes, settings.get("refine_population"))
-    if arms < 2 or not settings.get("refine_race", False):  # a run from before the race: shares
+    population = population_size(genes, settings.population)
+    if arms < 2 or not settings.race:
         return 0
-    return settings["refine"] // (2 * arms * population) * population
+    return settings.budget // (2 * arms * population) * population
 
 
 def refine(
     driver: Driver,
-    settings: Mapping[str, Any],
+    settings: RefinementSettings,
     seed: int,
     bounds: np.ndarray,
     repair: Repair,
@@ -133,12 +112,10 @@ def refine(
     and CMA-ES learns nothing from a population of falls (measured: from a gait that fell in 4 of
     its 10 check walks, 2,997 of 3,000 refined gaits fell), so such a run loses its heat. With
     ``--refine-reference`` the reference walk is one more start, for when every walk of the rows
-    sits where gaits fall (``optimizer.cli.gala``)."""
+    sits where gaits fall (``optimizer.job``)."""
     arms = refinement_arms(settings, starts, first)
     scoring = refine_scoring(settings, driver.scoring)
-    total = settings["refine"]
-    population = settings.get("refine_population")  # a run from before the flag: the library's default
-    patience = settings.get("refine_patience")  # a run from before restarts: None, as it was made
+    total, population, patience = settings.budget, settings.population, settings.patience
     heat = heat_gaits(settings, len(arms), len(bounds))
 
     def cmaes(arm: Arm, gaits: int) -> CMAESRun:
