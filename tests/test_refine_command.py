@@ -170,3 +170,16 @@ def test_the_refinement_races_its_runs_and_the_leader_walks_the_rest(tmp_path: P
         )
     assert refine_command.main(["--resume", str(cut), "--quiet"], make_evaluator=lambda s: FakeEvaluator()) == 0
     assert (cut / "fastest_gait.json").read_text() == (tmp_path / "race" / "fastest_gait.json").read_text()
+
+
+def test_a_start_outside_the_box_is_refused_before_any_run_folder_is_made(tmp_path: Path, capsys) -> None:
+    genes = list(load_gait().genes)
+    genes[0] += 100.0  # the hip's offset far beyond its box
+    wide = TFS.gait(genes)
+    start = save_gait(wide, tmp_path / "wide.json")
+    out = tmp_path / "x"
+    with pytest.raises(SystemExit) as exit_info:
+        refine_command.main([str(start), "--out", str(out)])
+    assert exit_info.value.code == 2
+    assert "the start gait lies outside the tfs family's search box" in capsys.readouterr().err
+    assert not out.exists()

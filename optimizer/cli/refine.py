@@ -32,7 +32,7 @@ from collections.abc import Sequence
 from gait import FAMILIES, GaitFileError, load_gait
 from optimizer import settings
 from optimizer.job_refine import planned_episodes, refine_job
-from optimizer.run.run_settings import apply_preset, in_box, search_box
+from optimizer.run.run_settings import apply_preset, in_box
 from optimizer.run.session import EvaluatorMaker, pool_evaluator, prepare_run, run_session
 
 
@@ -56,13 +56,15 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
             parser.error(f"--family {family.name}: {exc}")
         args.family = family.name
         args.start_gait = list(start.genes)
+        # refused before the run folder is made, so that a refused start leaves no empty run behind
+        box = family.boxes.get(args.bounds or settings.defaults("refine")["bounds"])  # no such box: refused below
+        if box is not None and not in_box(args.start_gait, box):
+            parser.error(f"GAIT: the start gait lies outside the {family.name} family's search box")
     elif args.gait is not None:
         parser.error("GAIT: --resume continues from the run's own start gait; give no file")
     if args.resume is None:  # a resumed run keeps the quantile it was made with
         apply_preset(args, settings.REFINE_NEW_RUN)
     run = prepare_run(parser, args, "refine", argv)
-    if not in_box(run.settings["start_gait"], search_box(run.settings)[0]):
-        parser.error(f"GAIT: the start gait lies outside the {run.family.name} family's search box")
 
     body = functools.partial(refine_job, run=run)
     return run_session(run, planned_episodes(run), body, make_evaluator=make_evaluator, quiet=args.quiet)
