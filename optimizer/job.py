@@ -43,7 +43,9 @@ from optimizer.settings import RefinementSettings, SearchSettings
 def main_job(driver: Driver, plan: JobPlan) -> str:
     """The main job, stage by stage; returns its summary."""
     rows, fastest = table_rows(driver, plan)
+    driver.replan(plan.refinement_episodes(driver) + plan.hand_over_episodes())
     fallback = refinement(driver, plan, fastest)
+    driver.replan(plan.hand_over_episodes())
     fastest = hand_over_walk(driver, plan, rows, fastest, fallback)
     return summary(plan, rows, fastest)
 
@@ -101,12 +103,20 @@ class JobPlan:
 
     def planned_episodes(self) -> int:
         """The episodes planned, an estimate: the racing walks and how many candidates the checks
-        walk are not known ahead (the progress bar's total grows as they come)."""
+        walk are not known ahead; each stage plans again when it starts (``Driver.replan``)."""
+        rows = len(self.config.crossover_rates) * planned_episodes(self.config, self.stability.repeats)
+        return rows + self.run.settings.refinement.budget + self.hand_over_episodes()
+
+    def refinement_episodes(self, driver: Driver) -> int:
+        """The refinement's episodes, estimated from how many walks a gait has taken so far."""
+        return round(self.run.settings.refinement.budget * driver.walks_per_gait())
+
+    def hand_over_episodes(self) -> int:
+        """The checks of the best-scored gaits and the hand-over's walks, at most."""
         stability = self.stability
-        planned = len(self.config.crossover_rates) * planned_episodes(self.config, stability.repeats)
-        planned += self.run.settings.refinement.budget
-        planned += stability.candidates * self.checked_families * (stability.repeats + stability.confirm)
-        return planned + stability.hand_over
+        return (
+            stability.candidates * self.checked_families * (stability.repeats + stability.confirm) + stability.hand_over
+        )
 
 
 # --- the stages ------------------------------------------------------------------------------------

@@ -26,6 +26,7 @@ def refine_job(driver: Driver, run: Run) -> str:
     # the whole run is a refinement: its gaits are scored by the run's own quantile
     refinement = replace(run.settings.refinement, quantile=run.settings.scoring.quantile)
     refine(driver, refinement, run.seed, bounds, repair, [start_genes], run.family.held)
+    driver.replan(stability.candidates * (stability.repeats + stability.confirm) + stability.hand_over)
     start = driver.scored.get(f"{START_KEY}/i000")
     fallback = [] if start is None else [start]  # when no refined walk holds, the given one may
     fastest = fastest_walk(driver, run.setup.start, stability, hand_over=True, fallback=fallback)

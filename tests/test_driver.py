@@ -188,3 +188,14 @@ def test_the_bar_keeps_the_search_best_and_ends_full(capsys) -> None:
     bar.close(finished=True)
     shown = capsys.readouterr().err.split("\r")[-1]
     assert "100%" in shown and "3/3" in shown  # the planned 10 was an estimate; the run is done
+
+
+def test_the_bar_plans_again_and_never_shows_more_walked_than_its_total(capsys) -> None:
+    bar = BarProgress(total=2)
+    for i in range(3):
+        bar.episode(EpisodeRecord(f"a/i00{i}", (1.0,), 1.0))
+        assert bar._bar.n <= bar._bar.total  # the estimate was 2: the total grows with the walks
+    bar.plan(10)
+    assert (bar._bar.n, bar._bar.total) == (3, 13)  # a later stage's estimate, after the walks so far
+    bar.close()
+    assert "3/13" in capsys.readouterr().err.split("\r")[-1]

@@ -156,7 +156,8 @@ def test_a_gala_run_writes_its_folder(tmp_path: Path, capsys) -> None:
     assert list(load_gait(out / "best_gait-pc0.3.json").genes) == results[1]["best_genes"]
     episodes = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
     searched = [r for r in episodes if not r["key"].startswith("check/")]
-    assert len(searched) == 2 * job.planned_episodes(job.gala_config(Settings.from_stored(manifest["settings"], "gala").search))
+    search = Settings.from_stored(manifest["settings"], "gala").search
+    assert len(searched) == 2 * job.planned_episodes(job.gala_config(search))
     by_key = {r["key"]: r for r in episodes}
     for row, result in zip(rows, results):  # each row's best walked 10 times from moved starts
         key = result["best_episode"]["key"]

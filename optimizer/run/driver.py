@@ -40,6 +40,8 @@ class Progress(Protocol):
 
     def scored(self, fitness: float) -> None: ...
 
+    def plan(self, remaining: int) -> None: ...
+
 
 class Driver:
     """Runs searches against one evaluator and one episode log (a run may drive several searches,
@@ -79,6 +81,19 @@ class Driver:
             scored = self.score([(c.key, c.genes) for c in search.ask()], race, family)
             search.tell({s.key: s.fitness for s in scored})
         return search.result()
+
+    def replan(self, remaining: int) -> None:
+        """Tell the progress how many episodes are now expected after those walked so far (a run's
+        next stages are estimated better once its earlier stages have walked)."""
+        if self.progress is not None:
+            self.progress.plan(remaining)
+
+    def walks_per_gait(self) -> float:
+        """Episodes a scored gait walked on average so far (racing walks some gaits several
+        times): what an estimate of a later search's episodes multiplies its gaits by."""
+        if not self.scored:
+            return 1.0
+        return sum(len(s.walks) for s in self.scored.values()) / len(self.scored)
 
     def race(self) -> Race:
         """A fresh race for one search."""
@@ -198,8 +213,15 @@ class BarProgress:
 
     def episode(self, record: EpisodeRecord) -> None:
         self.failed += not record.ran
+        if self._bar.total is not None and self._bar.n >= self._bar.total:
+            self._bar.total = self._bar.n + 1  # walked past the estimate: never shown past its total
         self._bar.update(1)
         self._show()
+
+    def plan(self, remaining: int) -> None:
+        """The total becomes the episodes walked so far and ``remaining`` more."""
+        self._bar.total = self._bar.n + remaining
+        self._bar.refresh()
 
     def scored(self, fitness: float) -> None:
         if fitness > self.best:
