@@ -29,9 +29,8 @@ class AgentConfig:
     settle_cycles: int = 25
     #: Settle cycle (counted from 0) at which the beam is repeated: moving into the gait pose
     #: shifts the robot, and beam only works before kick-off, so it is done again once the pose
-    #: is nearly reached (cycle 12, as in the calibration walk). None: no repeated beam. Measured on
-    #: the real server with the shipped gait from (-5, 0, 0): repeated at cycle 8 or 10, or not at
-    #: all, the robot falls within 1.5 s; at 11-16 it walks 2.7-3.2 m (bench/notebook-2026.md).
+    #: is nearly reached (cycle 12, as in the calibration walk). None: no repeated beam. Earlier or
+    #: never, the shipped gait falls on the real server (docs/fidelity.md, "3. ODE's maximal coordinates").
     rebeam_cycle: int | None = 12
     #: Proportional gain of the joint controller, 1/s (calibration walk: 15/s).
     gain: float = 15.0

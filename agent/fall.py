@@ -1,13 +1,12 @@
 """Noticing a fall from the robot's own sensors (the server sends no "fallen" flag).
 
-A fall is the torso's up axis tipping: the community's walk benchmark calls a robot fallen when
-the up axis's z component is below 0.6. The accelerometer alone cannot tell that while walking:
-it reads gravity plus the torso's own acceleration, and a fast gait's steps tip its reading past
-0.6 for many cycles while the torso stays upright (over the 50 fidelity gaits on the stand-in it
-reported a fall in 17 of the 26 walks that stood; bench/notebook-2026.md). So the up axis is tracked
-the way an attitude filter does: the gyro (exact in the server) turns it every cycle, and where
-the accelerometer reads about 1 g (the torso not accelerating much) it pulls the estimate slowly
-towards the gravity it reads.
+A fall is the torso's up axis tipping: the community's walk benchmark calls a robot fallen when the
+up axis's z component is below 0.6. The accelerometer alone cannot tell that while walking: it reads
+gravity plus the torso's own acceleration, and a fast gait's steps tip its reading past 0.6 for many
+cycles while the torso stays upright (docs/history/notebook-2026.md, "Where `init` puts a robot").
+So the up axis is tracked the way an attitude filter does: the gyro (exact in the server) turns it
+every cycle, and where the accelerometer reads about 1 g (the torso not accelerating much) it pulls
+the estimate slowly towards the gravity it reads.
 """
 
 from __future__ import annotations

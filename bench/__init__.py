@@ -12,5 +12,5 @@ Each benchmark is a module run from the repository root, its name the file's ste
 ``bench`` is part of the source checkout, not of the installed packages (pyproject.toml installs
 agent, protocol, gait, optimizer and server_stub only), so it is found because ``python -m`` puts
 the current directory, the repository root, first on the path. The results and how they were
-reached are in ``bench/RESULTS.md`` and ``bench/notebook-2026.md``.
+reached are in ``bench/RESULTS.md`` (their history: ``docs/history/``).
 """

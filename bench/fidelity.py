@@ -8,7 +8,7 @@ distance, fall, the time of the fall, sideways drift, heading change and the tor
 A 15-s walk is a chaotic process. The real server is not deterministic (a few per cent run to
 run; some gaits fall sometimes, and one gait's walks may turn +21, -20 and -10 deg), and a dither of
 its velocity commands far below anything physical (``EpisodeConfig.command_noise``, 0.001 rad/s)
-moves where a walk ends and how far it turns as much on either server (bench/notebook-2026.md). So each
+moves where a walk ends and how far it turns as much on either server (docs/history/notebook-2026.md). So each
 server's figures for a gait are over its walks (``Draws``), never one walk: ``real_repeats`` walks
 on the real server, ``stand_in_repeats`` on the stand-in (deterministic without a dither, so one
 walk then). Walk k gets seed k of the dither on both servers: paired draws from each one's spread.

@@ -3,15 +3,14 @@ the *start* gait, then over ``BLEND`` seconds every joint target moves linearly 
 gait's to the *cruise* gait's, which it walks from then on. Genes: the cruise gait's 7 (the TFS's
 names), then the start gait's 7 (``s_`` before each name).
 
-Why: whether a TFS gait survives its first half second decides most of its fitness. The agent
-starts walking 13 cycles after its repeated beam, while the robot is still settling, and a fast
-gait either catches that motion or falls within 0.4-1.6 s. Measured on the stand-in and on the
-real server alike (``bench/start_sensitivity.py``; docs/optimizer.md, "The start-up decides"):
-moving one gene of a 13.3 m walk by 1-2% of its box made 25 of 28 such gaits fall at the start,
-yet begun by the unmoved walk 25 of the 28 walked, 23 of them 12 m or more. So the search space of
-a one-gait walk is made of narrow islands (gaits that happen to start), while what makes a gait
-fast once it walks changes smoothly. Here a refinement holds the start gait (one known to start:
-``held``) and searches only the cruise gait.
+Why: whether a TFS gait survives its first half second decides most of its fitness. The agent starts
+walking 13 cycles after its repeated beam, while the robot is still settling, and a fast gait either
+catches that motion or falls within 0.4-1.6 s. Measured on the stand-in and on the real server alike
+(``python -m bench.start_sensitivity``; docs/optimizer.md, "The start-up decides"): a gait moved a
+little from a fast walk mostly falls at the start, yet begun by the unmoved walk it mostly walks. So
+the search space of a one-gait walk is made of narrow islands (gaits that happen to start), while
+what makes a gait fast once it walks changes smoothly. Here a refinement holds the start gait (one
+known to start: ``held``) and searches only the cruise gait.
 
 Every TFS walk is a tfs-start walk: the same gait as start and cruise walks exactly as it does
 alone (``extend``), so a search can begin from any TFS walk it has.

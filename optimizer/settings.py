@@ -835,10 +835,10 @@ def defaults(command: str) -> dict[str, Any]:
 # --- budgets and presets: overrides of the table --------------------------------------------------
 
 #: ``python -m optimizer.gala --budget``: stands for the flags it sets (a flag given wins).
-#: paper: the defaults. quick: a first look on a 2-core machine, measured in bench/notebook-2026.md:
-#: one row (the paper's best crossover rate), population 20, 20 iterations, a 6-generation final GA,
-#: then 3200 gaits of refinement (1600 TFS, then 1600 tfs-start walks), also from the reference walk,
-#: with no leaders (``optimizer.cli.gala`` says why each).
+#: paper: the defaults. quick: a first look on a 2-core machine: one row (the paper's best crossover
+#: rate), population 20, 20 iterations, a 6-generation final GA, then 3200 gaits of refinement (1600
+#: TFS, then 1600 tfs-start walks), also from the reference walk, with no leaders (docs/optimizer.md,
+#: "The quick budget", says why each).
 BUDGETS: dict[str, dict[str, Any]] = {
     "paper": {},
     "quick": {
@@ -941,7 +941,7 @@ def build_parser(command: str, prog: str, description: str | None = None) -> arg
 
 #: What a run made before a setting existed was made with, by setting: a value, or how it follows
 #: from the run's other settings (those come first). Each is the value today's code reads in its
-#: place (``settings.get(name, legacy)`` in ``optimizer.cli``).
+#: place before this table: how that run's episodes were made.
 LEGACY: dict[str, Any] = {
     # before robust scoring: one undithered walk a gait, scored by it
     "robust_walks": 1,

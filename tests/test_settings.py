@@ -1,5 +1,5 @@
-"""The settings table (``optimizer.settings``): its parsers, defaults and presets against today's
-commands, the upgrade of an older run's settings against today's readers of them, and the typed record."""
+"""The settings table (``optimizer.settings``): its parsers, defaults and presets, the upgrade of an
+older run's settings, and the typed record."""
 
 from __future__ import annotations
 

@@ -152,6 +152,5 @@ class Race:
         leader's k-walk score, which is mostly above it (the worst of 20 walks is lower than the
         worst of 5), so a first walk left under that bar may lie above every leader's score:
         ``score`` tells it just under the best, or it would be the search's best on one walk.
-        Racing such walks instead (commits 7e3e1d3, 6e2987b) cost seed 2's default refinement 75%
-        more walks (docs/optimizer.md, "Leaders")."""
+        Racing such walks instead cost a refinement many more walks (docs/optimizer.md, "Leaders")."""
         self._lead = max(self._lead, fitness)

@@ -159,9 +159,8 @@ def fastest_stable(
     average; a walk's score is 10 x its distance, less the run's drift penalty where it has one).
     Checking all of them, not stopping at the first that passes, lets a gait scored a little lower
     but steadier win. The worst walk, not the mean, because a wide spread on the stand-in is a
-    margin the real server can cross: a gait that held 10 checks at 11.73-12.84 m (mean 12.51) fell
-    once in 10 real walks, one that held at 12.02 m in every walk walked 11.98-12.01 m in 20 real
-    ones (docs/optimizer.md). None when every gait fell.
+    margin the real server can cross (docs/optimizer.md, "The hand-over"). None when every gait
+    fell.
 
     With ``hand_over`` (the gait the run hands over at its end) the winners then walk on, in that
     order, towards ``config.hand_over`` walks each, ``config.repeats`` at a time and no further once
@@ -177,9 +176,7 @@ def check_candidates(ranked: Sequence[ScoredGait], count: int, by_family: bool =
     """The gaits the checks walk, best-scored first: the ``count`` best; ``by_family``, the
     ``count`` best of each gait family. A refinement of several families gives each its own
     candidates: the ten best-scored of a quick run can all come from one CMA-ES run's ridge in one
-    family and all fall, while the other family's walks were never checked (measured: a quick
-    run's ten best were all tfs-start walks, each fell in its check, and it handed over a rows'
-    walk of 9.70 m where its TFS refinement alone had handed over 11.61 m; docs/optimizer.md)."""
+    family and all fall, while the other family's walks were never checked (docs/optimizer.md)."""
     if not by_family:
         return list(ranked[:count])
     taken: dict[str | None, int] = {}

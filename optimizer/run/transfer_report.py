@@ -58,8 +58,8 @@ def _measured(check: Mapping[str, Any] | None, walk: Mapping[str, Any] | None) -
     return [], 0
 
 
-#: Where the commands write a reported gait's gait file (``optimizer.cli.gala.write_outputs``,
-#: ``optimizer.cli.ga``): a Table I row's best in ``best_gait-pc<rate>.json`` and, for the row of
+#: Where the commands write a reported gait's gait file (``optimizer.job.write_outputs``,
+#: ``optimizer.job_ga``): a Table I row's best in ``best_gait-pc<rate>.json`` and, for the row of
 #: the highest fitness, in ``best_gait.json`` too; the GALA run's fastest stable walk in
 #: ``fastest_gait.json``; a GA run's best in ``best_gait.json``. A comparison writes none.
 BEST_GAIT = "best_gait.json"

@@ -12,7 +12,7 @@ where it is (docs/optimizer.md, "Restarts").
 
 Two uses: the optimizer comparison starts it from a random point with sigma 0.3 of the box
 (``optimizer.compare.methods.cmaes``); the main job's refinement phase starts it from the best gait
-the Table I rows found, with a smaller step (``optimizer.cli.gala``, ``--refine``).
+the Table I rows found, with a smaller step (``optimizer.job``, ``--refine``).
 """
 
 from __future__ import annotations

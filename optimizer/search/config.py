@@ -134,9 +134,8 @@ class StabilityConfig:
 
     ``confirm`` more walks are asked of each candidate for the fastest gait that held its
     ``repeats``, before it may be handed over. Picking the best of ten candidates by ten walks
-    each favours the one that was luckiest in them (measured: the seed-1 default row's fastest
-    walk held 10 of 10 checks at 16.1 m, then fell in 3 of 10 real walks and 5 of 20 more
-    dithered stand-in walks; docs/optimizer.md, "The hand-over"). Thirty walks without a fall pass
+    each favours the one that was luckiest in them (docs/optimizer.md, "The hand-over"). Thirty
+    walks without a fall pass
     a gait that falls one walk in ten 4% of the time (0.9^30), ten walks 35%.
 
     ``hand_over`` walks in all are asked of the gait a run hands over at its end: the confirmed
@@ -185,8 +184,7 @@ class ScoringConfig:
     two are not, so a gait that falls in a third of its walks scores what it walks when it falls.
     Each walk keeps eq. 9's count of a fall (the distance reached), which gives a population of
     falling gaits its slope towards walking; a discount of falls by the time stood was tried and
-    dropped, since it led the first generations to gaits that stand still (measured: a quick run
-    whose every gait fell, against 6.4-7.4 m walks without it).
+    dropped, since it led the first generations to gaits that stand still (docs/optimizer.md).
     """
 
     walks: int = 5

@@ -59,9 +59,8 @@ def refine_scoring(settings: RefinementSettings, scoring: ScoringConfig) -> Scor
 
     The rows forgive one fall in five walks, which gives a population of falling gaits its slope
     towards walking. The refinement starts from walks that hold, and what it finds is handed over,
-    so it forgives none: scored by the second-worst of 5, it climbed to where the walk falls one
-    time in four (the seed-1 default row: 16.1 m on the stand-in, then 3 falls in 10 real walks);
-    by the worst, to 15.5 m, 1 fall in 20 real walks (docs/optimizer.md, "The hand-over").
+    so it forgives none: scored by the second-worst of 5 it climbed to where the walk falls on the
+    real server, by the worst it did not (docs/optimizer.md, "The hand-over").
 
     A gait that would be the refinement's best walks on to ``settings.lead_walks`` walks first
     (``ScoringConfig.lead_walks``): the best is where a CMA-ES run starts again, which run wins the
@@ -102,10 +101,8 @@ def refine(
     (the first on a tie) walks the rest of the budget, going on where it stopped, with its own
     racing bar. A start on a narrow ridge loses a large step's first generations to falls while one
     on a broad ridge climbs further with it, and a start the checks trusted can sit in a lower
-    basin than the best-scored gait, which fell once: measured on a quick run whose start held at
-    1.2 m, its two steps reached 6.38 m in 1600 gaits, and from the row's best (3.1 m, one fall in
-    10 checks) 9.13 m (docs/optimizer.md). The heat costs each loser what it would have cost to
-    know.
+    basin than the best-scored gait, which fell once (docs/optimizer.md, "Why a refinement
+    phase"). The heat costs each loser what it would have cost to know.
 
     The main job starts it from the fastest gait of the rows that held its check and from the
     best-scored gait (``refine_starts``): a fragile start's neighbourhood falls almost everywhere,
