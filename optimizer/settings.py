@@ -940,8 +940,8 @@ def build_parser(command: str, prog: str, description: str | None = None) -> arg
 # --- the upgrade of an older run's settings -------------------------------------------------------
 
 #: What a run made before a setting existed was made with, by setting: a value, or how it follows
-#: from the run's other settings (those come first). Each is the value today's code reads in its
-#: place before this table: how that run's episodes were made.
+#: from the run's other settings (those come first): how that run's episodes were made, as the
+#: code before this table read it in the setting's place.
 LEGACY: dict[str, Any] = {
     # before robust scoring: one undithered walk a gait, scored by it
     "robust_walks": 1,
