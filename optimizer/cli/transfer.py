@@ -45,16 +45,11 @@ from optimizer.run.session import (
 )
 from optimizer.run.transfer_report import (
     BEAM_NOISE,
-    plot,
     reported_gaits,
     run_server_kind,
     transfer_tasks,
-    update_cards,
-    write_csv,
-    write_markdown,
-    write_transfer_json,
+    write_report,
 )
-from optimizer.run.walk_card import side_name
 from optimizer.settings import existing_run
 from protocol.cli_values import non_negative, number, positive_int
 
@@ -161,12 +156,9 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     finally:
         if evaluator is not None:
             evaluator.close()
-    for gait in gaits:
-        gait.walks.sort(key=lambda w: w.key)
-    run_kind = run_server_kind(folder)
     measured = {
         "target": target,
-        "run_server": run_kind,
+        "run_server": run_server_kind(folder),
         "start": list(start),
         "jitter": list(jitter),
         "command_noise": command_noise,
@@ -175,11 +167,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         "real_command": real_command,
         "servers": [str(s) for s in servers],
     }
-    write_csv(gaits, folder.path / "transfer.csv", family_named(setup.family))
-    write_markdown(gaits, folder.path / "transfer.md", run_kind, target)
-    plot(gaits, folder.path / "transfer.png", run_kind, target)
-    write_transfer_json(folder.path / "transfer.json", gaits, measured)
-    cards, notes = update_cards(folder.path, gaits, side_name(real), episode.walk_time, start[2], setup.family)
+    cards, notes = write_report(folder.path, gaits, measured, family_named(setup.family), real, episode.walk_time)
     for note in notes:
         print(f"note: {note}", file=sys.stderr)
     written = "".join(f"\nwalk card ({target} side): {p.stem}.card.{{json,md,png}}" for p in cards)

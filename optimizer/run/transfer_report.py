@@ -19,7 +19,7 @@ from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.folder import RunFolder, write_json
 from optimizer.run.robust import jittered_starts
 from optimizer.run.stability import distance_spread
-from optimizer.run.walk_card import CardError, CardWalk, WalkCard, read_card, write_card
+from optimizer.run.walk_card import CardError, CardWalk, WalkCard, read_card, side_name, write_card
 from optimizer.seeds import stable_seed
 
 
@@ -312,3 +312,23 @@ def write_transfer_json(path: Path, gaits: Sequence[ReportedGait], measured: Map
             ],
         },
     )
+
+
+def write_report(
+    folder: Path,
+    gaits: Sequence[ReportedGait],
+    measured: Mapping[str, Any],
+    family: GaitFamily,
+    real: bool,
+    walk_time: float,
+) -> tuple[list[Path], list[str]]:
+    """Every file of a transfer: its table (CSV and Markdown), plot and JSON, and the new walks as a
+    side of each gait's walk card; returns the cards written and notes on the gaits that got none."""
+    for gait in gaits:
+        gait.walks.sort(key=lambda w: w.key)
+    run_kind, target = measured["run_server"], measured["target"]
+    write_csv(gaits, folder / "transfer.csv", family)
+    write_markdown(gaits, folder / "transfer.md", run_kind, target)
+    plot(gaits, folder / "transfer.png", run_kind, target)
+    write_transfer_json(folder / "transfer.json", gaits, measured)
+    return update_cards(folder, gaits, side_name(real), walk_time, measured["start"][2], family.name)
