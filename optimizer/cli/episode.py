@@ -31,14 +31,13 @@ from dataclasses import replace
 
 from gait import DEFAULT_GAIT_PATH, Gait, GaitFileError, load_gait
 from optimizer.cli.arguments import add_episode_arguments, add_server_arguments
-from optimizer.episode import EpisodeConfig, EpisodeResult, EpisodeRunner, Start
+from optimizer.episode import EpisodeConfig, EpisodeResult, Start
 from optimizer.episode.real_server import RealServerError, RealServerProcess
-from optimizer.episode.runner import quiet_agent_logs
 from optimizer.episode.servers import ManagedServer, ServerAddress
+from optimizer.run.repeats import describe, summary, walk_from
 from optimizer.run.robust import jittered_starts
 from optimizer.run.run_settings import episode_config
 from optimizer.run.session import check_start_for_real_server, real_server_command
-from optimizer.run.stability import distance_spread
 from optimizer.settings import EpisodeSettings
 from protocol.cli_values import non_negative, positive_int
 from protocol.nao import ROBOT_TYPES
@@ -101,29 +100,6 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _line(result: EpisodeResult) -> str:
-    return (
-        f"distance {result.distance:.3f} m in {result.time:.2f} s walked "
-        f"({'fell' if result.fell else 'did not fall'}); fitness {result.fitness:.4f}; "
-        f"mean speed {result.mean_speed:.3f} m/s"
-    )
-
-
-def summary(results: Sequence[EpisodeResult]) -> str:
-    """One line over repeated walks: how many fell, the spread of the distances."""
-    ran = [r for r in results if r.status == "ok"]
-    spread = distance_spread([r.distance for r in ran])
-    if spread is None:
-        return f"{len(results)} walks, none could be run"
-    shortest, longest, mean = spread
-    return (
-        f"{len(ran)} walks: {sum(r.fell for r in ran)} fell; distance {shortest:.3f}-"
-        f"{longest:.3f} m, mean {mean:.3f} m; mean speed "
-        f"{sum(r.mean_speed for r in ran) / len(ran):.3f} m/s"
-        + (f"; {len(results) - len(ran)} could not be run" if len(ran) < len(results) else "")
-    )
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -158,17 +134,16 @@ def _walk(
     points: Sequence[Start],
     args: argparse.Namespace,
 ) -> list[EpisodeResult]:
-    results = []
-    quiet_agent_logs()  # each walk's outcome is printed here
-    with EpisodeRunner(base, server, seed=args.seed) as runner:
-        for x, y, heading in points:
-            result = runner.evaluate(gait, start=(x, y, heading))
-            results.append(result)
-            where = f"start {x:.4f} {y:.4f} {heading:.4f}: " if len(points) > 1 else ""
-            if args.json:
-                print(json.dumps({**result.to_dict(), "start": [x, y, heading]}), flush=True)
-            elif result.status == "ok":
-                print(where + _line(result), flush=True)
-            if result.status != "ok":
-                print(f"error: {where}the episode could not be run: {result.reason}", file=sys.stderr)
-    return results
+    """Walk ``gait`` from each start, printing each walk as it ends (text or ``--json``)."""
+
+    def report(point: Start, result: EpisodeResult) -> None:
+        x, y, heading = point
+        where = f"start {x:.4f} {y:.4f} {heading:.4f}: " if len(points) > 1 else ""
+        if args.json:
+            print(json.dumps({**result.to_dict(), "start": [x, y, heading]}), flush=True)
+        elif result.status == "ok":
+            print(where + describe(result), flush=True)
+        if result.status != "ok":
+            print(f"error: {where}the episode could not be run: {result.reason}", file=sys.stderr)
+
+    return walk_from(gait, base, server, points, args.seed, report)

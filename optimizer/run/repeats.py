@@ -1,0 +1,56 @@
+"""One gait walked again and again (``python -m optimizer.episode --repeat N``): from moved
+starts, one runner for all the walks, and what they add up to.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+from gait import Gait
+from optimizer.episode.config import EpisodeConfig, Start
+from optimizer.episode.runner import EpisodeResult, EpisodeRunner, quiet_agent_logs
+from optimizer.episode.servers import ManagedServer, ServerAddress
+from optimizer.run.stability import distance_spread
+
+
+def walk_from(
+    gait: Gait,
+    base: EpisodeConfig,
+    server: ServerAddress | ManagedServer | None,
+    points: Sequence[Start],
+    seed: int,
+    report: Callable[[Start, EpisodeResult], None],
+) -> list[EpisodeResult]:
+    """Walk ``gait`` from each of ``points`` on one runner, telling ``report`` each walk as it ends."""
+    results = []
+    quiet_agent_logs()  # each walk's outcome is reported instead
+    with EpisodeRunner(base, server, seed=seed) as runner:
+        for point in points:
+            result = runner.evaluate(gait, start=point)
+            results.append(result)
+            report(point, result)
+    return results
+
+
+def describe(result: EpisodeResult) -> str:
+    """One walk in a line: how far, how long, whether it fell, its fitness and speed."""
+    return (
+        f"distance {result.distance:.3f} m in {result.time:.2f} s walked "
+        f"({'fell' if result.fell else 'did not fall'}); fitness {result.fitness:.4f}; "
+        f"mean speed {result.mean_speed:.3f} m/s"
+    )
+
+
+def summary(results: Sequence[EpisodeResult]) -> str:
+    """One line over repeated walks: how many fell, the spread of the distances."""
+    ran = [r for r in results if r.status == "ok"]
+    spread = distance_spread([r.distance for r in ran])
+    if spread is None:
+        return f"{len(results)} walks, none could be run"
+    shortest, longest, mean = spread
+    return (
+        f"{len(ran)} walks: {sum(r.fell for r in ran)} fell; distance {shortest:.3f}-"
+        f"{longest:.3f} m, mean {mean:.3f} m; mean speed "
+        f"{sum(r.mean_speed for r in ran) / len(ran):.3f} m/s"
+        + (f"; {len(results) - len(ran)} could not be run" if len(ran) < len(results) else "")
+    )
