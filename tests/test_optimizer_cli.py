@@ -23,6 +23,7 @@ from optimizer.cli import gala as gala_command
 from optimizer.episode import EpisodeResult
 from optimizer.evaluation.pool import EpisodeOutcome
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
+from optimizer.run import repeats
 from optimizer.run.report import read_table_csv
 from optimizer.run.robust import ScoredGait, jittered_starts
 from optimizer.run.stability import check_candidates
@@ -418,7 +419,7 @@ class _RecordingRunner:
 
 def test_episode_command_takes_a_start(monkeypatch, capsys) -> None:
     _RecordingRunner.walks, _RecordingRunner.fail_at = [], None
-    monkeypatch.setattr(episode_command, "EpisodeRunner", _RecordingRunner)
+    monkeypatch.setattr(repeats, "EpisodeRunner", _RecordingRunner)
     assert episode_command.main(["--start", "-6", "3.5", "90", "--json"]) == 0
     assert _RecordingRunner.walks == [(-6.0, 3.5, 90.0)]
     assert json.loads(capsys.readouterr().out)["distance"] == 1.0
@@ -445,7 +446,7 @@ def test_episode_command_refuses_a_bad_gait_file_or_server(tmp_path: Path, capsy
 
 def test_episode_command_repeats_from_jittered_starts(monkeypatch, capsys) -> None:
     _RecordingRunner.walks, _RecordingRunner.fail_at = [], None
-    monkeypatch.setattr(episode_command, "EpisodeRunner", _RecordingRunner)
+    monkeypatch.setattr(repeats, "EpisodeRunner", _RecordingRunner)
     argv = ["--start", "-6", "3", "90", "--repeat", "4", "--jitter", "0.1", "0.2", "5", "--seed", "7"]
     assert episode_command.main([*argv, "--json"]) == 0
     lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
