@@ -35,7 +35,7 @@ from optimizer.search.ga import planned_episodes as ga_episodes
 from optimizer.search.gala import GALA, GALAResult
 from optimizer.search.la import LearningScheme, LinearRewardInaction, LinearRewardPenalty
 from optimizer.search.protocol import Repair
-from optimizer.search.refine import refine, refine_starts
+from optimizer.search.refinement import refine, refine_starts
 from optimizer.seeds import stable_seed
 from optimizer.settings import RefinementSettings, SearchSettings
 
@@ -149,7 +149,7 @@ def table_rows(driver: Driver, plan: JobPlan) -> tuple[list[Row], Fastest | None
 
 
 def refinement(driver: Driver, plan: JobPlan, fastest: Fastest | None) -> list[ScoredGait]:
-    """CMA-ES from the rows' walks (``optimizer.search.refine``), each family its share of the
+    """CMA-ES from the rows' walks (``optimizer.search.refinement``), each family its share of the
     gaits in turn; returns the walk it started from, which the hand-over falls back on when no
     refined walk holds (none when the run does not refine)."""
     settings = plan.run.settings

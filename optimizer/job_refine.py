@@ -1,5 +1,5 @@
 """The refinement command's job (``python -m optimizer.refine GAIT``): the given walk scored, CMA-ES
-from it (``optimizer.search.refine``), and the fastest refined walk that holds handed over.
+from it (``optimizer.search.refinement``), and the fastest refined walk that holds handed over.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from optimizer.run.results import hand_over
 from optimizer.run.run_settings import search_box, stability_config
 from optimizer.run.session import Run
 from optimizer.run.stability import fastest_walk
-from optimizer.search.refine import START_KEY, StartGait, refine
+from optimizer.search.refinement import START_KEY, StartGait, refine
 
 
 def refine_job(driver: Driver, run: Run) -> str:

@@ -132,7 +132,7 @@ def test_inprocess_episodes_repeat_exactly_one_after_another() -> None:
 
 
 def test_the_episode_command_takes_either_path_and_refuses_others(capsys) -> None:
-    from optimizer.cli.episode import main
+    from optimizer.cli.episode_command import main
 
     outputs = []
     for path in ("inprocess", "socket"):

@@ -20,7 +20,7 @@ from gait import FAMILIES, TFS, TFS_PLUS, Gait, GaitFamily, family_named, load_g
 from gait.nao_legs import LIMIT_MARGIN_DEG
 from gait.tfs_plus import EXTRA_NAMES
 from gait.tfs_start import BLEND, HOLD, TFS_START
-from optimizer.cli import gala as gala_command
+from optimizer.cli import gala_command as gala_command
 from optimizer.episode import EpisodeConfig, EpisodeRunner
 from protocol.nao import JOINT_BY_EFFECTOR, JOINTS, SPEED_CAP
 

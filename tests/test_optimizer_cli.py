@@ -17,9 +17,9 @@ from test_driver import FakeEvaluator, Killed
 
 from gait import DEFAULT_GAIT_PATH, GENE_BOUNDS, LEGACY_GENE_BOUNDS, TFS, TFS_PLUS, load_gait
 from optimizer import job
-from optimizer.cli import episode as episode_command
-from optimizer.cli import ga as ga_command
-from optimizer.cli import gala as gala_command
+from optimizer.cli import episode_command as episode_command
+from optimizer.cli import ga_command as ga_command
+from optimizer.cli import gala_command as gala_command
 from optimizer.episode import EpisodeResult
 from optimizer.evaluation.pool import EpisodeOutcome
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
@@ -32,7 +32,7 @@ from optimizer.search.config import GAConfig, GALAConfig
 from optimizer.search.ga import GARun
 from optimizer.search.ga import planned_episodes as ga_episodes
 from optimizer.search.gala import GALA
-from optimizer.search.refine import Arm, heat_gaits, refinement_arms
+from optimizer.search.refinement import Arm, heat_gaits, refinement_arms
 from optimizer.settings import LEGACY, RefinementSettings, Settings, defaults
 
 BOUNDS = [[0.0, 1.0]] * 3

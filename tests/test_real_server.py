@@ -21,8 +21,8 @@ import pytest
 from test_gala_end_to_end import _gala, _log
 
 from gait import DEFAULT_GAIT_PATH, load_gait
-from optimizer.cli import episode as episode_command
-from optimizer.cli import gala as gala_command
+from optimizer.cli import episode_command as episode_command
+from optimizer.cli import gala_command as gala_command
 from optimizer.episode import (
     DEFAULT_START,
     EpisodeConfig,

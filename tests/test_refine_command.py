@@ -12,8 +12,8 @@ from test_driver import FakeEvaluator, Killed
 
 from gait import TFS, TFS_PLUS, TFS_START, load_gait, save_gait
 from gait.tfs_plus import NEUTRAL
-from optimizer.cli import refine as refine_command
-from optimizer.search.refine import START_KEY
+from optimizer.cli import refine_command as refine_command
+from optimizer.search.refinement import START_KEY
 
 SMALL = ["--budget", "40", "--check-repeats", "2", "--seed", "2", "--quiet"]
 

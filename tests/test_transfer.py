@@ -12,8 +12,8 @@ import pytest
 from test_driver import FakeEvaluator
 
 from gait import load_gait
-from optimizer.cli import gala as gala_command
-from optimizer.cli import transfer
+from optimizer.cli import gala_command as gala_command
+from optimizer.cli import transfer_command as transfer
 from optimizer.episode import DEFAULT_START
 from optimizer.episode.real_server import RCSSSERVER3D_ENV
 from optimizer.evaluation.pool import EpisodeOutcome

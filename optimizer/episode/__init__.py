@@ -3,7 +3,7 @@ where it is scored (``scoring``), the trainer's monitor link (``monitor_link``),
 runs on (``servers``: the embedded stand-in; ``real_server``: a real rcssserver3d). The stand-in
 measured against the real server is a benchmark of the source checkout (``bench.fidelity``).
 
-``python -m optimizer.episode`` walks one gait from the command line (``optimizer.cli.episode``).
+``python -m optimizer.episode`` walks one gait from the command line (``optimizer.cli.episode_command``).
 """
 
 from optimizer.episode.config import (

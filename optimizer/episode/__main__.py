@@ -1,5 +1,5 @@
-"""``python -m optimizer.episode``: the command lives in ``optimizer.cli.episode``."""
+"""``python -m optimizer.episode``: the command lives in ``optimizer.cli.episode_command``."""
 
-from optimizer.cli.episode import main
+from optimizer.cli.episode_command import main
 
 raise SystemExit(main())
