@@ -8,12 +8,12 @@ same in maximal coordinates (``tree_step``): every body integrated on its own, t
 ODE's joint rows with the world ERP 0.2 and CFM 1e-5, so their anchor copies drift apart by
 millimetres as on the real server.
 
-Kept per robot (``RobotPhysics``, owned by ``driver.Stepper``): what never changes (``RobotModel``:
+Kept per robot (``RobotPhysics``, owned by ``stepper.Stepper``): what never changes (``RobotModel``:
 masses, inertias, tree, hinge axes, shapes), and the bodies (``Bodies``: placed from pybullet's
 exact joints before the first step, moved rigidly by a beam or a trainer's move). Each cycle
 ``prepare`` makes the motor rows, and a robot touching nothing but the ground is stepped by
 ``solve_prepared``; robots touching each other, the ball or the field's boxes are solved as one
-island (``driver``, ``island_step``). ``ground_tuples`` gives a robot's contacts in pybullet's
+island (``stepper``, ``island_step``). ``ground_tuples`` gives a robot's contacts in pybullet's
 tuple layout, with their solved forces, for the foot sensors.
 
 Every body has SimSpark's drag (docs/robot_and_server.md section 2): a force -0.01 v at its centre
@@ -31,7 +31,7 @@ import pybullet as pb
 
 from server_stub.physics import bodies as kinematics
 from server_stub.physics import contact, nao_model
-from server_stub.physics.bundles import Forces, GroundContacts, Model, Motors, Params, State
+from server_stub.physics.bundles import Forces, GroundContacts, Model, Motors, Params, State, kernel_args
 from server_stub.physics.collision import BOX, CAPSULE, SPHERE, ground_contacts
 from server_stub.physics.rows import FUDGE_FACTOR, MOTOR_CFM, motor_rows
 from server_stub.physics.tree_step import step_tree
@@ -153,29 +153,29 @@ def solve_prepared(robot, static: RobotModel, prep: Prepared, ground: int, confi
     """The maximal step of a prepared robot against the ground alone (``params``: ``params_of(config)``)."""
     bodies = prep.bodies
     parts, points, depths = static.ground_contacts(bodies, config.ode_box_points)
-    # the bundles' fields one by one (``step_tree``): Model, State, Forces, GroundContacts, Motors, Params
     pos, quat, vel, spin, forces, tangents, torques, iterations = step_tree(
-        static.masses,
-        static.principal,
-        static.parents,
-        static.joint_of,
-        static.local_axes,
-        bodies.anchor_child,
-        bodies.anchor_parent,
-        bodies.pos,
-        bodies.quat,
-        bodies.vel,
-        bodies.spin,
-        np.array([0.0, 0.0, config.gravity]),
-        config.linear_damping,
-        config.angular_damping,
-        prep.drag_vel,
-        prep.drag_spin,
-        parts,
-        points,
-        depths,
-        *prep.motors,
-        *params,
+        *kernel_args(
+            Model(
+                static.masses,
+                static.principal,
+                static.parents,
+                static.joint_of,
+                static.local_axes,
+                bodies.anchor_child,
+                bodies.anchor_parent,
+            ),
+            State(bodies.pos, bodies.quat, bodies.vel, bodies.spin),
+            Forces(
+                np.array([0.0, 0.0, config.gravity]),
+                config.linear_damping,
+                config.angular_damping,
+                prep.drag_vel,
+                prep.drag_spin,
+            ),
+            GroundContacts(parts, points, depths),
+            prep.motors,
+            params,
+        )
     )
     contacts = partial(ground_tuples, robot.body_id, ground, parts, points, depths, forces, tangents)
     return finish_maximal(robot, static, bodies, pos, quat, vel, spin, contacts, torques, iterations)
@@ -316,12 +316,14 @@ def warm_up() -> None:
     # the step before the kernels it does not call: on a cold cache it meets the solver's kernels
     # sooner, while a helper compiles them from the other end (``server_stub.kernels``)
     step_tree(
-        *Model(np.ones(2), np.full((2, 3), 0.01), *two, axes, child, parent),
-        *State(centres, quats, vel, spin),
-        *Forces(np.array([0.0, 0.0, -9.81]), 0.01, 0.01, vel, spin),
-        *GroundContacts(np.array([1], dtype=np.int64), np.array([[0.0, 0.0, 0.0]]), np.array([0.002])),
-        *Motors(np.zeros(1), np.full(1, -10.0), np.full(1, 10.0), np.zeros(1), np.zeros(1, dtype=np.int64)),
-        *Params(0.02, 0.2, 1e-5, MOTOR_CFM, 0.001, True, 0.4, 1e-4, 0.005),
+        *kernel_args(
+            Model(np.ones(2), np.full((2, 3), 0.01), *two, axes, child, parent),
+            State(centres, quats, vel, spin),
+            Forces(np.array([0.0, 0.0, -9.81]), 0.01, 0.01, vel, spin),
+            GroundContacts(np.array([1], dtype=np.int64), np.array([[0.0, 0.0, 0.0]]), np.array([0.002])),
+            Motors(np.zeros(1), np.full(1, -10.0), np.full(1, 10.0), np.zeros(1), np.zeros(1, dtype=np.int64)),
+            Params(0.02, 0.2, 1e-5, MOTOR_CFM, 0.001, True, 0.4, 1e-4, 0.005),
+        )
     )
     written = kinematics.measured_state(centres, quats, vel, spin, *two, axes)
     # a beam's rigid move (``prepare``), with the argument types it is given there: compiled at a

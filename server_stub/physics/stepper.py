@@ -1,4 +1,4 @@
-"""The per-cycle driver of the step (``Stepper``): it keeps what the step knows of every robot and
+"""The per-cycle step of the whole world (``Stepper``): it keeps what the step knows of every robot and
 the ball, finds the contacts besides the ground (robot-robot, robot-ball, robot-goal/border and
 ball-goal/border) as SimSpark and ODE make them, groups touching bodies into islands and solves
 each: a robot alone on the ground by ``robot_step``, an island by ``island_step``.
