@@ -203,7 +203,7 @@ def _free_robot(seed):
         targetVelocities=[[x] for x in rng.normal(size=22) * 3],
         physicsClientId=c,
     )
-    static = robot_step.RobotModel(c, b, world._ground, robot.robot_type)
+    static = robot_step.RobotModel(c, b, world._ground, robot.robot_type).model  # anchors: below
     position, orientation = pb.getBasePositionAndOrientation(b, physicsClientId=c)
     v0, w0 = pb.getBaseVelocity(b, physicsClientId=c)
     links = pb.getLinkStates(b, list(range(22)), computeForwardKinematics=1, physicsClientId=c)
@@ -405,14 +405,14 @@ def test_a_beam_moves_the_maximal_bodies_rigidly_and_keeps_the_joints_drift():
                     robot.command(joint.effector, float(speed))
             world.step()
         before = world.anchor_gaps(robot)
-        centre = world.physics_of(robot).bodies.pos[0].copy()
+        centre = world.physics_of(robot).state.pos[0].copy()
         robot.beam(-6.0, -1.0, 45.0)
         world.step()
         after = world.anchor_gaps(robot)
     worst = int(np.argmax(before))
     assert before[worst] > 1e-4
     assert after[worst] > 0.5 * before[worst]
-    assert np.linalg.norm(world.physics_of(robot).bodies.pos[0] - centre) > 3.0
+    assert np.linalg.norm(world.physics_of(robot).state.pos[0] - centre) > 3.0
 
 
 def test_moving_bodies_rigidly_keeps_their_relative_poses():
@@ -439,7 +439,7 @@ def test_after_a_beam_the_torso_feels_the_drag_of_its_velocity_before_it():
             robot.beam(-3.0, 2.0, 0.0)
             for _ in range(40):
                 world.step()
-            world.physics_of(robot).bodies.spin[0] = (0.0, 0.0, spin)
+            world.physics_of(robot).state.spin[0] = (0.0, 0.0, spin)
             robot.beam(-3.0, 2.0, 0.0)
             world.step()
             yaw.append(robot.stored_motion()[1][2])

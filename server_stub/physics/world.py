@@ -165,11 +165,12 @@ class World:
         drift of ODE's maximal coordinates (the real server's knees part by 3-6 mm walking); zeros
         before the robot's first step."""
         physics = self.physics_of(robot)
-        model, bodies = physics.model, physics.bodies
-        if model is None or bodies is None:
+        static, state = physics.model, physics.state
+        if static is None or state is None:
             return np.zeros(len(robot.joint_degrees()))
+        model = static.model
         return kinematics.anchor_gaps(
-            model.parents, model.joint_of, bodies.pos, bodies.quat, bodies.anchor_child, bodies.anchor_parent
+            model.parents, model.joint_of, state.pos, state.quat, model.anchor_child, model.anchor_parent
         )
 
     # ----- time -----
