@@ -37,7 +37,6 @@ from server_stub.physics.bundles import (
     PairContacts,
     Params,
     State,
-    kernel_args,
 )
 from server_stub.physics.gauss_seidel import block_gauss_seidel
 from server_stub.physics.integrate import advance, body_terms, free_velocities
@@ -75,7 +74,7 @@ def step_island(model, state, forces, motors, contacts, pairs, params, solve):
     solved (exactly, or past ``solve.exact_rows`` by ``gauss_seidel``). Returns (positions,
     quaternions, velocities, spins, one-body contact forces (normal, t1, t2) and tangents, two-body
     contact forces (on body 1) and tangents, motor/stop torques, solver passes)."""
-    prepared = _prepare(*kernel_args(model, state, forces, motors, contacts, pairs, params))
+    prepared = _prepare(*(tuple(bundle) for bundle in (model, state, forces, motors, contacts, pairs, params)))
     free, gb, gj, bb, lo, hi, cfm_b, yb, bj, bf, tree, tangents, p_tangents = prepared
     parents, joint_of, _, _, jc, jp, _, dinv_body, dinv_joint, _ = tree
     nj = model.local_axes.shape[0]
@@ -109,7 +108,7 @@ def _prepare(model, state, forces, motors, contacts, pairs, params):
     what ``solver.tree_solve`` takes), the bounded rows (motors, one-body normals, two-body
     contacts: bodies ``gb``, Jacobians ``gj``, right side ``bb`` less the free motion, bounds,
     CFM), and the unbounded solve ``yb`` with no bounded row pushing. The arguments are
-    ``step_island``'s bundles (but ``solve``) as plain tuples (``bundles.kernel_args``)."""
+    ``step_island``'s bundles (but ``solve``), each as a plain tuple (``bundles``)."""
     masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
     pos, quat, vel, spin = state
     gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces

@@ -32,7 +32,7 @@ import pybullet as pb
 
 from server_stub.physics import bodies as kinematics
 from server_stub.physics import contact, nao_model
-from server_stub.physics.bundles import Forces, GroundContacts, Model, Motors, Params, State, kernel_args
+from server_stub.physics.bundles import Forces, GroundContacts, Model, Motors, Params, State
 from server_stub.physics.collision import BOX, CAPSULE, SPHERE, ground_contacts
 from server_stub.physics.rows import FUDGE_FACTOR, MOTOR_CFM, motor_rows
 from server_stub.physics.tree_step import step_tree
@@ -151,9 +151,9 @@ def solve_prepared(robot, physics: RobotPhysics, prep: Prepared, ground: int, co
     """The maximal step of a prepared robot against the ground alone (``params``: ``params_of(config)``)."""
     static = physics.model
     assert static is not None  # read before ``prepare``
-    contacts = static.ground_contacts(prep.state, config.ode_box_points)
+    contacts = static.ground_contacts(prep.state, config.ode_box_points)  # a plain tuple already
     pos, quat, vel, spin, forces, tangents, torques, iterations = step_tree(
-        *kernel_args(static.model, prep.state, prep.forces, contacts, prep.motors, params)
+        tuple(static.model), tuple(prep.state), tuple(prep.forces), contacts, tuple(prep.motors), tuple(params)
     )
     parts, points, depths = contacts
     solved = partial(ground_tuples, robot.body_id, ground, parts, points, depths, forces, tangents)
@@ -169,14 +169,15 @@ def ground_tuples(body: int, ground: int, parts, points, depths, forces, tangent
     )
 
 
-def prepare(robot, physics: RobotPhysics, model: RobotModel, config) -> Prepared:
+def prepare(robot, physics: RobotPhysics, model: RobotModel, config, gravity: np.ndarray) -> Prepared:
     """Make ``robot``'s bodies ready for this step and its motor rows: placed from pybullet before
-    its first step, moved rigidly with the torso after a beam or a trainer's move (``moved``)."""
+    its first step, moved rigidly with the torso after a beam or a trainer's move (``moved``).
+    ``gravity``: the world's, one array for every robot and step (the kernels only read it)."""
     state = physics.state
     moved, physics.moved = physics.moved, False
     if state is not None and not moved:
         # nothing but the step has moved the robot: the bodies go on from their own state
-        return _prepared(robot, physics, model, state, state.vel, state.spin, robot.joint_state()[0], config)
+        return _prepared(robot, physics, model, state, state.vel, state.spin, robot.joint_state()[0], config, gravity)
     robot.sync()
     angles, rates = robot.joint_state()
     position, orientation = robot.stored_pose()
@@ -197,7 +198,7 @@ def prepare(robot, physics: RobotPhysics, model: RobotModel, config) -> Prepared
         drag_spin[0] = state.spin[0]
         state.vel[:] = 0.0
         state.spin[:] = 0.0
-        return _prepared(robot, physics, model, state, drag_vel, drag_spin, angles, config)
+        return _prepared(robot, physics, model, state, drag_vel, drag_spin, angles, config, gravity)
     # every body where pybullet's exact joints put it
     links = robot.link_frames()
     coms = np.array([position] + [link[0] for link in links], dtype=float)
@@ -220,11 +221,19 @@ def prepare(robot, physics: RobotPhysics, model: RobotModel, config) -> Prepared
     child, parent = kinematics.local_anchors(tree.parents, tree.joint_of, coms, quats, anchors)
     model.model = tree._replace(anchor_child=child, anchor_parent=parent)
     state = physics.state = State(coms, quats, vel, spin)
-    return _prepared(robot, physics, model, state, state.vel, state.spin, angles, config)
+    return _prepared(robot, physics, model, state, state.vel, state.spin, angles, config, gravity)
 
 
 def _prepared(
-    robot, physics: RobotPhysics, model: RobotModel, state: State, drag_vel, drag_spin, angles: np.ndarray, config
+    robot,
+    physics: RobotPhysics,
+    model: RobotModel,
+    state: State,
+    drag_vel: np.ndarray,
+    drag_spin: np.ndarray,
+    angles: np.ndarray,
+    config,
+    gravity: np.ndarray,
 ) -> Prepared:
     """A robot's prepared step: its bodies' state, the forces (its drag acting on ``drag_vel``
     and ``drag_spin``), its motor rows."""
@@ -238,7 +247,6 @@ def _prepared(
     lo, hi, push = motor_rows(
         angles, model.upper, np.asarray(force, dtype=float), sticky, config.motor_torque, FUDGE_FACTOR
     )
-    gravity = np.array([0.0, 0.0, config.gravity])
     return Prepared(
         state,
         Forces(gravity, config.linear_damping, config.angular_damping, drag_vel, drag_spin),
@@ -299,16 +307,15 @@ def warm_up() -> None:
     child, parent = kinematics.local_anchors(*two, centres, quats, anchors)
     # the step before the kernels it does not call: on a cold cache it meets the solver's kernels
     # sooner, while a helper compiles them from the other end (``server_stub.kernels``)
-    step_tree(
-        *kernel_args(
-            Model(np.ones(2), np.full((2, 3), 0.01), *two, axes, child, parent),
-            State(centres, quats, vel, spin),
-            Forces(np.array([0.0, 0.0, -9.81]), 0.01, 0.01, vel, spin),
-            GroundContacts(np.array([1], dtype=np.int64), np.array([[0.0, 0.0, 0.0]]), np.array([0.002])),
-            Motors(np.zeros(1), np.full(1, -10.0), np.full(1, 10.0), np.zeros(1), np.zeros(1, dtype=np.int64)),
-            Params(0.02, 0.2, 1e-5, MOTOR_CFM, 0.001, True, 0.4, 1e-4, 0.005),
-        )
+    bundles = (
+        Model(np.ones(2), np.full((2, 3), 0.01), *two, axes, child, parent),
+        State(centres, quats, vel, spin),
+        Forces(np.array([0.0, 0.0, -9.81]), 0.01, 0.01, vel, spin),
+        GroundContacts(np.array([1], dtype=np.int64), np.array([[0.0, 0.0, 0.0]]), np.array([0.002])),
+        Motors(np.zeros(1), np.full(1, -10.0), np.full(1, 10.0), np.zeros(1), np.zeros(1, dtype=np.int64)),
+        Params(0.02, 0.2, 1e-5, MOTOR_CFM, 0.001, True, 0.4, 1e-4, 0.005),
     )
+    step_tree(*(tuple(bundle) for bundle in bundles))
     written = kinematics.measured_state(centres, quats, vel, spin, *two, axes)
     # a beam's rigid move (``prepare``), with the argument types it is given there: compiled at a
     # game's first beam it would stall that cycle by seconds on a fresh clone

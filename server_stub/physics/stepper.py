@@ -247,7 +247,10 @@ class Stepper:
         c = self.client
         ground = self.ground
         statics = [self._model(robot) for robot in robots]
-        preps = [robot_step.prepare(robot, self._robots[robot], model, cfg) for robot, model in zip(robots, statics)]
+        preps = [
+            robot_step.prepare(robot, self._robots[robot], model, cfg, self.gravity)
+            for robot, model in zip(robots, statics)
+        ]
         # each robot's and the ball's contacts with the field's boxes (pybullet's tuples)
         on_boxes: list[list] = [[] for _ in range(len(robots) + 1)]
         by_body = {robot.body_id: i for i, robot in enumerate(robots)}

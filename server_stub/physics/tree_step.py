@@ -62,7 +62,7 @@ def step_tree(model, state, forces, contacts, motors, params):
     dense LCP (``tests/dense_step.py``, to rounding). Requires every parent index below its child's.
 
     The arguments are the bundles ``Model``, ``State``, ``Forces``, ``GroundContacts``, ``Motors``
-    and ``Params`` as plain tuples (``bundles.kernel_args``)."""
+    and ``Params``, each as a plain tuple (``bundles``)."""
     masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
     pos, quat, vel, spin = state
     gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
