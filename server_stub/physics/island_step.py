@@ -74,7 +74,9 @@ def step_island(model, state, forces, motors, contacts, pairs, params, solve):
     solved (exactly, or past ``solve.exact_rows`` by ``gauss_seidel``). Returns (positions,
     quaternions, velocities, spins, one-body contact forces (normal, t1, t2) and tangents, two-body
     contact forces (on body 1) and tangents, motor/stop torques, solver passes)."""
-    prepared = _prepare(*(tuple(bundle) for bundle in (model, state, forces, motors, contacts, pairs, params)))
+    prepared = _prepare(
+        tuple(model), tuple(state), tuple(forces), tuple(motors), tuple(contacts), tuple(pairs), tuple(params)
+    )
     free, gb, gj, bb, lo, hi, cfm_b, yb, bj, bf, tree, tangents, p_tangents = prepared
     parents, joint_of, _, _, jc, jp, _, dinv_body, dinv_joint, _ = tree
     nj = model.local_axes.shape[0]
