@@ -264,11 +264,12 @@ def finish_maximal(robot, physics: RobotPhysics, pos, quat, vel, spin, contacts,
     written = kinematics.measured_state(pos, quat, vel, spin, tree.parents, tree.joint_of, tree.local_axes)
     physics.written = written
     nj = tree.local_axes.shape[0]
+    torso = written[:13].tolist()  # one conversion, not four: the same floats
     return Solved(
-        written[0:3].tolist(),
-        written[3:7].tolist(),
-        written[7:10].tolist(),
-        written[10:13].tolist(),
+        torso[0:3],
+        torso[3:7],
+        torso[7:10],
+        torso[10:13],
         written[13 : 13 + nj],
         written[13 + nj :],
         contacts,
