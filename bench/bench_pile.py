@@ -1,7 +1,7 @@
 """A pile of robots: the cost of one physics cycle when several NAOs lie on top of each other.
 
 A real game has piles (robots falling over each other at the ball); the stand-in solves every group
-of touching bodies as one island (``server_stub.physics.driver``), so a pile is its worst cycle.
+of touching bodies as one island (``server_stub.physics.stepper``), so a pile is its worst cycle.
 Robots are added and stepped once apart (each one's model read: that step is printed on its
 own), then beamed around one spot (a ring of radius ``--spread``, facing its centre, the ball in
 the middle) and driven with random joint speeds, changed every 10 cycles, so they flail into a

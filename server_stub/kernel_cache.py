@@ -11,7 +11,8 @@ The folder is ``kernels-<hash>`` under ``NUMBA_CACHE_DIR`` when that is set, els
 package's ``__pycache__`` (per checkout, as numba's own default), else, when that cannot be
 written (an installed package), under the user's cache folder (or the temporary folder),
 starting from a copy of the package's own when it has one (kernels compiled at install,
-``docker/Dockerfile``). Folders of older sources left in the package's ``__pycache__`` are
+``docker/Dockerfile``); a copy left half made by a killed process is removed by the next one to
+set the cache up. Folders of older sources left in the package's ``__pycache__`` are
 removed once nothing has been written to them for a day.
 """
 
@@ -73,6 +74,7 @@ def cache_folder(root: Path = PACKAGE, base: str | None = None) -> Path:
     # an installed package (a container's): numba writes beside every kernel it loads, so kernels
     # compiled into the package when it was installed are used from a copy
     for place in _elsewhere():
+        _remove_orphans(place)
         folder = place / name
         if not folder.is_dir() and in_tree.is_dir() and _writable(place):
             _copy_whole(in_tree, folder)
@@ -91,6 +93,27 @@ def _copy_whole(source: Path, folder: Path) -> None:
         os.rename(part, folder)
     except OSError:
         shutil.rmtree(part, ignore_errors=True)
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists (one of another user's counts)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # not ours to signal: it exists
+        return True
+    return True
+
+
+def _remove_orphans(place: Path) -> None:
+    """Remove the half-made copies in ``place`` (``_copy_whole``'s ``kernels-<hash>.<pid>``) of
+    processes that no longer exist: killed while copying, they never renamed nor removed them.
+    A copy whose process still runs is left to it (a reused pid only delays the removal)."""
+    for part in place.glob(_PREFIX + "*.*"):
+        pid = part.suffix[1:]
+        if pid.isdigit() and part.is_dir() and not _alive(int(pid)):
+            shutil.rmtree(part, ignore_errors=True)
 
 
 def _remove_stale(folder: Path) -> None:

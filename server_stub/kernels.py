@@ -46,13 +46,13 @@ def _sensors() -> None:
 
 def _field() -> None:
     """The check that skips Bullet's collision pass, on one robot's body and the ball, with the
-    argument types ``driver.Stepper`` gives it (no world made: a world's step is the physics')."""
+    argument types ``stepper.Stepper`` gives it (no world made: a world's step is the physics')."""
     lo = np.zeros((1, 3))
     collision.far_apart(np.zeros((1, 3)), np.zeros(1, dtype=np.int64), 1, np.ones(3), 0.25, 0.3, lo, lo + 1.0)
 
 
 #: Argument types by short name: float64 (f) or int64 (i) scalars and C arrays of 1-3 dimensions,
-#: and a bool (b).
+#: a bool (b), and a factored forest (tree).
 _TYPES: dict[str, types.Type] = {
     "f": types.float64,
     "i": types.int64,
@@ -63,6 +63,8 @@ _TYPES: dict[str, types.Type] = {
     "i1": types.int64[::1],
     "i2": types.int64[:, ::1],
 }
+#: The factored forest ``solver.tree_solve`` takes (``solver.factor``'s tree and inverted blocks).
+_TYPES["tree"] = types.Tuple(tuple(_TYPES[name] for name in "i1 i1 i1 i1 f3 f3 f3 f3 f3 f3".split()))
 #: The kernels both a robot's step and an island's call, with the argument types they call them
 #: with (``tests/test_kernels.py`` checks them), in the order a robot's step first calls them.
 SHARED: tuple[tuple[Callable[[], Any], str], ...] = (
@@ -73,7 +75,7 @@ SHARED: tuple[tuple[Callable[[], Any], str], ...] = (
     (lambda: solver.factor, "i1 i1 i1 i1 f3 f3 f3 f3 f1 f"),
     (lambda: solver.unbounded_rhs, "i1 i1 i1 f3 f3 f3 f2 f2"),
     (lambda: rows.bounded_rows, "i f1 f1 f1 f"),
-    (lambda: solver.tree_solve, "i i i1 i1 i1 i1 f3 f3 f3 f3 f3 f3 f2 f2 f2"),
+    (lambda: solver.tree_solve, "i i tree f2 f2 f2"),
     (lambda: solver.schur_complement, "i1 i1 f3 f3 f3 f3 i2 i1 f3 f1"),
     (lambda: solver.box_qp, "f2 f1 f1 f1 i1"),
     (lambda: integrate.advance, "f2 f2 f2 f"),

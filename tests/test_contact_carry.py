@@ -1,5 +1,5 @@
 """Contacts Bullet finds on pybullet's links, carried onto the step's own bodies
-(``server_stub.physics.driver``): a pile's hundreds of points in one stacked product must give
+(``server_stub.physics.stepper``): a pile's hundreds of points in one stacked product must give
 the numbers a product per point gives, bit for bit, so that a pile is solved as it was."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from server_stub.physics.bundles import State
-from server_stub.physics.driver import _Frames
+from server_stub.physics.stepper import _Frames
 
 _unit = st.floats(-1.0, 1.0, allow_nan=False)
 _quat = st.tuples(_unit, _unit, _unit, _unit).filter(lambda q: sum(x * x for x in q) > 0.1)

@@ -124,6 +124,20 @@ def test_a_copy_put_in_place_first_by_another_process_is_kept(tmp_path, monkeypa
     assert sorted(p.name for p in theirs.parent.iterdir()) == [theirs.name]
 
 
+def test_a_copy_left_half_made_by_a_killed_process_is_removed_at_the_next_set_up(tmp_path, monkeypatch):
+    """A process killed while copying the package's kernels leaves its ``kernels-<hash>.<pid>``
+    behind: the next process to set the cache up removes it; a copy still being made is kept."""
+    pkg, mine = _installed(tmp_path, monkeypatch)
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    orphan = mine.with_name(f"{mine.name}.{int(gone.stdout)}")
+    running = mine.with_name(f"{mine.name}.{os.getppid()}")  # alive: this test's parent
+    for part in (orphan, running):
+        part.mkdir(parents=True)
+        (part / "k.nbi").write_text("half")
+    assert kernel_cache.cache_folder(pkg) == mine
+    assert sorted(p.name for p in mine.parent.iterdir()) == sorted([mine.name, running.name])
+
+
 def test_without_a_writable_user_folder_the_temporary_folder_holds_them(tmp_path, monkeypatch):
     """A container run as a user without a home (``docker/compose.yaml`` takes the host's uid)."""
     pkg = _package(tmp_path, 1.0)

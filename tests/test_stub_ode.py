@@ -203,7 +203,7 @@ def _free_robot(seed):
         targetVelocities=[[x] for x in rng.normal(size=22) * 3],
         physicsClientId=c,
     )
-    static = robot_step.RobotModel(c, b, world._ground, robot.robot_type)
+    static = robot_step.RobotModel(c, b, world._ground, robot.robot_type).model  # anchors: below
     position, orientation = pb.getBasePositionAndOrientation(b, physicsClientId=c)
     v0, w0 = pb.getBaseVelocity(b, physicsClientId=c)
     links = pb.getLinkStates(b, list(range(22)), computeForwardKinematics=1, physicsClientId=c)
@@ -351,12 +351,11 @@ def test_maximal_step_keeps_a_flailing_robot_together():
     assert worst_gap < 0.02
 
 
-def _bundled(fields: tuple) -> tuple:
-    """``tree_step.step_tree``'s arguments (the bundles' fields one by one) as the bundles."""
+def _bundled(args: tuple) -> tuple:
+    """``tree_step.step_tree``'s arguments (the bundles as plain tuples) as the named bundles."""
     kinds = (Model, State, Forces, GroundContacts, Motors, Params)
-    bounds = np.cumsum([0] + [len(kind._fields) for kind in kinds])
-    assert bounds[-1] == len(fields)
-    return tuple(kind(*fields[a:b]) for kind, a, b in zip(kinds, bounds[:-1], bounds[1:]))
+    assert len(args) == len(kinds)
+    return tuple(kind(*fields) for kind, fields in zip(kinds, args))
 
 
 def test_the_tree_solve_equals_the_dense_solve(monkeypatch):
@@ -367,10 +366,10 @@ def test_the_tree_solve_equals_the_dense_solve(monkeypatch):
     worst = [0.0, 0.0]
     limits = [0]
 
-    def both(*fields):
-        model, state, forces, ground, motors, params = _bundled(fields)
+    def both(*args):
+        model, state, forces, ground, motors, params = _bundled(args)
         dense = dense_step(model, state, forces, ground, motors._replace(state=motors.state.copy()), params)
-        out = tree(*fields)
+        out = tree(*args)
         worst[0] = max(worst[0], np.abs(out[2] - dense[2]).max(), np.abs(out[3] - dense[3]).max())
         if out[4].size:
             worst[1] = max(worst[1], np.abs(out[4] - dense[4]).max())
@@ -406,14 +405,14 @@ def test_a_beam_moves_the_maximal_bodies_rigidly_and_keeps_the_joints_drift():
                     robot.command(joint.effector, float(speed))
             world.step()
         before = world.anchor_gaps(robot)
-        centre = world.physics_of(robot).bodies.pos[0].copy()
+        centre = world.physics_of(robot).state.pos[0].copy()
         robot.beam(-6.0, -1.0, 45.0)
         world.step()
         after = world.anchor_gaps(robot)
     worst = int(np.argmax(before))
     assert before[worst] > 1e-4
     assert after[worst] > 0.5 * before[worst]
-    assert np.linalg.norm(world.physics_of(robot).bodies.pos[0] - centre) > 3.0
+    assert np.linalg.norm(world.physics_of(robot).state.pos[0] - centre) > 3.0
 
 
 def test_moving_bodies_rigidly_keeps_their_relative_poses():
@@ -440,7 +439,7 @@ def test_after_a_beam_the_torso_feels_the_drag_of_its_velocity_before_it():
             robot.beam(-3.0, 2.0, 0.0)
             for _ in range(40):
                 world.step()
-            world.physics_of(robot).bodies.spin[0] = (0.0, 0.0, spin)
+            world.physics_of(robot).state.spin[0] = (0.0, 0.0, spin)
             robot.beam(-3.0, 2.0, 0.0)
             world.step()
             yaw.append(robot.stored_motion()[1][2])
@@ -448,7 +447,7 @@ def test_after_a_beam_the_torso_feels_the_drag_of_its_velocity_before_it():
     assert -0.1 < change < -1e-4
 
 
-# ----- contacts besides the ground (``driver``, ``island_step``) -----
+# ----- contacts besides the ground (``stepper``, ``island_step``) -----
 
 
 def test_the_island_solve_equals_the_tree_solve_for_one_robot(monkeypatch):
@@ -457,8 +456,8 @@ def test_the_island_solve_equals_the_tree_solve_for_one_robot(monkeypatch):
     tree = robot_step.step_tree
     worst = [0.0, 0.0]
 
-    def both(*fields):
-        model, state, forces, ground, motors, params = _bundled(fields)
+    def both(*args):
+        model, state, forces, ground, motors, params = _bundled(args)
         nb, nc = model.masses.shape[0], ground.body.shape[0]
         roots = model.parents.copy()
         roots[0] = -1
@@ -477,7 +476,7 @@ def test_the_island_solve_equals_the_tree_solve_for_one_robot(monkeypatch):
             params,
             IslandSolve(10**6, 1, 0.0),
         )
-        out = tree(*fields)
+        out = tree(*args)
         worst[0] = max(worst[0], np.abs(out[2] - island[2]).max(), np.abs(out[3] - island[3]).max())
         if out[4].size:
             worst[1] = max(worst[1], np.abs(out[4] - island[4]).max())
@@ -798,7 +797,7 @@ def test_the_ball_follows_the_real_servers_recorded_path(case, ball, velocity, b
 
 def test_robots_beamed_onto_one_spot_are_pushed_apart_in_reasonable_time():
     """Four robots beamed onto one spot (hundreds of contact points; at most
-    ``driver.MAX_PAIR_POINTS`` kept a pair, the island past ``island_exact_rows`` solved by block
+    ``stepper.MAX_PAIR_POINTS`` kept a pair, the island past ``island_exact_rows`` solved by block
     Gauss-Seidel): ten steps take seconds, not minutes (165 s for the first with the dense solve
     before the cap), and the robots spread out."""
     import time

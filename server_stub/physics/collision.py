@@ -7,7 +7,7 @@
 - The field's static boxes (``static_boxes``): the goals' side boxes, back walls and top plates,
   and the four border walls, as goal.rsg and soccer.rsg build them.
 - ``far_apart``: whether robots, the ball and the boxes are too far apart to touch, so that
-  Bullet's collision pass (robot-robot, robot-ball and robot-box contacts, ``driver``) can be
+  Bullet's collision pass (robot-robot, robot-ball and robot-box contacts, ``stepper``) can be
   skipped on the usual cycle of a lone walker.
 """
 

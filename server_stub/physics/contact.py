@@ -5,7 +5,7 @@ Where the contact model lives (docs/robot_and_server.md section 4):
 - its settings, each with the source of its value: ``server_stub.config.PhysicsConfig`` (the
   "contacts" block);
 - how contacts are made and solved: the ground's colliders (``server_stub.physics.collision``),
-  Bullet's collision pass for everything else (``driver``), their rows (``rows``) and the step's
+  Bullet's collision pass for everything else (``stepper``), their rows (``rows``) and the step's
   LCP (``solver``);
 - what a robot reports of them: this module.
 

@@ -66,7 +66,7 @@ def _tree_solve(t, first, end, tree, rb, rj, rf):
         while c >= 0:
             rf[c, :] = 0.0
             c = contact_next[c]
-    tree_solve(first[t], end[t], *tree, rb, rj, rf)
+    tree_solve(first[t], end[t], tree, rb, rj, rf)
 
 
 @njit(cache=True)

@@ -1,5 +1,5 @@
 """One ODE island: several robots and the ball that touch each other, solved together in one LCP,
-as ODE's dWorldStep solves every island of bodies connected by joints or contacts (``driver``
+as ODE's dWorldStep solves every island of bodies connected by joints or contacts (``stepper``
 makes the islands).
 
 The kernel is ``tree_step.step_tree`` generalised (same facts, same Baraff 1996 tree solve, the
@@ -28,7 +28,16 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from server_stub.physics.bundles import Contacts, Forces, IslandSolve, Model, Motors, PairContacts, Params, State
+from server_stub.physics.bundles import (
+    Contacts,
+    Forces,
+    IslandSolve,
+    Model,
+    Motors,
+    PairContacts,
+    Params,
+    State,
+)
 from server_stub.physics.gauss_seidel import block_gauss_seidel
 from server_stub.physics.integrate import advance, body_terms, free_velocities
 from server_stub.physics.linalg import cross, plane_space
@@ -65,10 +74,10 @@ def step_island(model, state, forces, motors, contacts, pairs, params, solve):
     solved (exactly, or past ``solve.exact_rows`` by ``gauss_seidel``). Returns (positions,
     quaternions, velocities, spins, one-body contact forces (normal, t1, t2) and tangents, two-body
     contact forces (on body 1) and tangents, motor/stop torques, solver passes)."""
-    # the bundles' fields one by one: numba types named tuples in Python at every call (``_prepare``)
-    free, gb, gj, bb, lo, hi, cfm_b, yb, bj, bf, tree, tangents, p_tangents = _prepare(
-        *model, *state, *forces, *motors, *contacts, *pairs, *params
+    prepared = _prepare(
+        tuple(model), tuple(state), tuple(forces), tuple(motors), tuple(contacts), tuple(pairs), tuple(params)
     )
+    free, gb, gj, bb, lo, hi, cfm_b, yb, bj, bf, tree, tangents, p_tangents = prepared
     parents, joint_of, _, _, jc, jp, _, dinv_body, dinv_joint, _ = tree
     nj = model.local_axes.shape[0]
     nbd = bb.shape[0]
@@ -91,75 +100,24 @@ def step_island(model, state, forces, motors, contacts, pairs, params, solve):
             tree, gb, gj, bb, lo, hi, cfm_b, row_state, nj, contacts.point.shape[0], solve.sweeps, solve.tolerance
         )
     motors.state[:] = row_state[:nj]
-    return _finish(
-        nj,
-        state.pos,
-        state.quat,
-        free,
-        gb,
-        gj,
-        lam_b,
-        bj,
-        bf,
-        *tree,
-        tangents,
-        p_tangents,
-        params.h,
-        contacts.point.shape[0],
-        iterations,
-    )
+    return _finish(nj, contacts.point.shape[0], params.h, tuple(state), prepared, lam_b, iterations)
 
 
 @njit(cache=True)
-def _prepare(
-    masses,
-    principal,
-    parents,
-    joint_of,
-    local_axes,
-    anchor_child,
-    anchor_parent,
-    pos,
-    quat,
-    vel,
-    spin,
-    gravity,
-    drag_linear,
-    drag_angular,
-    drag_vel,
-    drag_spin,
-    motor_target,
-    motor_lo,
-    motor_hi,
-    push,
-    _motor_state,  # the motors' states: ``step_island``'s
-    c_body,
-    c_point,
-    c_normal,
-    c_depth,
-    c_surface,
-    p_body1,
-    p_body2,
-    p_point,
-    p_normal,
-    p_depth,
-    p_surface,
-    h,
-    joint_erp,
-    joint_cfm,
-    motor_cfm,
-    surface_layer,
-    implicit_gyro,
-    _erp,
-    _cfm,
-    _slip,
-):
+def _prepare(model, state, forces, motors, contacts, pairs, params):
     """The island's rows: its tree factored with the unbounded rows (hinges, one-body friction;
     ``tree``: parents, joint_of, contact_first, contact_next, jc, jp, jf and the inverted blocks,
     what ``solver.tree_solve`` takes), the bounded rows (motors, one-body normals, two-body
     contacts: bodies ``gb``, Jacobians ``gj``, right side ``bb`` less the free motion, bounds,
-    CFM), and the unbounded solve ``yb`` with no bounded row pushing. The arguments are the
-    fields of ``step_island``'s bundles, in order (but ``solve``)."""
+    CFM), and the unbounded solve ``yb`` with no bounded row pushing. The arguments are
+    ``step_island``'s bundles (but ``solve``), each as a plain tuple (``bundles``)."""
+    masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
+    pos, quat, vel, spin = state
+    gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
+    motor_target, motor_lo, motor_hi, push, _ = motors  # the motors' states: ``step_island``'s
+    c_body, c_point, c_normal, c_depth, c_surface = contacts
+    p_body1, p_body2, p_point, p_normal, p_depth, p_surface = pairs
+    h, joint_erp, joint_cfm, motor_cfm, surface_layer, implicit_gyro, _, _, _ = params  # robot-ground: unused
     nb = masses.shape[0]
     nj = local_axes.shape[0]
     nc = c_point.shape[0]
@@ -250,41 +208,17 @@ def _prepare(
     yj = bj.copy()
     yf = bf.copy()
     tree = (parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact)
-    tree_solve(FIRST_BODY, nb, *tree, yb, yj, yf)
+    tree_solve(FIRST_BODY, nb, tree, yb, yj, yf)
     return free, gb, gj, bb, lo, hi, cfm_b, yb, bj, bf, tree, tangents, p_tangents
 
 
 @njit(cache=True)
-def _finish(
-    nj,
-    pos,
-    quat,
-    free,
-    gb,
-    gj,
-    lam_b,
-    bj,
-    bf,
-    tree_parents,
-    tree_joint_of,
-    contact_first,
-    contact_next,
-    jc,
-    jp,
-    jf,
-    dinv_body,
-    dinv_joint,
-    dinv_contact,
-    tangents,
-    p_tangents,
-    h,
-    nc,
-    iterations,
-):
-    """The solved bounded rows' push carried through the tree (``_prepare``'s ``tree``, its ten
-    arrays one by one), the bodies advanced, and the forces reported (``step_island``'s return)."""
-    nb = tree_parents.shape[0]
-    tree = (tree_parents, tree_joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact)
+def _finish(nj, nc, h, state, prepared, lam_b, iterations):
+    """The solved bounded rows' push carried through the tree (``prepared``: ``_prepare``'s return),
+    the bodies of ``state`` advanced, and the forces reported (``step_island``'s return)."""
+    pos, quat, _, _ = state
+    free, gb, gj, _, _, _, _, _, bj, bf, tree, tangents, p_tangents = prepared
+    nb = tree[0].shape[0]
     nbd = lam_b.shape[0]
     npc = (nbd - nj - nc) // 3
     rb = np.zeros((nb, 6))
@@ -294,7 +228,7 @@ def _finish(
             if k >= 0:
                 for a in range(6):
                     rb[k, a] += gj[r, x, a] * lam_b[r]
-    tree_solve(FIRST_BODY, nb, *tree, rb, bj, bf)
+    tree_solve(FIRST_BODY, nb, tree, rb, bj, bf)
     out_pos, out_quat, out_vel, out_spin = advance(pos, quat, free + rb, h)
     forces = contact_forces(lam_b, nj, bf)
     p_forces = np.empty((npc, 3))

@@ -50,7 +50,7 @@ class Robot:
         on_move: Callable[[Robot], None] | None = None,
     ) -> None:
         """``on_move`` is told of every beam and trainer's move, after pybullet holds the new pose:
-        the physics moves the robot's bodies with it (``driver.Stepper.moved``)."""
+        the physics moves the robot's bodies with it (``stepper.Stepper.moved``)."""
         self.robot_type = robot_type
         self._on_move = on_move
         #: 1: a command acts in the step after the next (the real server's latency, for callers

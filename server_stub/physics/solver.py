@@ -189,27 +189,13 @@ def block_pivot(a, b, lo, hi, state):
 
 
 @njit(cache=True)
-def tree_solve(
-    first,
-    end,
-    parents,
-    joint_of,
-    contact_first,
-    contact_next,
-    jc,
-    jp,
-    jf,
-    dinv_body,
-    dinv_joint,
-    dinv_contact,
-    rb,
-    rj,
-    rf,
-):
+def tree_solve(first, end, tree, rb, rj, rf):
     """Solve H x = r on the factored forest (``step_tree``, ``island_step.step_island``; roots
     have parent -1), r given per body (rb, nb x 6), hinge node (rj, nj x 5) and friction node
     (rf, nc x 2); overwritten by x. Only the bodies [first, end) are visited: the whole forest,
-    or whole trees of it (``gauss_seidel.body_blocks``)."""
+    or whole trees of it (``gauss_seidel.body_blocks``). ``tree`` is the factored forest: parents,
+    joint_of, contact_first, contact_next, jc, jp, jf and the inverted blocks of ``factor``."""
+    parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact = tree
     t6 = np.empty(6)
     t5 = np.empty(5)
     t2 = np.empty(2)

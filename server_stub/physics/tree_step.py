@@ -20,7 +20,7 @@ ode.cpp, and SimSpark's rsg/agent/nao/hingejoint.rsg, spark.rb, dragcontroller.c
   one-sided limit row (ERP 0.8, bounce 1, CFM 1e-8) and the motor's full torque as an outside
   torque when it drives into the stop (times the fudge factor 1e-5 when away, i.e. nothing): the
   targets and bounds are ``server_stub.physics.motors``' and ``rows.motor_rows``';
-- (contacts with other robots, the ball and the goals: ``driver`` / ``island_step``, the same
+- (contacts with other robots, the ball and the goals: ``stepper`` / ``island_step``, the same
   rows generalised to islands of several robots)
 - ground contacts as ODE's plane colliders make them (``collision.ground_contacts``, from the
   bodies' own poses): a normal row (>= 0, ERP 0.4 on depth less the surface layer 0.001,
@@ -52,41 +52,7 @@ from server_stub.physics.solver import (
 
 
 @njit(cache=True)
-def step_tree(
-    masses,
-    principal,
-    parents,
-    joint_of,
-    local_axes,
-    anchor_child,
-    anchor_parent,
-    pos,
-    quat,
-    vel,
-    spin,
-    gravity,
-    drag_linear,
-    drag_angular,
-    drag_vel,
-    drag_spin,
-    contact_body,
-    contact_point,
-    contact_depth,
-    motor_target,
-    motor_lo,
-    motor_hi,
-    push,
-    motor_state,
-    h,
-    joint_erp,
-    joint_cfm,
-    motor_cfm,
-    surface_layer,
-    implicit_gyro,
-    contact_erp,
-    contact_cfm,
-    slip,
-):
+def step_tree(model, state, forces, contacts, motors, params):
     """``step`` solved in O(bodies) (Baraff 1996, "Linear-time dynamics using Lagrange
     multipliers"): the unbounded rows (5 per hinge, 2 friction rows per contact) and the bodies form
     a tree, so H = [[M/h, J_U'], [J_U, -cfm_U]] is factored block by block from the leaves to the
@@ -95,10 +61,14 @@ def step_tree(
     along their path to the torso, and ``box_qp`` solves their LCP on S. The same results as one
     dense LCP (``tests/dense_step.py``, to rounding). Requires every parent index below its child's.
 
-    The arguments are the fields of the bundles ``Model``, ``State``, ``Forces``,
-    ``GroundContacts``, ``Motors`` and ``Params`` in that order (``step_tree(*model, *state, ...)``),
-    not the bundles themselves: numba types named tuples in Python at every call, 11 us of a
-    robot's cycle, against 3 us for the same arrays passed one by one."""
+    The arguments are the bundles ``Model``, ``State``, ``Forces``, ``GroundContacts``, ``Motors``
+    and ``Params``, each as a plain tuple (``bundles``)."""
+    masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
+    pos, quat, vel, spin = state
+    gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
+    contact_body, contact_point, contact_depth = contacts
+    motor_target, motor_lo, motor_hi, push, motor_state = motors
+    h, joint_erp, joint_cfm, motor_cfm, surface_layer, implicit_gyro, contact_erp, contact_cfm, slip = params
     nb = masses.shape[0]
     nj = local_axes.shape[0]
     nc = contact_point.shape[0]
@@ -147,7 +117,7 @@ def step_tree(
     yj = bj.copy()
     yf = bf.copy()
     tree = (roots, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact)
-    tree_solve(FIRST_BODY, nb, *tree, yb, yj, yf)
+    tree_solve(FIRST_BODY, nb, tree, yb, yj, yf)
     # the bounded rows' Jacobians on their bodies and their paths to the torso
     path_b = np.empty((nbd, nb), dtype=np.int64)
     len_b = np.zeros(nbd, dtype=np.int64)
@@ -194,7 +164,7 @@ def step_tree(
     for i in range(nc):
         for a in range(6):
             rb[contact_body[i], a] += jn[i, a] * lam_b[nj + i]
-    tree_solve(FIRST_BODY, nb, *tree, rb, bj, bf)
+    tree_solve(FIRST_BODY, nb, tree, rb, bj, bf)
     out_pos, out_quat, out_vel, out_spin = advance(pos, quat, free + rb, h)
     forces = contact_forces(lam_b, nj, bf)
     torques = lam_b[:nj].copy()

@@ -1,7 +1,7 @@
 """The simulated world: the field, the ball and the robots, stepped one server cycle at a time.
 
 One ``step`` is one 0.02 s server cycle for everything in it (docs/robot_and_server.md section 4):
-the stand-in's own ODE step (``driver.Stepper``, which owns the physics state). A pybullet DIRECT
+the stand-in's own ODE step (``stepper.Stepper``, which owns the physics state). A pybullet DIRECT
 client holds the bodies' shapes: it finds the contacts between robots, the ball and the field's
 boxes, gives the links' poses to the cameras and the monitor, and mirrors each robot's state, which
 the step writes into it only when pybullet is asked about the robot.
@@ -20,7 +20,7 @@ import pybullet as pb
 from server_stub import field
 from server_stub.config import PhysicsConfig
 from server_stub.physics import bodies as kinematics
-from server_stub.physics import collision, driver, nao_model, robot_step
+from server_stub.physics import collision, nao_model, robot_step, stepper
 from server_stub.physics.robot import Robot
 
 #: docs/robot_and_server.md section 6: a new robot appears with its torso here, in the air.
@@ -62,7 +62,7 @@ class World:
 
     def _configure_collision(self) -> None:
         """pybullet never steps this world; it finds the contacts between robots, the ball and the
-        field's boxes (``driver``). Its pairs in a fixed order, so equal runs find equal points."""
+        field's boxes (``stepper``). Its pairs in a fixed order, so equal runs find equal points."""
         pb.setPhysicsEngineParameter(
             contactBreakingThreshold=self.config.contact_breaking_threshold,
             deterministicOverlappingPairs=1,
@@ -88,7 +88,7 @@ class World:
         self._ball = pb.createMultiBody(
             field.BALL_MASS, ball_shape, basePosition=(0.0, 0.0, field.BALL_RADIUS), physicsClientId=c
         )
-        self._stepper = driver.Stepper(self.config, c, self._ground, self._ball, self._static)
+        self._stepper = stepper.Stepper(self.config, c, self._ground, self._ball, self._static)
 
     # ----- robots -----
     def add_robot(self, robot_type: int = 0) -> Robot:
@@ -165,17 +165,18 @@ class World:
         drift of ODE's maximal coordinates (the real server's knees part by 3-6 mm walking); zeros
         before the robot's first step."""
         physics = self.physics_of(robot)
-        model, bodies = physics.model, physics.bodies
-        if model is None or bodies is None:
+        static, state = physics.model, physics.state
+        if static is None or state is None:
             return np.zeros(len(robot.joint_degrees()))
+        model = static.model
         return kinematics.anchor_gaps(
-            model.parents, model.joint_of, bodies.pos, bodies.quat, bodies.anchor_child, bodies.anchor_parent
+            model.parents, model.joint_of, state.pos, state.quat, model.anchor_child, model.anchor_parent
         )
 
     # ----- time -----
     def step(self) -> None:
         """One server cycle: motors from the commands of two cycles ago (``Robot.begin_step``),
-        then one ODE step of every robot and the ball (``driver.Stepper``)."""
+        then one ODE step of every robot and the ball (``stepper.Stepper``)."""
         for robot in self._robots:
             robot.begin_step()
         self._stepper.step(self._robots)

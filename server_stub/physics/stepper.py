@@ -1,4 +1,4 @@
-"""The per-cycle driver of the step (``Stepper``): it keeps what the step knows of every robot and
+"""The per-cycle step of the whole world (``Stepper``): it keeps what the step knows of every robot and
 the ball, finds the contacts besides the ground (robot-robot, robot-ball, robot-goal/border and
 ball-goal/border) as SimSpark and ODE make them, groups touching bodies into islands and solves
 each: a robot alone on the ground by ``robot_step``, an island by ``island_step``.
@@ -247,7 +247,10 @@ class Stepper:
         c = self.client
         ground = self.ground
         statics = [self._model(robot) for robot in robots]
-        preps = [robot_step.prepare(robot, self._robots[robot], model, cfg) for robot, model in zip(robots, statics)]
+        preps = [
+            robot_step.prepare(robot, self._robots[robot], model, cfg, self.gravity)
+            for robot, model in zip(robots, statics)
+        ]
         # each robot's and the ball's contacts with the field's boxes (pybullet's tuples)
         on_boxes: list[list] = [[] for _ in range(len(robots) + 1)]
         by_body = {robot.body_id: i for i, robot in enumerate(robots)}
@@ -258,7 +261,7 @@ class Stepper:
         ball_now = self.ball_now()
         self._ball_moved = False
         touching = []
-        if not self._far_apart([prep.bodies.pos for prep in preps], ball_now[0]):
+        if not self._far_apart([prep.state.pos for prep in preps], ball_now[0]):
             for robot in robots:
                 robot.sync()
             pb.performCollisionDetection(physicsClientId=c)
@@ -281,7 +284,7 @@ class Stepper:
                     self._step_lone_ball(ball_now)
                     continue
                 robot = robots[i]
-                solved = robot_step.solve_prepared(robot, statics[i], preps[i], ground, cfg, self.params)
+                solved = robot_step.solve_prepared(robot, self._robots[robot], preps[i], ground, cfg, self.params)
                 robot_step.apply(robot, solved)
                 continue
             self._solve_island(group, robots, statics, preps, on_boxes, pairs, ball_now, by_body)
@@ -415,7 +418,7 @@ class Stepper:
         contacts gathered into the island's arrays, stepped, and the results handed back."""
         island = _Island(group, len(robots))
         model, state, forces, motors = self._gather_bodies(island, statics, preps, ball_now)
-        members = [(robots[i], statics[i].masses.shape[0]) if island.is_robot(i) else (None, 1) for i in group]
+        members = [(robots[i], statics[i].model.masses.shape[0]) if island.is_robot(i) else (None, 1) for i in group]
         frames = _Frames(state, [(robot, island.offsets[i], count) for i, (robot, count) in zip(group, members)])
         contacts = self._gather_contacts(island, statics, preps, on_boxes, ball_now, frames, by_body)
         pair_contacts = self._gather_pairs(island, pairs, frames, by_body)
@@ -436,8 +439,8 @@ class Stepper:
             island.offsets[i] = n
             island.joint_offsets[i] = nj
             if island.is_robot(i):
-                st, pr = statics[i], preps[i]
-                b = pr.bodies
+                st, pr = statics[i].model, preps[i]
+                b = pr.state
                 nb = st.masses.shape[0]
                 par = st.parents.copy() + n
                 par[0] = -1
@@ -448,14 +451,14 @@ class Stepper:
                         par,
                         st.joint_of + nj,
                         st.local_axes,
-                        b.anchor_child,
-                        b.anchor_parent,
+                        st.anchor_child,
+                        st.anchor_parent,
                         b.pos,
                         b.quat,
                         b.vel,
                         b.spin,
-                        pr.drag_vel,
-                        pr.drag_spin,
+                        pr.forces.drag_vel,
+                        pr.forces.drag_spin,
                         np.full(nb, cfg.linear_damping),
                         np.full(nb, cfg.angular_damping),
                     )
@@ -511,9 +514,7 @@ class Stepper:
         for i in island.group:
             off = island.offsets[i]
             if island.is_robot(i):
-                st = statics[i]
-                b = preps[i].bodies
-                gp, gpt, gd = st.ground_contacts(b, cfg.ode_box_points)
+                gp, gpt, gd = statics[i].ground_contacts(preps[i].state, cfg.ode_box_points)
                 island.ground[i] = (len(body), gp, gpt, gd)
                 for k, p, d in zip(gp.tolist(), gpt, gd.tolist()):
                     body.append(off + k)
@@ -603,8 +604,8 @@ class Stepper:
         for i in island.group:
             if island.is_robot(i):
                 jo = island.joint_offsets[i]
-                st = statics[i]
-                preps[i].motors.state[:] = motors.state[jo : jo + st.local_axes.shape[0]]
+                nj = statics[i].model.local_axes.shape[0]
+                preps[i].motors.state[:] = motors.state[jo : jo + nj]
         extra: dict[int, list] = {i: [] for i in island.group}
         bodies = {i: body for body, i in by_body.items()}
         for i in island.group:
@@ -645,7 +646,7 @@ class Stepper:
                 self._write_ball(npos[off], nquat[off], nvel[off], nspin[off])
                 continue
             robot = robots[i]
-            st = statics[i]
+            st = statics[i].model
             nb = st.masses.shape[0]
             first, gp, gpt, gd = island.ground[i]
             ng = gp.shape[0]
@@ -662,8 +663,7 @@ class Stepper:
             jo = island.joint_offsets[i]
             solved = robot_step.finish_maximal(
                 robot,
-                st,
-                preps[i].bodies,
+                self._robots[robot],
                 npos[off : off + nb].copy(),
                 nquat[off : off + nb].copy(),
                 nvel[off : off + nb].copy(),
