@@ -41,8 +41,14 @@ from optimizer.settings import RefinementSettings, SearchSettings
 
 
 def main_job(driver: Driver, plan: JobPlan) -> str:
-    """The main job, stage by stage; returns its summary."""
-    rows, fastest = table_rows(driver, plan)
+    """The main job, stage by stage; returns its summary. Every result file is written anew after
+    each row and after the hand-over, so that an interrupted run has its finished rows' files."""
+    rows: list[Row] = []
+    fastest: Fastest | None = None
+    for pc in plan.config.crossover_rates:
+        rows.append(table_row(driver, plan, pc))
+        fastest = checked_walks(driver, plan)
+        write_outputs(plan.run, rows, fastest)
     driver.replan(plan.refinement_episodes(driver) + plan.hand_over_episodes())
     fallback = refinement(driver, plan, fastest)
     driver.replan(plan.hand_over_episodes())
@@ -122,30 +128,28 @@ class JobPlan:
 # --- the stages ------------------------------------------------------------------------------------
 
 
-def table_rows(driver: Driver, plan: JobPlan) -> tuple[list[Row], Fastest | None]:
-    """Table I: for each crossover rate a GALA learns the mutation rate and its final GA gives the
-    row's best gait, which is checked; after each row the run's best-scored gaits are checked for
-    the fastest walk that holds, and every result file is written anew."""
+def table_row(driver: Driver, plan: JobPlan, pc: float) -> Row:
+    """A row of Table I: a GALA learns the mutation rate at crossover rate ``pc``, its final GA
+    gives the row's best gait, and that gait is checked."""
     run = plan.run
-    rows: list[Row] = []
-    fastest: Fastest | None = None
-    for pc in plan.config.crossover_rates:
-        tag = f"pc{pc:g}"
-        search = GALA(
-            plan.bounds,
-            plan.config,
-            pc,
-            stable_seed(run.seed, tag),
-            scheme=scheme(run.settings.search, plan.config),
-            repair=plan.repair,
-        )
-        result: GALAResult = driver.run(search)
-        best = best_gait(driver, search.best_key(f"{tag}/final/"))
-        check = check_best(driver, best, run.setup.start, plan.stability)
-        rows.append(Row(result, best, check, run.setup.walk_time))
-        fastest = fastest_walk(driver, run.setup.start, plan.stability)
-        write_outputs(run, rows, fastest)
-    return rows, fastest
+    tag = f"pc{pc:g}"
+    search = GALA(
+        plan.bounds,
+        plan.config,
+        pc,
+        stable_seed(run.seed, tag),
+        scheme=scheme(run.settings.search, plan.config),
+        repair=plan.repair,
+    )
+    result: GALAResult = driver.run(search)
+    best = best_gait(driver, search.best_key(f"{tag}/final/"))
+    check = check_best(driver, best, run.setup.start, plan.stability)
+    return Row(result, best, check, run.setup.walk_time)
+
+
+def checked_walks(driver: Driver, plan: JobPlan) -> Fastest | None:
+    """The run's best-scored gaits so far checked (and confirmed): the fastest walk that holds."""
+    return fastest_walk(driver, plan.run.setup.start, plan.stability)
 
 
 def refinement(driver: Driver, plan: JobPlan, fastest: Fastest | None) -> list[ScoredGait]:

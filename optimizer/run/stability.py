@@ -204,7 +204,7 @@ def _pick(
         longer = replace(config, repeats=config.repeats + config.confirm)
         reports = [check(driver, r.gait, base, longer) if r.stable else r for r in reports]
     reports.sort(key=_steadiest_first)
-    if not (hand_over and config.hand_over):  # a run made before hand-over walks: as it was made
+    if not (hand_over and config.hand_over):  # no hand-over walks (--hand-over-walks 0, or an older run)
         return (reports[0] if reports else None), reports
     for i, report in enumerate(reports):
         if not report.stable:
