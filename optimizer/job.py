@@ -118,11 +118,11 @@ class JobPlan:
         return round(self.run.settings.refinement.budget * driver.walks_per_gait())
 
     def hand_over_episodes(self) -> int:
-        """The checks of the best-scored gaits and the hand-over's walks, at most."""
+        """The checks of the best-scored gaits and the hand-over's walks, an estimate (how many
+        candidates walk on depends on which of them fall)."""
         stability = self.stability
-        return (
-            stability.candidates * self.checked_families * (stability.repeats + stability.confirm) + stability.hand_over
-        )
+        checks = stability.candidates * self.checked_families * (stability.repeats + stability.confirm)
+        return checks + stability.hand_over
 
 
 # --- the stages ------------------------------------------------------------------------------------
