@@ -1022,81 +1022,80 @@ Values = tuple[float, ...]
 
 @dataclass(frozen=True)
 class SearchSettings:
-    """The search's numbers (GA, GALA, the comparison). A setting the run's command does not take
-    holds the table's default and is not stored."""
+    """The search's numbers (GA, GALA, the comparison)."""
 
-    preset: str | None = None
-    methods: tuple[str, ...] | None = None
-    seeds: int = 10
-    budget: int = 800
-    crossover: float | Values = tuple(_GALA.crossover_rates)
-    mutation: float = PAPER_GALA_BEST.mutation_rate
-    iterations: int = _GALA.iterations
-    population: int = _GA.population_size
-    generations: int = _GA.generations
-    generations_per_iteration: int = _GALA.generations_per_iteration
-    restart_each_iteration: bool = _GALA.restart_each_iteration
-    scheme: str = "lrp"
-    elitism: bool = _GA.elitism
-    baseline_window: int | None = _GALA.baseline_window
-    success_distance: float = 4.95
+    preset: str | None
+    methods: tuple[str, ...] | None
+    seeds: int
+    budget: int
+    crossover: float | Values
+    mutation: float
+    iterations: int
+    population: int
+    generations: int
+    generations_per_iteration: int
+    restart_each_iteration: bool
+    scheme: str
+    elitism: bool
+    baseline_window: int | None
+    success_distance: float
 
 
 @dataclass(frozen=True)
 class ScoringSettings:
     """How a gait is scored (``ScoringConfig``) and the dither every walk gets."""
 
-    walks: int = _SCORING.walks
-    top: int = _SCORING.top
+    walks: int
+    top: int
     #: a quantile, or ``MEAN``
-    quantile: float | str = 0.25
-    command_noise: float = CALIBRATED_COMMAND_NOISE
-    drift_penalty: float = 0.0
+    quantile: float | str
+    command_noise: float
+    drift_penalty: float
 
 
 @dataclass(frozen=True)
 class CheckSettings:
     """The stability check of the gaits a run reports (``StabilityConfig``)."""
 
-    repeats: int = _STABILITY.repeats
-    jitter: Values = tuple(_STABILITY.jitter)
+    repeats: int
+    jitter: Values
 
 
 @dataclass(frozen=True)
 class RefinementSettings:
     """The refinement's CMA-ES (the main job's phase, ``optimizer.refine``'s whole run)."""
 
-    budget: int = _REFINE_IN_GALA
+    budget: int
     #: one step per CMA-ES run; a run from before several steps stored one number, kept as it is
-    sigma: float | Values = tuple(_REFINE_SIGMA)
-    population: int | None = _REFINE_POPULATION
-    race: bool = True
-    patience: int | None = None
-    lead_walks: int = _LEAD_WALKS
+    sigma: float | Values
+    population: int | None
+    race: bool
+    patience: int | None
+    lead_walks: int
     #: one family's name, or several names
-    family: str | tuple[str, ...] | None = TFS_START.name
-    quantile: float | str = REFINE_QUANTILE
-    reference: bool = False
-    start_gait: Values | None = None
+    family: str | tuple[str, ...] | None
+    quantile: float | str
+    reference: bool
+    start_gait: Values | None
 
 
 @dataclass(frozen=True)
 class HandOverSettings:
     """What the walk a run hands over walks first (``StabilityConfig.confirm``, ``.hand_over``)."""
 
-    confirm: int = _STABILITY.confirm
-    walks: int = _STABILITY.hand_over
+    confirm: int
+    walks: int
 
 
 @dataclass(frozen=True)
 class EpisodeSettings:
     """How one episode is run, and the family and box of the genes it walks."""
 
-    walk_time: float = 15.0
-    start: Values = tuple(DEFAULT_START)
-    agent_mode: str = "inprocess"
-    family: str = DEFAULT_FAMILY
-    bounds: str = "robot"
+    walk_time: float
+    start: Values
+    agent_mode: str
+    family: str
+    bounds: str
 
 
 _SECTION_RECORDS: dict[str, type] = {
@@ -1126,12 +1125,17 @@ class Settings:
 
     command: str
     keys: tuple[str, ...]
-    search: SearchSettings = SearchSettings()
-    scoring: ScoringSettings = ScoringSettings()
-    check: CheckSettings = CheckSettings()
-    refinement: RefinementSettings = RefinementSettings()
-    hand_over: HandOverSettings = HandOverSettings()
-    episode: EpisodeSettings = EpisodeSettings()
+    search: SearchSettings
+    scoring: ScoringSettings
+    check: CheckSettings
+    refinement: RefinementSettings
+    hand_over: HandOverSettings
+    episode: EpisodeSettings
+
+    @classmethod
+    def new(cls, command: str) -> Settings:
+        """The settings a new ``command`` run stores when no flag is given (``defaults``)."""
+        return cls.from_stored(defaults(command), command)
 
     @classmethod
     def from_stored(cls, stored: Mapping[str, Any], command: str) -> Settings:
@@ -1144,7 +1148,11 @@ class Settings:
         missing = [name for name in taken if name not in stored]
         if missing:
             raise ValueError(f"the {command} run's settings lack {', '.join(missing)}; upgrade them first")
+        # a setting the command does not take holds the table's default and is never stored
         sections: dict[str, dict[str, Any]] = {section: {} for section in _SECTION_RECORDS}
+        for setting in TABLE:
+            if setting.section in sections:
+                sections[setting.section][setting.attribute] = _frozen(setting.default)
         for name, value in stored.items():
             setting = taken[name]
             sections[setting.section][setting.attribute] = _frozen(value)

@@ -33,7 +33,7 @@ from optimizer.search.ga import GARun
 from optimizer.search.ga import planned_episodes as ga_episodes
 from optimizer.search.gala import GALA
 from optimizer.search.refinement import Arm, heat_gaits, refinement_arms
-from optimizer.settings import LEGACY, RefinementSettings, Settings, defaults
+from optimizer.settings import LEGACY, Settings, defaults
 
 BOUNDS = [[0.0, 1.0]] * 3
 #: the paper's protocol, small: one walk a gait, no refinement phase
@@ -500,20 +500,24 @@ def test_the_refinement_phase_searches_on_from_the_best_and_leaves_table_i_alone
     assert settings["refine_patience"] == 30
 
 
+#: The main job's refinement settings when no flag is given.
+REFINEMENT = Settings.new("gala").refinement
+
+
 def test_the_refinement_runs_one_cma_es_per_start_and_step_and_an_older_run_keeps_its_one_run() -> None:
     a, b = (1.0, 2.0), (3.0, 4.0)
-    arms = refinement_arms(RefinementSettings(sigma=(0.05, 0.1)), [a, b])
+    arms = refinement_arms(replace(REFINEMENT, sigma=(0.05, 0.1)), [a, b])
     assert [(arm.prefix, arm.start, arm.sigma) for arm in arms] == [
         ("refine0", a, 0.05),
         ("refine1", a, 0.1),
         ("refine2", b, 0.05),
         ("refine3", b, 0.1),
     ]
-    assert refinement_arms(RefinementSettings(sigma=0.05), [a]) == [Arm("refine", a, 0.05)]  # keyed as it was made
+    assert refinement_arms(replace(REFINEMENT, sigma=0.05), [a]) == [Arm("refine", a, 0.05)]  # keyed as it was made
 
 
 def test_the_race_heat_is_whole_generations_of_a_quarter_of_the_budget_over_two_runs() -> None:
-    race = RefinementSettings(budget=1600, population=20, race=True)
+    race = replace(REFINEMENT, budget=1600, population=20, race=True)
     assert heat_gaits(race, 4, 7) == 200 and heat_gaits(race, 2, 7) == 400
     assert heat_gaits(replace(race, budget=1619), 4, 7) == 200  # whole generations only
     assert heat_gaits(race, 1, 7) == 0  # nothing to race

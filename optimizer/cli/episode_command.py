@@ -38,12 +38,12 @@ from optimizer.run.repeats import describe, summary, walk_from
 from optimizer.run.robust import jittered_starts
 from optimizer.run.run_settings import episode_config
 from optimizer.run.session import check_start_for_real_server, real_server_command
-from optimizer.settings import EpisodeSettings
+from optimizer.settings import Settings
 from protocol.cli_values import non_negative, positive_int
 from protocol.nao import ROBOT_TYPES
 
 #: An episode's defaults: a search's.
-EPISODE = EpisodeSettings()
+EPISODE = Settings.new("gala").episode
 
 
 def gait_file(text: str) -> Gait:
