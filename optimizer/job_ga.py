@@ -12,15 +12,11 @@ from optimizer.run.run_settings import search_box, stability_config
 from optimizer.run.session import Run
 from optimizer.run.stability import check_best
 from optimizer.run.walk_card import write_card
-from optimizer.search.config import DE_JONG, GREFENSTETTE, PAPER_GALA_BEST, GAConfig, RatePreset
+from optimizer.search.config import GAConfig
 from optimizer.search.ga import GAResult, GARun
 from optimizer.search.ga import planned_episodes as ga_episodes
 from optimizer.seeds import stable_seed
-from optimizer.settings import SearchSettings
-
-#: The paper's rate pairs, by the name ``--preset`` takes.
-PRESETS: dict[str, RatePreset] = {"dejong": DE_JONG, "grefenstette": GREFENSTETTE, "gala": PAPER_GALA_BEST}
-
+from optimizer.settings import GA_RATES, SearchSettings
 
 #: Keys of the GA's episodes start with this.
 PREFIX = "ga"
@@ -40,7 +36,7 @@ def ga_config(search: SearchSettings) -> GAConfig:
 
 def title(search: SearchSettings) -> str:
     """The GA named by its preset and rates, for its plot and gait file."""
-    name = PRESETS[search.preset].name + ": " if search.preset else ""
+    name = GA_RATES[search.preset].name + ": " if search.preset else ""
     return f"GA, {name}crossover {search.crossover:g}, mutation {search.mutation:g}"
 
 

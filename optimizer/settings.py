@@ -37,6 +37,7 @@ from optimizer.search.config import (
     PAPER_GALA_BEST,
     GAConfig,
     GALAConfig,
+    RatePreset,
     ScoringConfig,
     StabilityConfig,
 )
@@ -188,6 +189,8 @@ _GALA = GALAConfig()
 _REFINE, _REFINE_IN_GALA, _REFINE_SIGMA, _REFINE_POPULATION, _LEAD_WALKS = 8000, 4000, [0.05, 0.1], 20, 20
 #: The quantile of its walks a refined gait is scored by: the worst, since its walk is handed over.
 REFINE_QUANTILE = 0.0
+#: The published GA rates ``python -m optimizer.ga --preset`` takes, by name.
+GA_RATES: dict[str, RatePreset] = {"dejong": DE_JONG, "grefenstette": GREFENSTETTE, "gala": PAPER_GALA_BEST}
 #: The quick budget's refinement families, in turn.
 QUICK_FAMILIES = (TFS.name, TFS_START.name)
 _QUICK_REFINE = 3200
@@ -209,7 +212,7 @@ TABLE: tuple[Setting, ...] = (
         "published rates: dejong (0.6, 0.001), grefenstette (0.95, 0.01), gala (0.8, 0.07, "
         "the paper's Table I best; the default); --crossover/--mutation override it",
         ("--preset",),
-        choices=sorted(("dejong", "grefenstette", "gala")),
+        choices=sorted(GA_RATES),
         common=True,
         commands=frozenset({"ga"}),
         attribute="preset",
@@ -864,7 +867,7 @@ COMPARE_PRESETS: dict[str, dict[str, Any]] = {
 #: given: ``--crossover``/``--mutation`` override a preset).
 GA_PRESETS: dict[str, dict[str, Any]] = {
     name: {"preset": name, "crossover": rates.crossover_rate, "mutation": rates.mutation_rate}
-    for name, rates in (("dejong", DE_JONG), ("grefenstette", GREFENSTETTE), ("gala", PAPER_GALA_BEST))
+    for name, rates in GA_RATES.items()
 }
 
 #: A new ``python -m optimizer.refine`` run stands for these flags (a flag given wins; a resumed run
