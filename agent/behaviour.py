@@ -24,7 +24,7 @@ import numpy as np
 from agent.config import AgentConfig
 from agent.controller import velocities_towards
 from agent.fall import FallDetector
-from gait import Walker
+from gait import Steerable, Walker
 from protocol import commands
 from protocol.nao import BEAM_PLAY_MODES, CYCLE, JOINT_BY_EFFECTOR, joints_of
 from protocol.perception import Perception
@@ -77,6 +77,8 @@ class WalkBehaviour:
     def __init__(self, config: AgentConfig, gait: Walker) -> None:
         self.config = config
         self.gait = gait
+        #: a steerable walker feels the robot each cycle before it is asked for targets
+        self._sense = gait.sense if isinstance(gait, Steerable) else None
         self.phase = Phase.CONNECTING
         self.settle_cycle = 0
         self.walk_cycles = 0
@@ -117,6 +119,8 @@ class WalkBehaviour:
 
     def _velocities(self, perception: Perception, gait_time: float) -> np.ndarray:
         """The controller's commands; a joint missing from the perception gets 0 ("hold")."""
+        if self._sense is not None:
+            self._sense(perception.gyro, perception.acc, perception.joints)
         lookahead = gait_time + self.config.lookahead_cycles * CYCLE
         joints = perception.joints
         try:

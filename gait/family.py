@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -30,6 +30,51 @@ class Walker(Protocol):
     so that looking ahead (the action latency) is free."""
 
     def joint_targets(self, t: float, limits: Limits) -> dict[str, float]: ...
+
+
+class Command(NamedTuple):
+    """What a steerable walker is asked to do: speeds in the torso's own frame, forward (m/s),
+    to the left (m/s) and turning left (deg/s). A walker clips it to what its genes allow."""
+
+    forward: float = 0.0
+    left: float = 0.0
+    turn: float = 0.0
+
+
+#: A vector of three numbers as a perceptor gives it (gyro deg/s, accelerometer m/s^2).
+Vec3 = tuple[float, float, float]
+
+
+@runtime_checkable
+class Steerable(Walker, Protocol):
+    """A walker that takes a command and feels the robot (an omnidirectional walk engine). It has
+    state, so ``joint_targets`` must be asked at non-decreasing times, once a cycle, and
+    ``sense`` before it each cycle with that cycle's perception: the engine's own clock runs at
+    the time it is asked for (the agent asks two cycles ahead, for the server's action latency).
+    At time 0 and whenever it has stopped it stands."""
+
+    #: what it walks now; the agent (or a behaviour) sets it each cycle
+    command: Command
+
+    @property
+    def max_command(self) -> Command:
+        """The largest speeds its genes allow each way (backwards: ``max_backward``)."""
+        ...
+
+    @property
+    def max_backward(self) -> float:
+        """The largest backward speed (m/s, positive)."""
+        ...
+
+    def sense(self, gyro: Vec3 | None, acc: Vec3 | None, joints: Mapping[str, float]) -> None:
+        """This cycle's gyro (deg/s), accelerometer (m/s^2) and joint angles (deg by perceptor
+        name): the feedback that keeps the robot up."""
+        ...
+
+    def moved(self) -> Command:
+        """Odometry: how far its steps have carried the torso since the last call, as the engine
+        planned them (forward m, left m, turn deg; the fields of a ``Command`` as distances)."""
+        ...
 
 
 @dataclass(frozen=True, eq=False, repr=False)
