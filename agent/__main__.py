@@ -1,4 +1,8 @@
-"""``python -m agent``: one NAO that walks with a gait file's gait (any family) against rcssserver3d or the stub."""
+"""``python -m agent``: one NAO that walks with a gait file's gait (any family) against rcssserver3d or the stub.
+
+With ``--goto X Y DEG`` (repeated) and an omni gait it walks to those poses in order and stands on
+the last, steering by the server's ``mypos``/``myorien`` where sent, else by its own estimate.
+"""
 
 from __future__ import annotations
 
@@ -10,7 +14,7 @@ from pathlib import Path
 from agent.config import AgentConfig
 from agent.errors import AgentError
 from agent.nao_agent import NaoAgent
-from gait import GaitFileError, load_gait
+from gait import GaitFileError, Steerable, load_gait
 from protocol.cli_values import checked, non_negative, number, port, positive_float, whole
 from protocol.nao import ROBOT_TYPES
 
@@ -68,6 +72,21 @@ def build_parser() -> argparse.ArgumentParser:
         help="dither every joint velocity command while walking by a uniform draw in +-RAD_S (default 0: none)",
     )
     p.add_argument("--noise-seed", type=whole, default=0, help="seed of the command dither (default 0)")
+    p.add_argument(
+        "--goto",
+        nargs=3,
+        type=number,
+        action="append",
+        default=[],
+        metavar=("X", "Y", "DEG"),
+        help="walk to this pose (field frame, m and deg); repeat for poses in order (needs an omni gait)",
+    )
+    p.add_argument(
+        "--no-true-pose",
+        dest="true_pose",
+        action="store_false",
+        help="steer by the robot's own estimate from vision and odometry even where the server sends mypos",
+    )
     p.add_argument("-v", "--verbose", action="store_true", help="log the handshake and gait start")
     return p
 
@@ -80,10 +99,16 @@ def main(argv: list[str] | None = None) -> int:
         stream=sys.stderr,
     )
     try:
-        if args.gait is not None:
-            load_gait(args.gait)  # refuse a bad file before connecting
+        gait = load_gait(args.gait) if args.gait is not None else load_gait()  # a bad file refused before connecting
     except GaitFileError as exc:
         print(f"agent: error: {exc}", file=sys.stderr)
+        return 2
+    if args.goto and not isinstance(gait.walker(), Steerable):
+        print(
+            f"agent: error: --goto needs a steerable gait (the omni family); {args.gait or 'the default gait'} "
+            f"is a {gait.family.name} gait",
+            file=sys.stderr,
+        )
         return 2
     config = AgentConfig(
         host=args.host,
@@ -100,6 +125,8 @@ def main(argv: list[str] | None = None) -> int:
         timeout=args.timeout,
         command_noise=args.command_noise,
         noise_seed=args.noise_seed,
+        goals=tuple(tuple(goal) for goal in args.goto),
+        true_pose=args.true_pose,
     )
     try:
         report = NaoAgent(config).run()

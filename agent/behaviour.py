@@ -24,7 +24,8 @@ import numpy as np
 from agent.config import AgentConfig
 from agent.controller import velocities_towards
 from agent.fall import FallDetector
-from gait import Steerable, Walker
+from agent.goto import GoTo, PoseSource, ServerPoseWhereSent
+from gait import Command, Steerable, Walker
 from protocol import commands
 from protocol.nao import BEAM_PLAY_MODES, CYCLE, JOINT_BY_EFFECTOR, joints_of
 from protocol.perception import Perception
@@ -73,12 +74,31 @@ class Action:
         return (self.effectors, self.speeds.tolist(), self.text) == (other.effectors, other.speeds.tolist(), other.text)
 
 
+def own_pose_sources(config: AgentConfig) -> PoseSource:
+    """Where a walk to poses takes its pose from: the server's where sent (unless
+    ``config.true_pose`` is off), else the robot's own estimate, both from the beam pose on."""
+    from agent.localization import TruePose, VisionPose
+
+    own = VisionPose(config.beam)
+    return ServerPoseWhereSent(TruePose(config.beam), own) if config.true_pose else own
+
+
 class WalkBehaviour:
-    def __init__(self, config: AgentConfig, gait: Walker) -> None:
+    def __init__(self, config: AgentConfig, gait: Walker, pose: PoseSource | None = None) -> None:
+        """``pose``: where a walk to ``config.goals`` takes its pose from (default
+        ``own_pose_sources``)."""
         self.config = config
         self.gait = gait
         #: a steerable walker feels the robot each cycle before it is asked for targets
         self._sense = gait.sense if isinstance(gait, Steerable) else None
+        #: the walk to poses, and where it takes its pose from (none without goals)
+        self.goto: GoTo | None = None
+        self.pose: PoseSource | None = None
+        if config.goals:
+            if not isinstance(gait, Steerable):
+                raise ValueError("walking to poses needs a steerable gait (the omni family), not a fixed pattern")
+            self.goto = GoTo(config.goals, config.goto)
+            self.pose = pose if pose is not None else own_pose_sources(config)
         self.phase = Phase.CONNECTING
         self.settle_cycle = 0
         self.walk_cycles = 0
@@ -102,6 +122,12 @@ class WalkBehaviour:
         self._noise_row = 0
 
     @property
+    def reads_vision(self) -> bool:
+        """Whether this agent looks at what it sees (to know where it is): a program that makes
+        its perceptions itself makes vision only for one that does."""
+        return self.goto is not None
+
+    @property
     def walk_time(self) -> float:
         """Seconds of gait time walked so far."""
         return self.walk_cycles * CYCLE
@@ -121,6 +147,8 @@ class WalkBehaviour:
         """The controller's commands; a joint missing from the perception gets 0 ("hold")."""
         if self._sense is not None:
             self._sense(perception.gyro, perception.acc, perception.joints)
+        if self.pose is not None:
+            self._steer(perception)
         lookahead = gait_time + self.config.lookahead_cycles * CYCLE
         joints = perception.joints
         try:
@@ -133,6 +161,17 @@ class WalkBehaviour:
         if unseen:
             velocities[unseen] = 0.0
         return velocities
+
+    def _steer(self, perception: Perception) -> None:
+        """Where the robot is, then what it walks: towards the next pose while walking, standing
+        before (the gait's command is the walk to poses' from the walk's start on)."""
+        assert self.pose is not None and self.goto is not None and isinstance(self.gait, Steerable)
+        gait = self.gait
+        self.pose.update(perception, gait.moved())
+        if self.phase is Phase.WALKING:
+            gait.command = self.goto.command(self.pose.pose, gait.max_command, gait.max_backward)
+        else:
+            gait.command = Command()
 
     def _dithered(self, velocities: np.ndarray) -> np.ndarray:
         """``velocities``, each moved by its own draw of the walk's dither (``AgentConfig.command_noise``)."""

@@ -5,6 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from agent.goto import GotoConfig, Pose
+
 
 @dataclass(frozen=True)
 class AgentConfig:
@@ -53,6 +55,13 @@ class AgentConfig:
     #: (``bench.fidelity``).
     command_noise: float = 0.0
     noise_seed: int = 0
+    #: Poses to walk to in order (x, y m, heading deg; field frame), with a steerable gait
+    #: (``gait.Steerable``); none: the gait walks its own way (a steerable one straight ahead).
+    goals: tuple[Pose, ...] = ()
+    goto: GotoConfig = GotoConfig()
+    #: Steer by the server's ``mypos``/``myorien`` where it sends them; False: always by the
+    #: agent's own estimate from vision and odometry.
+    true_pose: bool = True
 
     def __post_init__(self) -> None:
         if not self.command_noise >= 0.0:

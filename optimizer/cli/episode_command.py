@@ -9,6 +9,10 @@
                                                          # 10 walks, each start moved by up to 5 cm and 2 deg
     python -m optimizer.episode --embedded-stub socket   # the embedded stub as a process, over TCP
     python -m optimizer.episode --type 4 --real 1        # robot type 4 (toes) on a real server
+    python -m optimizer.episode --gait gait/walks/omni.json --course optimizer/courses/omni_course.json --json
+                                                         # walk a course (an omni gait): time, legs, poses reached
+    python -m optimizer.episode --gait gait/walks/omni.json --course optimizer/courses/omni_course.json --no-true-pose
+                                                         # ... steering by the robot's own pose estimate
 
 The embedded stub runs inside this process (``--embedded-stub inprocess``, the default: no sockets,
 no text, the same results as over TCP, faster); ``--embedded-stub socket`` runs it as a
@@ -29,9 +33,10 @@ import sys
 from collections.abc import Sequence
 from dataclasses import replace
 
-from gait import DEFAULT_GAIT_PATH, Gait, GaitFileError, load_gait
+from gait import DEFAULT_GAIT_PATH, Gait, GaitFileError, Steerable, load_gait
 from optimizer.cli.arguments import add_episode_arguments, add_server_arguments
 from optimizer.episode import EpisodeConfig, EpisodeResult, Start
+from optimizer.episode.course import Course, CourseError
 from optimizer.episode.real_server import RealServerError, RealServerProcess
 from optimizer.episode.servers import ManagedServer, ServerAddress
 from optimizer.run.repeats import describe, summary, walk_from
@@ -50,6 +55,13 @@ def gait_file(text: str) -> Gait:
     try:
         return load_gait(text)
     except GaitFileError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def course_file(text: str) -> Course:
+    try:
+        return Course.load(text)
+    except CourseError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
@@ -96,6 +108,20 @@ def build_parser() -> argparse.ArgumentParser:
         default=0,
         help="heterogeneous robot type to walk (default 0, nao.rsg; 4 has toes)",
     )
+    p.add_argument(
+        "--course",
+        type=course_file,
+        default=None,
+        metavar="FILE",
+        help="walk this course (a course/1 file) with a steerable gait and score it by its time, not eq. 9",
+    )
+    p.add_argument(
+        "--no-true-pose",
+        dest="true_pose",
+        action="store_false",
+        help="on a course, steer by the robot's own estimate from vision and odometry even where the server "
+        "sends mypos",
+    )
     p.add_argument("--json", action="store_true", help="print JSON (one object per walk) instead of text")
     return p
 
@@ -104,7 +130,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     gait = args.gait or load_gait(DEFAULT_GAIT_PATH)
-    start = args.start or list(EPISODE.start)
+    if args.course is not None and not isinstance(gait.walker(), Steerable):
+        parser.error(f"--course needs a steerable gait (the omni family), not a {gait.family.name} gait")
+    if args.course is not None and (args.start or args.walk_time):
+        parser.error("--course sets the start and the time limit: leave out --start and --walk-time")
+    start = list(args.course.start) if args.course is not None else args.start or list(EPISODE.start)
     server: ServerAddress | ManagedServer | None = args.server
     if args.real is not None:
         if args.real != 1:
@@ -113,7 +143,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if server is not None:
         check_start_for_real_server(parser, start, "--real" if args.real else "--server")
     base = episode_config(args.walk_time or EPISODE.walk_time, start, args.agent_mode or EPISODE.agent_mode)
-    base = replace(base, embedded_stub=args.embedded_stub, robot_type=args.robot_type)
+    base = replace(base, embedded_stub=args.embedded_stub, robot_type=args.robot_type, true_pose=args.true_pose)
+    if args.course is not None:
+        base = base.on_course(args.course)
     points = jittered_starts((*base.start, base.heading), args.jitter, args.repeat, args.seed)
     if isinstance(server, RealServerProcess):
         try:  # started before the first walk, so that a server that cannot start is said once, at once

@@ -4,10 +4,14 @@ what it gives back."""
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
+from typing import TYPE_CHECKING, Any
 
 from agent import AgentConfig
 from gait import DEFAULT_FAMILY, family_named
 from protocol.nao import ROBOT_TYPES
+
+if TYPE_CHECKING:
+    from optimizer.episode.course import Course
 
 #: A start point on the field: x, y (m) and heading (deg, 0 = +x).
 Start = tuple[float, float, float]
@@ -88,6 +92,25 @@ class EpisodeConfig:
     family: str = DEFAULT_FAMILY
     #: The heterogeneous robot type walked (0: nao.rsg; 1-4: nao_hetero.rsg, 4 with toes).
     robot_type: int = 0
+    #: What a walk is scored by (``optimizer.episode.objectives``): "distance", the paper's eq. 9
+    #: (the default), or "course", the time to walk ``course`` (``on_course`` sets both).
+    objective: str = "distance"
+    course: Course | None = None
+    #: A course walker's pose: the server's ``mypos``/``myorien`` where it sends them (True), or
+    #: always the agent's own estimate from vision and odometry (False).
+    true_pose: bool = True
+
+    @property
+    def goals(self) -> tuple[tuple[float, float, float], ...]:
+        """The poses the episode's agent walks to: its course's (none for a straight walk)."""
+        return () if self.course is None else self.course.poses
+
+    def on_course(self, course: Course) -> EpisodeConfig:
+        """This config walking ``course``: beamed to its start, for at most its time limit."""
+        x, y, heading = course.start
+        return replace(
+            self, objective="course", course=course, start=(x, y), heading=heading, walk_time=course.time_limit
+        )
 
     def starting_at(self, start: Start) -> EpisodeConfig:
         """This config with another start point and heading."""
@@ -113,6 +136,8 @@ class EpisodeConfig:
             raise ValueError(f"command_noise must be >= 0 rad/s, got {self.command_noise}")
         if self.robot_type not in ROBOT_TYPES:
             raise ValueError(f"robot_type must be one of {ROBOT_TYPES}, got {self.robot_type}")
+        if (self.objective == "course") != (self.course is not None):
+            raise ValueError(f"objective {self.objective!r} with {'a' if self.course else 'no'} course")
 
 
 @dataclass(frozen=True)
@@ -132,9 +157,19 @@ class EpisodeResult:
     drift: float | None = None
     heading_change: float | None = None
     track: tuple[tuple[float, ...], ...] | None = None
+    #: A course walk's outcome (``optimizer.episode.course``): whether it reached every pose, how
+    #: many it reached, and the game time at which it reached each. None for other walks.
+    finished: bool | None = None
+    reached: int | None = None
+    legs: tuple[float, ...] | None = None
 
-    def to_dict(self) -> dict:
-        return asdict(self)
+    def to_dict(self) -> dict[str, Any]:
+        """The result's fields; a walk that was not a course's leaves out the course's."""
+        document = asdict(self)
+        if self.finished is None:
+            for name in ("finished", "reached", "legs"):
+                del document[name]
+        return document
 
     @classmethod
     def failed(cls, reason: str, wall: float) -> EpisodeResult:

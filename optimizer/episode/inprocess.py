@@ -34,12 +34,12 @@ from gait import Gait
 from optimizer.episode import rounding
 from optimizer.episode.config import EpisodeConfig, parked_ball
 from optimizer.episode.monitor_link import EpisodeFailure
+from optimizer.episode.objectives import Judging
 from optimizer.episode.rounding import rounded, rounded_array
-from optimizer.episode.scoring import Judge
 from protocol import commands
 from protocol.monitor import MonitorState, RobotPose
 from protocol.nao import JOINTS
-from protocol.perception import GameState, Perception
+from protocol.perception import GameState, Perception, parse_perception
 from server_stub import kernels
 from server_stub.agent_state import AgentState
 from server_stub.config import PhysicsConfig, ServerConfig
@@ -155,13 +155,15 @@ class InProcessStub:
         # clone), rather than one by one in the first episode
         kernels.warm_up(kernels.WALK, eager=False)
         rounding.warm_up()
-        self.sim = Simulation(ServerConfig(sync=True, realtime=False, beam_noise=False, seed=seed), PhysicsConfig())
+        # mypos and myorien in vision, as the real server's sync profile sends them
+        config = ServerConfig(sync=True, realtime=False, beam_noise=False, sense_mypos=True, seed=seed)
+        self.sim = Simulation(config, PhysicsConfig())
         #: the monitor reader's knowledge, kept across episodes as a trainer's connection keeps it
         self._view = _TorsoView()
         # the runner's trainer connects at its first episode and gets a full scene then
         self.sim.scene_changed = True
 
-    def run(self, gait: Gait, config: EpisodeConfig, judge: Judge) -> None:
+    def run(self, gait: Gait, config: EpisodeConfig, judge: Judging) -> None:
         """Walk ``gait`` once from ``config``'s start; ``judge.result`` holds the outcome."""
         sim = self.sim
         sx, sy = config.start
@@ -178,8 +180,12 @@ class InProcessStub:
             command_noise=config.command_noise,
             noise_seed=config.noise_seed,
             robot_type=config.robot_type,
+            goals=config.goals,
+            true_pose=config.true_pose,
         )
         behaviour = WalkBehaviour(agent_config, gait.walker())
+        # an agent that looks gets the perception the sockets would carry, read as it reads it
+        full_text = behaviour.reads_vision
         state = sim.join()
         inbox: list[bytes | np.ndarray | dict[str, float]] = [commands.scene(config.robot_type or None).encode()]
         to_agent: Perception | None = None
@@ -205,7 +211,10 @@ class InProcessStub:
                 sim.step()
                 cycles += 1
                 if state.robot is not None:
-                    to_agent = _perception(sim, state)
+                    if full_text:
+                        to_agent = parse_perception(sim.perception(state, sim.vision_due))
+                    else:
+                        to_agent = _perception(sim, state)
                 if sim.monitor_due:
                     judge.feed(self._view.state(sim))
                 # the agent answers the perception it was given

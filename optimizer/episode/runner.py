@@ -33,7 +33,8 @@ from gait import Gait, family_named, save_gait
 from optimizer.episode.config import EpisodeConfig, EpisodeResult, Start, parked_ball
 from optimizer.episode.inprocess import InProcessStub
 from optimizer.episode.monitor_link import EpisodeFailure, MonitorLink
-from optimizer.episode.scoring import Judge, TracePoint, find_robot
+from optimizer.episode.objectives import Judging, judge_for
+from optimizer.episode.scoring import TracePoint, find_robot
 from optimizer.episode.servers import (
     ManagedServer,
     ServerAddress,
@@ -206,11 +207,13 @@ class EpisodeRunner:
             command_noise=config.command_noise,
             noise_seed=config.noise_seed,
             robot_type=config.robot_type,
+            goals=config.goals,
+            true_pose=config.true_pose,
         )
 
     def _episode(self, gait: Gait, config: EpisodeConfig, traced: bool) -> EpisodeResult:
         if self._in_process:
-            judge = Judge(config, traced)
+            judge = judge_for(config, traced)
             if self._in_process_stub is None:
                 self._in_process_stub = InProcessStub(self._seed)
             self._in_process_stub.run(gait, config, judge)
@@ -220,7 +223,7 @@ class EpisodeRunner:
         address = self._address()
         link = self._link()
         self._prepare(link, config)
-        judge = Judge(config, traced)
+        judge = judge_for(config, traced)
         deadline = time.monotonic() + config.episode_timeout
         if config.agent_mode == "inprocess":
             self._run_inprocess(gait, address, link, judge, deadline)
@@ -231,7 +234,7 @@ class EpisodeRunner:
         return judge.result
 
     def _run_inprocess(
-        self, gait: Gait, address: ServerAddress, link: MonitorLink, judge: Judge, deadline: float
+        self, gait: Gait, address: ServerAddress, link: MonitorLink, judge: Judging, deadline: float
     ) -> None:
         config = self._agent_config(address, judge.config)
         agent = NaoAgent(config, gait=gait)
@@ -255,7 +258,7 @@ class EpisodeRunner:
         self._await_robot_gone(link, deadline)
 
     def _run_process(
-        self, gait: Gait, address: ServerAddress, link: MonitorLink, judge: Judge, deadline: float
+        self, gait: Gait, address: ServerAddress, link: MonitorLink, judge: Judging, deadline: float
     ) -> None:
         gait_file = save_gait(gait, Path(self._tmp.name) / "gait.json")
         config = judge.config
@@ -288,6 +291,8 @@ class EpisodeRunner:
             repr(config.command_noise),
             "--noise-seed",
             str(config.noise_seed),
+            *[arg for goal in config.goals for arg in ("--goto", *map(str, goal))],
+            *([] if config.true_pose else ["--no-true-pose"]),
         ]
         process = subprocess.Popen(
             command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=dict(os.environ)

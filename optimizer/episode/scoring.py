@@ -128,11 +128,16 @@ class Judge:
         """A traced walk's drift, turn and thinned track (nothing for an untraced one)."""
         if self.trace is None:
             return {}
-        kept = self.trace[::TRACK_EVERY]
-        if self.trace and kept[-1] is not self.trace[-1]:
-            kept.append(self.trace[-1])
         return {
             "drift": sideways_drift(self.trace, self.config.heading),
             "heading_change": heading_change(self.trace),
-            "track": tuple(point.rounded() for point in kept),
+            "track": thinned_track(self.trace),
         }
+
+
+def thinned_track(trace: Sequence[TracePoint]) -> tuple[tuple[float, ...], ...]:
+    """Every ``TRACK_EVERY``-th traced point and the last, rounded: what an episode log keeps."""
+    kept = list(trace[::TRACK_EVERY])
+    if trace and kept[-1] is not trace[-1]:
+        kept.append(trace[-1])
+    return tuple(point.rounded() for point in kept)

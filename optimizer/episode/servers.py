@@ -111,6 +111,7 @@ class StubProcess(ServerProcess):
             "--sync",
             "--no-realtime",
             "--no-beam-noise",
+            "--sense-mypos",  # as the real server's sync profile
             "--agent-port",
             "0",
             "--monitor-port",

@@ -8,6 +8,7 @@ from collections.abc import Callable, Sequence
 
 from gait import Gait
 from optimizer.episode.config import EpisodeConfig, Start
+from optimizer.episode.course import leg_durations
 from optimizer.episode.runner import EpisodeResult, EpisodeRunner, quiet_agent_logs
 from optimizer.episode.servers import ManagedServer, ServerAddress
 from optimizer.run.stability import distance_spread
@@ -33,7 +34,15 @@ def walk_from(
 
 
 def describe(result: EpisodeResult) -> str:
-    """One walk in a line: how far, how long, whether it fell, its fitness and speed."""
+    """One walk in a line: how far, how long, whether it fell, its fitness and speed (a course
+    walk: whether it finished, in what time, the poses reached and each leg's time)."""
+    if result.finished is not None:
+        legs = " ".join(f"{t:.2f}" for t in leg_durations(result.legs or ()))
+        return (
+            f"{'finished' if result.finished else 'did not finish'} in {result.time:.2f} s "
+            f"({'fell' if result.fell else 'did not fall'}); {result.reached} poses reached, legs {legs or '-'} s; "
+            f"fitness {result.fitness:.4f}"
+        )
     return (
         f"distance {result.distance:.3f} m in {result.time:.2f} s walked "
         f"({'fell' if result.fell else 'did not fall'}); fitness {result.fitness:.4f}; "
