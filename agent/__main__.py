@@ -82,6 +82,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="walk to this pose (field frame, m and deg); repeat for poses in order (needs an omni gait)",
     )
     p.add_argument(
+        "--command",
+        nargs=3,
+        type=number,
+        default=None,
+        metavar=("FWD", "LEFT", "TURN"),
+        help="walk this one command (m/s ahead, m/s to the left, deg/s turning left) with an omni gait",
+    )
+    p.add_argument(
         "--no-true-pose",
         dest="true_pose",
         action="store_false",
@@ -103,10 +111,13 @@ def main(argv: list[str] | None = None) -> int:
     except GaitFileError as exc:
         print(f"agent: error: {exc}", file=sys.stderr)
         return 2
-    if args.goto and not isinstance(gait.walker(), Steerable):
+    if args.goto and args.command:
+        print("agent: error: --goto and --command both say what to walk: give one", file=sys.stderr)
+        return 2
+    if (args.goto or args.command) and not isinstance(gait.walker(), Steerable):
         print(
-            f"agent: error: --goto needs a steerable gait (the omni family); {args.gait or 'the default gait'} "
-            f"is a {gait.family.name} gait",
+            f"agent: error: --goto and --command need a steerable gait (the omni family); "
+            f"{args.gait or 'the default gait'} is a {gait.family.name} gait",
             file=sys.stderr,
         )
         return 2
@@ -127,6 +138,7 @@ def main(argv: list[str] | None = None) -> int:
         noise_seed=args.noise_seed,
         goals=tuple(tuple(goal) for goal in args.goto),
         true_pose=args.true_pose,
+        walk_command=None if args.command is None else tuple(args.command),
     )
     try:
         report = NaoAgent(config).run()

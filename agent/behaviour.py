@@ -94,11 +94,12 @@ class WalkBehaviour:
         #: the walk to poses, and where it takes its pose from (none without goals)
         self.goto: GoTo | None = None
         self.pose: PoseSource | None = None
+        if (config.goals or config.walk_command is not None) and not isinstance(gait, Steerable):
+            raise ValueError("walking to poses or by a command needs a steerable gait (the omni family)")
         if config.goals:
-            if not isinstance(gait, Steerable):
-                raise ValueError("walking to poses needs a steerable gait (the omni family), not a fixed pattern")
             self.goto = GoTo(config.goals, config.goto)
             self.pose = pose if pose is not None else own_pose_sources(config)
+        self._fixed = None if config.walk_command is None else Command(*config.walk_command)
         self.phase = Phase.CONNECTING
         self.settle_cycle = 0
         self.walk_cycles = 0
@@ -149,6 +150,9 @@ class WalkBehaviour:
             self._sense(perception.gyro, perception.acc, perception.joints)
         if self.pose is not None:
             self._steer(perception)
+        elif self._fixed is not None:
+            assert isinstance(self.gait, Steerable)
+            self.gait.command = self._fixed if self.phase is Phase.WALKING else Command()
         lookahead = gait_time + self.config.lookahead_cycles * CYCLE
         joints = perception.joints
         try:

@@ -58,6 +58,9 @@ class AgentConfig:
     #: Poses to walk to in order (x, y m, heading deg; field frame), with a steerable gait
     #: (``gait.Steerable``); none: the gait walks its own way (a steerable one straight ahead).
     goals: tuple[Pose, ...] = ()
+    #: One command a steerable gait walks from the walk's start on (forward m/s, left m/s, turn
+    #: deg/s), for measuring what it does; None: its own (full ahead), or the walk to ``goals``.
+    walk_command: tuple[float, float, float] | None = None
     goto: GotoConfig = GotoConfig()
     #: Steer by the server's ``mypos``/``myorien`` where it sends them; False: always by the
     #: agent's own estimate from vision and odometry.
@@ -66,3 +69,5 @@ class AgentConfig:
     def __post_init__(self) -> None:
         if not self.command_noise >= 0.0:
             raise ValueError(f"command_noise must be >= 0 rad/s, got {self.command_noise}")
+        if self.goals and self.walk_command is not None:
+            raise ValueError("a walk to poses makes its own commands: give goals or walk_command, not both")

@@ -44,7 +44,7 @@ from optimizer.run.robust import jittered_starts
 from optimizer.run.run_settings import episode_config
 from optimizer.run.session import check_start_for_real_server, real_server_command
 from optimizer.settings import Settings
-from protocol.cli_values import non_negative, positive_int
+from protocol.cli_values import non_negative, number, positive_int
 from protocol.nao import ROBOT_TYPES
 
 #: An episode's defaults: a search's.
@@ -116,6 +116,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="walk this course (a course/1 file) with a steerable gait and score it by its time, not eq. 9",
     )
     p.add_argument(
+        "--command",
+        nargs=3,
+        type=number,
+        default=None,
+        metavar=("FWD", "LEFT", "TURN"),
+        help="walk this one command (m/s ahead, m/s to the left, deg/s turning left) with a steerable gait, "
+        "scored by eq. 9 along the start heading; --json with the traced track shows the achieved velocity",
+    )
+    p.add_argument(
         "--no-true-pose",
         dest="true_pose",
         action="store_false",
@@ -130,8 +139,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     gait = args.gait or load_gait(DEFAULT_GAIT_PATH)
-    if args.course is not None and not isinstance(gait.walker(), Steerable):
-        parser.error(f"--course needs a steerable gait (the omni family), not a {gait.family.name} gait")
+    for flag, given in (("--course", args.course), ("--command", args.command)):
+        if given is not None and not isinstance(gait.walker(), Steerable):
+            parser.error(f"{flag} needs a steerable gait (the omni family), not a {gait.family.name} gait")
+    if args.course is not None and args.command is not None:
+        parser.error("--course walks to poses by its own commands: leave out --command")
     if args.course is not None and (args.start or args.walk_time):
         parser.error("--course sets the start and the time limit: leave out --start and --walk-time")
     start = list(args.course.start) if args.course is not None else args.start or list(EPISODE.start)
@@ -143,7 +155,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     if server is not None:
         check_start_for_real_server(parser, start, "--real" if args.real else "--server")
     base = episode_config(args.walk_time or EPISODE.walk_time, start, args.agent_mode or EPISODE.agent_mode)
-    base = replace(base, embedded_stub=args.embedded_stub, robot_type=args.robot_type, true_pose=args.true_pose)
+    base = replace(
+        base,
+        embedded_stub=args.embedded_stub,
+        robot_type=args.robot_type,
+        true_pose=args.true_pose,
+        command=None if args.command is None else tuple(args.command),
+    )
     if args.course is not None:
         base = base.on_course(args.course)
     points = jittered_starts((*base.start, base.heading), args.jitter, args.repeat, args.seed)

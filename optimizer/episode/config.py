@@ -99,6 +99,9 @@ class EpisodeConfig:
     #: A course walker's pose: the server's ``mypos``/``myorien`` where it sends them (True), or
     #: always the agent's own estimate from vision and odometry (False).
     true_pose: bool = True
+    #: One command a steerable gait walks (forward m/s, left m/s, turn deg/s) instead of its own:
+    #: how a walk engine's speeds are measured (``bench.bench_course``). None: its own.
+    command: tuple[float, float, float] | None = None
 
     @property
     def goals(self) -> tuple[tuple[float, float, float], ...]:

@@ -182,6 +182,7 @@ class InProcessStub:
             robot_type=config.robot_type,
             goals=config.goals,
             true_pose=config.true_pose,
+            walk_command=config.command,
         )
         behaviour = WalkBehaviour(agent_config, gait.walker())
         # an agent that looks gets the perception the sockets would carry, read as it reads it

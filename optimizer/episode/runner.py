@@ -209,6 +209,7 @@ class EpisodeRunner:
             robot_type=config.robot_type,
             goals=config.goals,
             true_pose=config.true_pose,
+            walk_command=config.command,
         )
 
     def _episode(self, gait: Gait, config: EpisodeConfig, traced: bool) -> EpisodeResult:
@@ -293,6 +294,7 @@ class EpisodeRunner:
             str(config.noise_seed),
             *[arg for goal in config.goals for arg in ("--goto", *map(str, goal))],
             *([] if config.true_pose else ["--no-true-pose"]),
+            *([] if config.command is None else ["--command", *map(repr, config.command)]),
         ]
         process = subprocess.Popen(
             command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=dict(os.environ)
