@@ -100,6 +100,9 @@ class WalkBehaviour:
             self.goto = GoTo(config.goals, config.goto)
             self.pose = pose if pose is not None else own_pose_sources(config)
         self._fixed = None if config.walk_command is None else Command(*config.walk_command)
+        #: what the walk to poses believed at each vision cycle of the walk: (game time, x, y,
+        #: heading), for measuring its pose estimate against the truth (``bench.bench_course``)
+        self.pose_log: list[tuple[float, float, float, float]] = []
         self.phase = Phase.CONNECTING
         self.settle_cycle = 0
         self.walk_cycles = 0
@@ -173,7 +176,10 @@ class WalkBehaviour:
         gait = self.gait
         self.pose.update(perception, gait.moved())
         if self.phase is Phase.WALKING:
-            gait.command = self.goto.command(self.pose.pose, gait.max_command, gait.max_backward)
+            pose = self.pose.pose
+            gait.command = self.goto.command(pose, gait.max_command, gait.max_backward)
+            if perception.vision is not None and perception.game.time is not None:
+                self.pose_log.append((perception.game.time, *pose))
         else:
             gait.command = Command()
 

@@ -163,8 +163,9 @@ class InProcessStub:
         # the runner's trainer connects at its first episode and gets a full scene then
         self.sim.scene_changed = True
 
-    def run(self, gait: Gait, config: EpisodeConfig, judge: Judging) -> None:
-        """Walk ``gait`` once from ``config``'s start; ``judge.result`` holds the outcome."""
+    def run(self, gait: Gait, config: EpisodeConfig, judge: Judging) -> WalkBehaviour:
+        """Walk ``gait`` once from ``config``'s start; ``judge.result`` holds the outcome. Returns
+        the agent's behaviour, for a caller that wants to see what the agent believed."""
         sim = self.sim
         sx, sy = config.start
         # what the runner's trainer sends before each episode
@@ -229,6 +230,7 @@ class InProcessStub:
                     raise EpisodeFailure(f"no result after {cycles} cycles")
         finally:
             sim.leave(state)
+        return behaviour
 
     @staticmethod
     def _reply(behaviour: WalkBehaviour, perception: Perception) -> list[bytes | np.ndarray | dict[str, float]]:

@@ -29,6 +29,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from agent import AgentConfig, AgentError, NaoAgent
+from agent.behaviour import WalkBehaviour
 from gait import Gait, family_named, save_gait
 from optimizer.episode.config import EpisodeConfig, EpisodeResult, Start, parked_ball
 from optimizer.episode.inprocess import InProcessStub
@@ -96,6 +97,9 @@ class EpisodeRunner:
         self.trace = trace
         #: the torso track of the last episode evaluated (empty if it failed), when ``trace`` is on
         self.last_trace: list[TracePoint] | None = None
+        #: the agent of the last episode walked in this process (not in an agent process): what it
+        #: believed along the walk (``WalkBehaviour.pose_log``)
+        self.last_agent: WalkBehaviour | None = None
         self._fixed_server = server if isinstance(server, ServerAddress) else None
         self._owned: ManagedServer | None = None
         self._seed = seed
@@ -217,7 +221,7 @@ class EpisodeRunner:
             judge = judge_for(config, traced)
             if self._in_process_stub is None:
                 self._in_process_stub = InProcessStub(self._seed)
-            self._in_process_stub.run(gait, config, judge)
+            self.last_agent = self._in_process_stub.run(gait, config, judge)
             assert judge.result is not None
             self.last_trace = judge.trace if self.trace else None
             return judge.result
@@ -239,6 +243,7 @@ class EpisodeRunner:
     ) -> None:
         config = self._agent_config(address, judge.config)
         agent = NaoAgent(config, gait=gait)
+        self.last_agent = agent.behaviour
         agent.connect()
         play_on_sent = False
         try:
