@@ -178,7 +178,8 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         "real_command": real_command,
         "servers": [str(s) for s in servers],
     }
-    cards, notes = write_report(folder.path, gaits, measured, family_named(setup.family), real, episode.walk_time)
+    family = family_named(setup.family)
+    cards, notes = write_report(folder.path, gaits, measured, family, real, episode.walk_time, course)
     for note in notes:
         print(f"note: {note}", file=sys.stderr)
     written = "".join(f"\nwalk card ({target} side): {p.stem}.card.{{json,md,png}}" for p in cards)

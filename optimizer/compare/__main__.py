@@ -28,10 +28,10 @@ from optimizer.compare.budget import drive
 from optimizer.compare.methods import Method, Problem, discover
 from optimizer.compare.report import RunOutcome, plot_convergence, write_tables
 from optimizer.compare.statistics import pairwise, summarise
+from optimizer.episode.course import Course
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
 from optimizer.run.robust import ScoredGait
-from optimizer.episode.course import Course
 from optimizer.run.run_settings import apply_preset, course_of, search_box, stability_config
 from optimizer.run.session import EvaluatorMaker, pool_evaluator, prepare_run, run_session
 from optimizer.run.stability import check_best

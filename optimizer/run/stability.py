@@ -115,7 +115,9 @@ class StabilityReport:
         shortest, longest, mean = self.spread() or (None, None, None)
         ran = [r.distance for r in self.repeats if r.ran]
         times = self.finish_times()
-        course = {} if times is None else {"finished": len(times), "mean_time": sum(times) / len(times) if times else None}
+        course = (
+            {} if times is None else {"finished": len(times), "mean_time": sum(times) / len(times) if times else None}
+        )
         return {
             "key": self.gait.key,
             "score": self.gait.fitness,
