@@ -229,8 +229,9 @@ def take_course(parser: argparse.ArgumentParser, args: argparse.Namespace) -> No
     for name, flag in (("start", "--start"), ("walk_time", "--walk-time")):
         if getattr(args, name) is not None:
             parser.error(f"--course sets the start and the time limit of every walk: leave out {flag}")
-    course = Course.from_document(args.course)
-    args.start, args.walk_time = list(course.start), course.time_limit
+    if args.resume is None:  # a resumed run has them stored; a course given then is compared as itself
+        course = Course.from_document(args.course)
+        args.start, args.walk_time = list(course.start), course.time_limit
 
 
 def check_objective(parser: argparse.ArgumentParser, settings: Settings) -> None:
