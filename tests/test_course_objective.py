@@ -482,3 +482,18 @@ def test_a_steerable_gait_walks_a_course_on_the_stand_in() -> None:
     assert result.status == "ok", result.reason
     assert result.finished is not None and result.reached in (0, 1) and result.track
     assert 0 < result.time <= 10.0
+
+
+def test_a_course_comparison_says_what_its_figures_are_and_succeeds_by_finishing(tmp_path: Path, monkeypatch) -> None:
+    monkeypatch.setattr(session, "steers", lambda family: True)  # a stand-in for a steerable family
+    out = tmp_path / "compare"
+    argv = ["--methods", "random", "--seeds", "2", "--budget", "12", "--population", "4", "--check-repeats", "1"]
+    argv += ["--robust-walks", "1", "--course", str(course_file(tmp_path)), "--quiet", "--out", str(out)]
+    argv += ["--success-distance", "1000"]  # a distance a course's success does not ask for
+    assert compare_command.main(argv, make_evaluator=lambda s: CourseEvaluator(COURSE)) == 0
+    text = (out / "comparison.md").read_text()
+    assert text.startswith(f"A course (3 poses, {COURSE.size:.2f} m, at most 20 s)")
+    runs = json.loads((out / "results.json").read_text())["runs"]
+    for run in runs:  # success: the best finished (its score above 10 x the size) and held its check
+        assert run["success"] == (run["best_distance"] >= COURSE.size and run["check_falls"] == 0)
+    assert any(run["success"] for run in runs)
