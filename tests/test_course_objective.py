@@ -497,3 +497,24 @@ def test_a_course_comparison_says_what_its_figures_are_and_succeeds_by_finishing
     for run in runs:  # success: the best finished (its score above 10 x the size) and held its check
         assert run["success"] == (run["best_distance"] >= COURSE.size and run["check_falls"] == 0)
     assert any(run["success"] for run in runs)
+
+
+def test_a_course_runs_transfer_walks_the_course_from_its_start(tmp_path: Path, monkeypatch, capsys) -> None:
+    from optimizer.cli import transfer_command
+
+    monkeypatch.setattr(session, "steers", lambda family: True)  # a stand-in for a steerable family
+    out = tmp_path / "run"
+    argv = ["--course", str(course_file(tmp_path)), *SMALL_GA, "--seed", "3", "--out", str(out)]
+    assert ga_command.main(argv, make_evaluator=lambda s: CourseEvaluator(COURSE)) == 0
+    err = refused(transfer_command.main, [str(out), "--start", "-7", "0", "0"], capsys)
+    assert "--start: the run walks a course" in err
+    setups = []
+
+    def make(setup):
+        setups.append(setup)
+        return CourseEvaluator(COURSE)
+
+    assert transfer_command.main([str(out), "--repeats", "2"], make_evaluator=make) == 0
+    assert setups[0].course == COURSE and setups[0].start == COURSE.start
+    card = read_card(out / "best_gait.json")
+    assert card is not None and card.course == COURSE and len(card.sides["stand-in"]) == 2
