@@ -31,7 +31,7 @@ from optimizer.episode.runner import EpisodeRunner
 from optimizer.evaluation.pool import EpisodeTask
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.folder import RunFolder, RunFolderError, read_episode_log
-from optimizer.run.run_settings import episode_config, manifest_settings
+from optimizer.run.run_settings import course_of, episode_config, manifest_settings
 
 #: What a re-walk may change: how long it took and which worker ran it.
 NOT_COMPARED = {"wall", "worker"}
@@ -42,7 +42,14 @@ def runner_of(folder: RunFolder) -> EpisodeRunner:
     settings = manifest_settings(folder.manifest)
     episode, scoring = settings.episode, settings.scoring
     config = episode_config(
-        episode.walk_time, episode.start, "inprocess", scoring.command_noise, episode.family, scoring.drift_penalty
+        episode.walk_time,
+        episode.start,
+        "inprocess",
+        scoring.command_noise,
+        episode.family,
+        scoring.drift_penalty,
+        course_of(settings),
+        episode.true_pose,
     )
     return EpisodeRunner(config, seed=0)
 

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from gait import DEFAULT_GAIT_PATH, GaitFamily, family_named, load_gait
+from optimizer.episode.course import Course
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
 from optimizer.run.report import (
@@ -275,12 +276,21 @@ class Row:
     walk_time: float
 
     def table_row(self) -> TableRow:
+        """The row's figures; on a course a distance is metres of course done and a speed those metres
+        over each walk's own time (a walk ends when it finishes), not over the time limit."""
         best, check = self.best, self.check
         spread = None if check is None else check.spread()
+        if best is None:
+            speed = None
+        elif best.walks[0].on_course:
+            ran = [w.mean_speed for w in best.walks if w.ran]
+            speed = sum(ran) / len(ran) if ran else 0.0
+        else:
+            speed = best.mean_distance / self.walk_time
         return TableRow.from_gala(
             self.result,
             None if best is None else best.mean_distance,
-            None if best is None else best.mean_distance / self.walk_time,
+            speed,
             None if check is None else len(check.repeats),
             None if check is None else check.falls,
             spread,
@@ -296,6 +306,18 @@ class Row:
         }
 
 
+def course_note(course: Course | None) -> str | None:
+    """What a course run's Table I figures mean (None for eq. 9's)."""
+    if course is None:
+        return None
+    return (
+        f"A course run (optimizer.episode.course: {len(course.poses)} poses, {course.size:.2f} m of course, "
+        f"at most {course.time_limit:g} s): a distance is metres of course done ({course.size:.2f} m for a walk "
+        "that finished), a speed those metres over the walk's own time; fitness is 10 x the metres done for a walk "
+        "that did not finish, 10 x the course's size x (2 - time / time limit) for one that did."
+    )
+
+
 def write_outputs(run: Run, rows: list[Row], fastest: Fastest | None) -> None:
     """Every result file, for the rows finished so far (rewritten after each row and after the
     refinement): the tables, results.json and the walk handed over, then the latest row's plots
@@ -303,7 +325,7 @@ def write_outputs(run: Run, rows: list[Row], fastest: Fastest | None) -> None:
     path = run.folder.path
     table = [row.table_row() for row in rows]
     write_table_csv(table, path / "table1.csv")
-    write_table_markdown(table, path / "table1.md")
+    write_table_markdown(table, path / "table1.md", course_note(run.setup.course))
     write_json(
         path / "results.json",
         {

@@ -30,6 +30,8 @@ from typing import Any
 
 from gait import DEFAULT_FAMILY, FAMILIES, TFS, TFS_START
 from optimizer.episode import CALIBRATED_COMMAND_NOISE, DEFAULT_START, ServerAddress
+from optimizer.episode.course import Course, CourseError
+from optimizer.episode.objectives import DEFAULT_OBJECTIVE, OBJECTIVES
 from optimizer.run.folder import RunFolder, RunFolderError
 from optimizer.search.config import (
     DE_JONG,
@@ -66,7 +68,8 @@ SECTIONS: dict[str, str] = {
 COMMON_TITLE = "common settings"
 
 #: The version of the settings this code stores; a manifest without one is version 0 (``upgrade``).
-SETTINGS_VERSION = 1
+#: 2: the objective (``objective``, ``course``) and the course walker's pose (``true_pose``).
+SETTINGS_VERSION = 2
 
 
 # --- argument types: each names what is wrong; argparse adds the flag -----------------------------
@@ -91,6 +94,15 @@ def server_address(text: str) -> ServerAddress:
     try:
         return ServerAddress.parse(text)
     except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def course_document(text: str) -> dict[str, Any]:
+    """``--course``'s value: the course in a course/1 file, as the document a run stores (the course
+    itself, so that a resumed run or a worker never reads the file again)."""
+    try:
+        return Course.load(text).to_document()
+    except CourseError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
@@ -657,6 +669,29 @@ TABLE: tuple[Setting, ...] = (
         metavar="W",
         attribute="drift_penalty",
     ),
+    Setting(
+        "objective",
+        "scoring",
+        DEFAULT_OBJECTIVE,
+        "what a walk is scored by: "
+        + "; ".join(f"{o.name}, {o.about}" for o in OBJECTIVES.values())
+        + f" (default {DEFAULT_OBJECTIVE}; --course implies course)",
+        ("--objective",),
+        choices=list(OBJECTIVES),
+        attribute="objective",
+    ),
+    Setting(
+        "course",
+        "scoring",
+        None,
+        "the course/1 file every walk walks (implies --objective course; a steerable family): its start "
+        "and time limit stand for --start and --walk-time, its poses are reached in order, and a walk is "
+        "scored by its time (optimizer.episode.course). The run stores the course itself, not the path",
+        ("--course",),
+        type=course_document,
+        metavar="FILE",
+        attribute="course",
+    ),
     # --- check ---
     Setting(
         "check_repeats",
@@ -703,6 +738,16 @@ TABLE: tuple[Setting, ...] = (
         ("--bounds",),
         choices=sorted({box for f in FAMILIES.values() for box in f.boxes}),
         attribute="bounds",
+    ),
+    Setting(
+        "true_pose",
+        "episode",
+        True,
+        "a course walker steers by the server's mypos/myorien where it sends them (default); "
+        "--no-true-pose: always by its own estimate from vision and odometry (--objective course only)",
+        ("--true-pose",),
+        action=argparse.BooleanOptionalAction,
+        attribute="true_pose",
     ),
     # --- execution: not stored with the settings ---
     Setting(
@@ -975,7 +1020,14 @@ LEGACY: dict[str, Any] = {
     # before the refinement's own family and quantile: the run's own
     "refine_family": lambda settings: settings["family"],
     "refine_quantile": lambda settings: settings["robust_quantile"],
+    # before objectives (version 2): eq. 9's distance, no course, the walker's pose as the server sends it
+    "objective": DEFAULT_OBJECTIVE,
+    "course": None,
+    "true_pose": True,
 }
+
+#: The settings version 2 added (``_to_version_2``).
+_NEW_IN_2 = ("objective", "course", "true_pose")
 
 
 def _to_version_1(stored: Mapping[str, Any], command: str) -> dict[str, Any]:
@@ -1000,8 +1052,19 @@ def _to_version_1(stored: Mapping[str, Any], command: str) -> dict[str, Any]:
     return settings
 
 
+def _to_version_2(stored: Mapping[str, Any], command: str) -> dict[str, Any]:
+    """Version 1 to 2: a run from before objectives walked eq. 9's distance, on no course, and
+    (having no course) never steered by a pose (``LEGACY``); nothing else changed."""
+    settings = dict(stored)
+    names = {setting.name for setting in settings_of(command) if setting.stored}
+    for name in _NEW_IN_2:
+        if name in names and name not in settings:
+            settings[name] = LEGACY[name]
+    return settings
+
+
 #: The upgrade from each version to the next: ``_UPGRADES[v]`` takes version v to v + 1.
-_UPGRADES: tuple[Callable[[Mapping[str, Any], str], dict[str, Any]], ...] = (_to_version_1,)
+_UPGRADES: tuple[Callable[[Mapping[str, Any], str], dict[str, Any]], ...] = (_to_version_1, _to_version_2)
 
 
 def upgrade(stored: Mapping[str, Any], command: str, version: int = 0) -> dict[str, Any]:
@@ -1054,6 +1117,10 @@ class ScoringSettings:
     quantile: float | str
     command_noise: float
     drift_penalty: float
+    #: the objective's name (``optimizer.episode.objectives.OBJECTIVES``)
+    objective: str
+    #: the course's document (``Course.to_document``; ``run_settings.course_of``), None without one
+    course: Mapping[str, Any] | None
 
 
 @dataclass(frozen=True)
@@ -1099,6 +1166,8 @@ class EpisodeSettings:
     agent_mode: str
     family: str
     bounds: str
+    #: a course walker steers by the server's pose where it sends one (``EpisodeConfig.true_pose``)
+    true_pose: bool
 
 
 _SECTION_RECORDS: dict[str, type] = {

@@ -263,8 +263,30 @@ def test_a_log_from_before_records_had_their_kind_reads_check_walks_by_their_key
         ({"start": [0, 0]}, '"start" must be 3 numbers'),
         ({"distance": float("nan")}, '"distance" must be a finite number'),
         ({"family": 7}, '"family" must be a family\'s name'),
+        # a course walk's fields: all three or none, each of its kind, one time per pose reached, in order
+        ({"finished": True, "reached": 2}, 'lacks "legs"'),
+        ({"legs": [1.0]}, 'lacks "finished", "reached"'),
+        ({"finished": 1, "reached": 1, "legs": [1.0]}, '"finished" must be true or false'),
+        ({"finished": False, "reached": 1.0, "legs": [1.0]}, '"reached" must be a whole number >= 0'),
+        ({"finished": False, "reached": -1, "legs": []}, '"reached" must be a whole number >= 0'),
+        ({"finished": False, "reached": 1, "legs": "1"}, '"legs" must be a list of numbers'),
+        ({"finished": False, "reached": 2, "legs": [1.0]}, '"legs" must hold the 2 poses\' times in order'),
+        ({"finished": False, "reached": 2, "legs": [3.0, 1.0]}, '"legs" must hold the 2 poses\' times in order'),
+        ({"finished": True, "reached": 0, "legs": []}, '"finished" with no pose "reached"'),
     ],
 )
 def test_a_record_with_a_wrong_field_is_refused_naming_it(change: dict, problem: str) -> None:
     with pytest.raises(RecordError, match=re.escape(problem)):
         EpisodeRecord.from_json(document("a") | change)
+
+
+def test_a_course_walks_record_keeps_its_outcome_and_another_walks_leaves_it_out() -> None:
+    course = document("check/a/r00") | {"finished": False, "reached": 2, "legs": [3.5, 7.25]}
+    walk = EpisodeRecord.from_json(course)
+    assert walk.on_course and walk.finished is False and walk.reached == 2 and walk.legs == (3.5, 7.25)
+    assert EpisodeRecord.from_json(walk.to_json()) == walk
+    assert json.loads(json.dumps(walk.to_json())) == walk.to_json()
+    assert walk.to_json()["legs"] == [3.5, 7.25] and walk.to_json()["finished"] is False
+    plain = EpisodeRecord.from_json(document("a"))
+    assert not plain.on_course and plain.finished is None and plain.legs is None
+    assert not {"finished", "reached", "legs"} & plain.to_json().keys()  # a line as it always was

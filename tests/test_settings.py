@@ -40,6 +40,9 @@ EXPECTED_LEGACY = {
     "refine_race": False,
     "refine_population": None,
     "refine_reference": False,
+    "objective": "distance",
+    "course": None,
+    "true_pose": True,
 }
 
 
@@ -55,6 +58,44 @@ def test_upgrade_fills_each_legacy_value(command: str) -> None:
         # a main job from before the refinement never read the refinement's steps
         old = {k: v for k, v in current.items() if k not in ("refine", "refine_sigma")}
         assert upgrade(old, command) == {**current, "refine": 0}
+
+
+#: A course's document as a run stores it.
+COURSE = {
+    "format": "course/1",
+    "start": [-8.0, 0.0, 0.0],
+    "poses": [[-6.0, 1.0, 90.0]],
+    "reach": [0.3, 20.0],
+    "time_limit": 30.0,
+}
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_a_version_1_run_had_eq_9_no_course_and_the_true_pose(command: str) -> None:
+    """Version 2 added the objective: a version-1 manifest stored every other setting, and its
+    run walked eq. 9's distance with no course; the upgrade fills in just that."""
+    current = {**defaults(command), "family": "tfs-plus", "robust_quantile": 0.5}
+    version_1 = {k: v for k, v in current.items() if k not in ("objective", "course", "true_pose")}
+    upgraded = upgrade(version_1, command, 1)
+    assert upgraded == {**version_1, "objective": "distance", "course": None, "true_pose": True}
+    record = Settings.from_stored(upgraded, command)
+    assert record.scoring.objective == "distance" and record.scoring.course is None and record.episode.true_pose
+    # a version-2 run keeps its course, and a course run's settings are not touched by the upgrade
+    course_run = {**current, "objective": "course", "course": COURSE, "true_pose": False}
+    assert upgrade(course_run, command, SETTINGS_VERSION) == course_run
+    assert upgrade(course_run, command, 1) == course_run  # nothing a version 1 lacked is missing
+    # a version this code does not know is refused
+    with pytest.raises(ValueError, match="settings version 3"):
+        upgrade(version_1, command, 3)
+
+
+def test_a_course_run_stores_the_course_and_reads_it_back() -> None:
+    stored = {**defaults("ga"), "objective": "course", "course": COURSE, "true_pose": False}
+    record = Settings.from_stored(stored, "ga")
+    assert record.scoring.objective == "course" and record.scoring.course == COURSE
+    assert record.episode.true_pose is False
+    assert json.loads(json.dumps(record.stored())) == stored
+    assert list(record.stored()) == list(stored)
 
 
 def test_upgraded_lists_are_the_runs_own() -> None:

@@ -34,8 +34,8 @@ from optimizer.cli.arguments import add_server_arguments
 from optimizer.episode import DEFAULT_START, Start, start_problem_on_real_server
 from optimizer.evaluation.pool import EvaluationError
 from optimizer.run.folder import RunFolder
+from optimizer.run.run_settings import course_of, manifest_settings
 from optimizer.run.run_settings import jitter as jitter_of
-from optimizer.run.run_settings import manifest_settings
 from optimizer.run.session import (
     EvaluationSetup,
     EvaluatorMaker,
@@ -87,7 +87,13 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _start(parser: argparse.ArgumentParser, args: argparse.Namespace, run_start: Start, real: bool) -> Start:
+def _start(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, run_start: Start, real: bool, course: bool = False
+) -> Start:
+    if course:  # a course's poses lie where they lie: its walks start at its start or nowhere
+        if real:
+            check_start_for_real_server(parser, run_start, "--real" if args.real else "--server")
+        return run_start
     if args.start is not None:
         start: Start = (args.start[0], args.start[1], args.start[2])
         if real:
@@ -116,7 +122,10 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     episode = settings.episode
     real = bool(args.real or args.server)
     x, y, heading = episode.start
-    start = _start(parser, args, (x, y, heading), real)
+    course = course_of(settings)
+    if course is not None and args.start is not None:
+        parser.error("--start: the run walks a course, whose own start every walk starts from")
+    start = _start(parser, args, (x, y, heading), real, course is not None)
     jitter = tuple(args.jitter) if args.jitter is not None else jitter_of(settings)
     # the dither stands in for the real server's spread, so only the stand-in's walks get it
     command_noise = 0.0 if real else settings.scoring.command_noise
@@ -136,6 +145,8 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         real_command=real_command,
         command_noise=command_noise,
         family=episode.family,
+        course=course,
+        true_pose=episode.true_pose,
     )
     target = "real server" if real else "stand-in"
     tasks = transfer_tasks(gaits, start, jitter, args.repeats, seed)
@@ -167,7 +178,8 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
         "real_command": real_command,
         "servers": [str(s) for s in servers],
     }
-    cards, notes = write_report(folder.path, gaits, measured, family_named(setup.family), real, episode.walk_time)
+    family = family_named(setup.family)
+    cards, notes = write_report(folder.path, gaits, measured, family, real, episode.walk_time, course)
     for note in notes:
         print(f"note: {note}", file=sys.stderr)
     written = "".join(f"\nwalk card ({target} side): {p.stem}.card.{{json,md,png}}" for p in cards)

@@ -28,10 +28,11 @@ from optimizer.compare.budget import drive
 from optimizer.compare.methods import Method, Problem, discover
 from optimizer.compare.report import RunOutcome, plot_convergence, write_tables
 from optimizer.compare.statistics import pairwise, summarise
+from optimizer.episode.course import Course
 from optimizer.run.driver import Driver
 from optimizer.run.folder import write_json
 from optimizer.run.robust import ScoredGait
-from optimizer.run.run_settings import apply_preset, search_box, stability_config
+from optimizer.run.run_settings import apply_preset, course_of, search_box, stability_config
 from optimizer.run.session import EvaluatorMaker, pool_evaluator, prepare_run, run_session
 from optimizer.run.stability import check_best
 from optimizer.seeds import stable_seed
@@ -44,7 +45,12 @@ def _outcome(
     best: ScoredGait,
     check_report: Any,
     success_distance: float,
+    course: Course | None = None,
 ) -> RunOutcome:
+    """One method's run on one seed. Its "distance" is the best's score / 10 (eq. 9: the metres its
+    scoring walks were counted as); on a ``course`` the same figure is metres of course done, or for
+    a finished walk the course's size x (2 - time / time limit), and success is a best whose scoring
+    walks finished (score >= 10 x the size) and whose check did not fall."""
     curve: list[float] = []
     so_far = float("-inf")
     for candidate in scored:
@@ -61,7 +67,7 @@ def _outcome(
         0 if check_report is None else len(check_report.repeats),
         0 if check_report is None else check_report.falls,
         None if spread is None else spread[2],
-        stable and best.fitness / 10.0 >= success_distance,
+        stable and best.fitness / 10.0 >= (success_distance if course is None else course.size),
         tuple(curve),
         None if check_report is None else check_report.to_dict(),
         tuple((w.distance, w.fell) for w in best.walks if w.ran),
@@ -78,6 +84,7 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
     methods = [discover()[name] for name in search.methods or discover()]
     bounds, repair = search_box(run.settings)
     stability = stability_config(run.settings)
+    course = course_of(run.settings)
     budget = search.budget  # episodes, the same for every run (a raced candidate spends several)
     seeds = search.seeds
 
@@ -92,21 +99,23 @@ def main(argv: Sequence[str] | None = None, *, make_evaluator: EvaluatorMaker = 
                 scored = drive(driver, method.program(problem), budget, prefix)
                 best = max(scored, key=lambda s: s.fitness)  # the first of equals: the earliest found
                 report = check_best(driver, best, run.setup.start, stability)
-                runs.append(_outcome(method, index, scored, best, report, search.success_distance))
-            _write(run.folder.path, runs, run.settings.stored(), budget)
+                runs.append(_outcome(method, index, scored, best, report, search.success_distance, course))
+            _write(run.folder.path, runs, run.settings.stored(), budget, course)
         return (run.folder.path / "comparison.md").read_text() + f"results in {run.folder.path}"
 
     planned = len(methods) * seeds * (budget + stability.repeats)
     return run_session(run, planned, body, make_evaluator=make_evaluator, quiet=args.quiet)
 
 
-def _write(folder: Any, runs: Sequence[RunOutcome], settings: dict[str, Any], episodes: int) -> None:
+def _write(
+    folder: Any, runs: Sequence[RunOutcome], settings: dict[str, Any], episodes: int, course: Course | None = None
+) -> None:
     """Every output file for the runs finished so far (rewritten after each method)."""
     methods = list(dict.fromkeys(r.method for r in runs))
     distances = {m: [r.best_distance for r in runs if r.method == m] for m in methods}
     summaries = [summarise(m, distances[m], [r.success for r in runs if r.method == m]) for m in methods]
     pairs = pairwise(distances) if all(len(d) > 0 for d in distances.values()) else []
-    write_tables(runs, summaries, pairs, folder, settings["success_distance"], episodes)
+    write_tables(runs, summaries, pairs, folder, settings["success_distance"], episodes, course)
     plot_convergence(runs, folder / "convergence.png")
     write_json(
         folder / "results.json",

@@ -14,6 +14,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from optimizer.compare.statistics import MethodSummary, PairTest
+from optimizer.episode.course import Course
 
 
 @dataclass(frozen=True)
@@ -73,14 +74,27 @@ def write_tables(
     folder: Path,
     success_distance: float,
     budget_episodes: int,
+    course: Course | None = None,
 ) -> None:
-    """runs.csv, summary.csv, pairs.csv and comparison.md."""
+    """runs.csv, summary.csv, pairs.csv and comparison.md (on a ``course``, its figures say what they are)."""
     _write_csv([r.row() for r in runs], folder / "runs.csv")
     _write_csv([asdict(s) for s in summaries], folder / "summary.csv")
     _write_csv([{**asdict(p), "significant": p.significant()} for p in pairs], folder / "pairs.csv")
+    if course is None:
+        head = (
+            f"Final best distance (m) in 15 s over seeds, {budget_episodes} search episodes per run; success: "
+            f"the best walks >= {success_distance:g} m and did not fall in its stability check."
+        )
+    else:
+        head = (
+            f"A course ({len(course.poses)} poses, {course.size:.2f} m, at most {course.time_limit:g} s): final best "
+            f"score / 10 over seeds, {budget_episodes} search episodes per run; it is the metres of course done by "
+            f"a walk that did not finish, and {course.size:.2f} x (2 - time / {course.time_limit:g} s) by one that "
+            f"did (above {course.size:.2f}). Success: the best's scoring walks finished and it did not fall in its "
+            "stability check."
+        )
     lines = [
-        f"Final best distance (m) in 15 s over seeds, {budget_episodes} search episodes per run; success: "
-        f"the best walks >= {success_distance:g} m and did not fall in its stability check.",
+        head,
         "",
         "| method | seeds | median | IQR | best | success |",
         "|---|---:|---:|---:|---:|---:|",

@@ -8,7 +8,8 @@ search's progress and which may be reported as its finds.
 
 On disk a record is one JSON object per line of ``episodes.jsonl`` (``to_json``/``from_json``).
 Logs written before records carried their kind are read by the key: check walks have always been
-keyed ``check/...``.
+keyed ``check/...``. A course walk's record also carries whether it finished, the poses it reached
+and when it reached each (``optimizer.episode.course``); other records leave them out.
 """
 
 from __future__ import annotations
@@ -64,6 +65,11 @@ class EpisodeRecord:
     heading_change: float | None = None
     track: tuple[tuple[float, ...], ...] | None = None
     family: str | None = None
+    #: a course walk's outcome (``EpisodeResult.finished``, ``.reached``, ``.legs``: whether it reached
+    #: every pose, how many it reached, the game time it reached each); None for other walks
+    finished: bool | None = None
+    reached: int | None = None
+    legs: tuple[float, ...] | None = None
 
     @property
     def ran(self) -> bool:
@@ -74,6 +80,11 @@ class EpisodeRecord:
     def stood(self) -> bool:
         """Walked to the end without a fall."""
         return self.ran and not self.fell
+
+    @property
+    def on_course(self) -> bool:
+        """A course walk's record (``finished``, ``reached`` and ``legs`` set)."""
+        return self.finished is not None
 
     @property
     def is_search(self) -> bool:
@@ -102,6 +113,8 @@ class EpisodeRecord:
         )
         if self.track is not None:
             document.update(drift=self.drift, heading_change=self.heading_change, track=[list(p) for p in self.track])
+        if self.finished is not None:
+            document.update(finished=self.finished, reached=self.reached, legs=list(self.legs or ()))
         return document
 
     @classmethod
@@ -147,6 +160,7 @@ class EpisodeRecord:
         for name, (wanted, ok) in checks.items():
             if name in document and not ok(document[name]):
                 raise RecordError(f'"{name}" must be {wanted}, found {_shown(document[name])}')
+        finished, reached, legs = _course_fields(document)
         kind = document.get("kind")
         if kind is None:  # a log from before records carried their kind
             kind = WalkKind.CHECK if key.startswith(CHECK_PREFIX) else WalkKind.SEARCH
@@ -169,6 +183,9 @@ class EpisodeRecord:
             heading_change=_float_or_none(document.get("heading_change")),
             track=None if track is None else tuple(tuple(float(v) for v in p) for p in track),
             family=document.get("family"),
+            finished=finished,
+            reached=reached,
+            legs=legs,
         )
 
     @classmethod
@@ -204,7 +221,37 @@ class EpisodeRecord:
             heading_change=_float_or_none(result.get("heading_change")),
             track=None if result.get("track") is None else tuple(tuple(map(float, p)) for p in result["track"]),
             family=family,
+            finished=None if result.get("finished") is None else bool(result["finished"]),
+            reached=None if result.get("reached") is None else int(result["reached"]),
+            legs=None if result.get("legs") is None else tuple(map(float, result["legs"])),
         )
+
+
+#: A course walk's fields (``EpisodeResult``): present together or not at all.
+COURSE_FIELDS = ("finished", "reached", "legs")
+
+
+def _course_fields(document: Mapping[str, Any]) -> tuple[bool | None, int | None, tuple[float, ...] | None]:
+    """A log line's course fields, checked: all three or none; ``finished`` true or false, ``reached``
+    a count, ``legs`` one non-decreasing game time per pose reached; finished only with a leg each."""
+    present = [name for name in COURSE_FIELDS if name in document]
+    if not present:
+        return None, None, None
+    if len(present) != len(COURSE_FIELDS):
+        missing = ", ".join(f'"{n}"' for n in COURSE_FIELDS if n not in present)
+        raise RecordError(f"a course walk's record lacks {missing}")
+    finished, reached, legs = (document[name] for name in COURSE_FIELDS)
+    if not isinstance(finished, bool):
+        raise RecordError(f'"finished" must be true or false, found {_shown(finished)}')
+    if not (_is_int(reached) and reached >= 0):
+        raise RecordError(f'"reached" must be a whole number >= 0, found {_shown(reached)}')
+    if not (isinstance(legs, list) and all(map(_is_number, legs))):
+        raise RecordError(f'"legs" must be a list of numbers, found {_shown(legs)}')
+    if len(legs) != reached or any(b < a for a, b in zip(legs, legs[1:])):
+        raise RecordError(f'"legs" must hold the {reached} poses\' times in order, found {_shown(legs)}')
+    if finished and reached == 0:
+        raise RecordError('"finished" with no pose "reached"')
+    return finished, reached, tuple(float(t) for t in legs)
 
 
 def _float_or_none(value: Any) -> float | None:

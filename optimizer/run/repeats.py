@@ -57,6 +57,14 @@ def summary(results: Sequence[EpisodeResult]) -> str:
     if spread is None:
         return f"{len(results)} walks, none could be run"
     shortest, longest, mean = spread
+    if any(r.finished is not None for r in ran):  # a course: the time of the walks that finished counts
+        times = [r.time for r in ran if r.finished]
+        timed = f" in {min(times):.2f}-{max(times):.2f} s, mean {sum(times) / len(times):.2f} s" if times else ""
+        return (
+            f"{len(ran)} walks: {sum(r.fell for r in ran)} fell; {len(times)} finished{timed}; "
+            f"metres of course done {shortest:.3f}-{longest:.3f}"
+            + (f"; {len(results) - len(ran)} could not be run" if len(ran) < len(results) else "")
+        )
     return (
         f"{len(ran)} walks: {sum(r.fell for r in ran)} fell; distance {shortest:.3f}-"
         f"{longest:.3f} m, mean {mean:.3f} m; mean speed "

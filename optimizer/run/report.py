@@ -141,12 +141,14 @@ def _markdown_cells(row: TableRow) -> list[str]:
     ]
 
 
-def write_table_markdown(rows: Sequence[TableRow], path: Path) -> None:
+def write_table_markdown(rows: Sequence[TableRow], path: Path, note: str | None = None) -> None:
     """Table I as the paper prints it (rates to 2 decimals, fitness to 4), then the gait's walks and
     its check ("1/10": one of ten check walks fell) and the verdict (**FALLS** where a check walk
-    fell); a dash for no figure."""
+    fell); a dash for no figure. ``note``: a paragraph after the table (what a course run's figures mean)."""
     lines = ["| " + " | ".join(_HEADINGS) + " |", "|" + "---:|" * len(_HEADINGS)]
     lines.extend("| " + " | ".join(_markdown_cells(row)) + " |" for row in rows)
+    if note is not None:
+        lines += ["", note]
     Path(path).write_text("\n".join(lines) + "\n")
 
 

@@ -38,11 +38,13 @@ def walked_on(setup: EvaluationSetup) -> str:
 
 
 def card_of(run: Run, name: str, check: StabilityReport) -> WalkCard:
-    """The walk card of a checked gait: its check walks, on the server the run walked on."""
+    """The walk card of a checked gait: its check walks, on the server the run walked on (a course
+    card where the run walks a course)."""
     walks = tuple(map(CardWalk.from_record, check.repeats))
     family = check.gait.family or run.setup.family
+    setup = run.setup
     return WalkCard(
-        name, check.gait.genes, run.setup.walk_time, run.setup.start[2], {walked_on(run.setup): walks}, family
+        name, check.gait.genes, setup.walk_time, setup.start[2], {walked_on(setup): walks}, family, setup.course
     )
 
 

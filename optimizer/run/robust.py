@@ -88,10 +88,29 @@ class ScoredGait:
 
     def describe(self) -> str:
         walks = self.walks
+        if walks[0].on_course:
+            return describe_course_walks(walks)
         if len(walks) == 1:
             w = walks[0]
             return f"{w.distance:.2f} m in {w.time:g} s" + (" (fell)" if w.fell else "")
         return f"{self.mean_distance:.2f} m mean of {len(walks)} walks, {self.falls} fell"
+
+
+def describe_course_walks(walks: Sequence[EpisodeRecord]) -> str:
+    """Course walks in a phrase: whether they finished and in what time, the poses an unfinished
+    one reached (a course's distance is metres of course done, and its time the walk's own)."""
+    ran = [w for w in walks if w.ran]
+    falls = sum(1 for w in ran if w.fell)
+    if len(walks) == 1:
+        w = walks[0]
+        if w.finished:
+            return f"course finished in {w.time:.2f} s"
+        return f"course not finished: {w.reached} poses reached in {w.time:.2f} s" + (" (fell)" if w.fell else "")
+    times = [w.time for w in ran if w.finished]
+    text = f"course finished in {len(times)} of {len(walks)} walks"
+    if times:
+        text += f", {sum(times) / len(times):.2f} s mean ({min(times):.2f}-{max(times):.2f} s)"
+    return f"{text}, {falls} fell"
 
 
 class Race:

@@ -11,15 +11,17 @@ from __future__ import annotations
 
 import argparse
 import functools
+import json
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
-from gait import DEFAULT_FAMILY, GaitFamily, family_named
+from gait import DEFAULT_FAMILY, GaitFamily, Steerable, family_named
 from optimizer.episode import (
     EpisodeConfig,
 )
+from optimizer.episode.course import Course
 from optimizer.search.config import ScoringConfig, StabilityConfig
 from optimizer.settings import Settings, stored_quantile, upgrade
 
@@ -74,6 +76,23 @@ def in_box(genes: Sequence[float], bounds: np.ndarray) -> bool:
     return bool(np.all(values >= bounds[:, 0]) and np.all(values <= bounds[:, 1]))
 
 
+def course_of(settings: Settings) -> Course | None:
+    """The course a run's walks walk (its stored document), None for a run scored by eq. 9."""
+    document = settings.scoring.course
+    return None if document is None else Course.from_document(document)
+
+
+def steers(family: GaitFamily) -> bool:
+    """Whether ``family``'s gaits take a command (``gait.Steerable``), as a course needs: asked of
+    the walker of the middle of its default box, repaired."""
+    box = family.bounds
+    genes = family.repair(np.asarray(box, dtype=float).mean(axis=1), box)
+    try:
+        return isinstance(family.walker(tuple(float(g) for g in genes)), Steerable)
+    except ValueError:
+        return False
+
+
 def episode_config(
     walk_time: float,
     start: Sequence[float],
@@ -81,9 +100,13 @@ def episode_config(
     command_noise: float = 0.0,
     family: str = DEFAULT_FAMILY,
     drift_penalty: float = 0.0,
+    course: Course | None = None,
+    true_pose: bool = True,
 ) -> EpisodeConfig:
+    """The episodes of a run: a ``course`` puts them on it (``EpisodeConfig.on_course``: its start
+    and time limit, scored by the course objective)."""
     x, y, heading = start
-    return EpisodeConfig(
+    config = EpisodeConfig(
         walk_time=walk_time,
         start=(x, y),
         heading=heading,
@@ -91,12 +114,17 @@ def episode_config(
         command_noise=command_noise,
         family=family,
         drift_penalty=drift_penalty,
+        true_pose=true_pose,
     )
+    return config if course is None else config.on_course(course)
 
 
 def _flag(name: str, value: Any) -> str:
     if isinstance(value, bool):
         return f"--{name.replace('_', '-')}" if value else f"--no-{name.replace('_', '-')}"
+    if isinstance(value, Mapping):  # a course's document
+        text = json.dumps(value)
+        return f"--{name.replace('_', '-')} {text if len(text) <= 60 else text[:57] + '...'}"
     shown = " ".join(map(str, value)) if isinstance(value, (list, tuple)) else value
     return f"--{name.replace('_', '-')} {shown}"
 

@@ -21,6 +21,8 @@ from optimizer.episode import (
     ServerAddress,
     start_problem_on_real_server,
 )
+from optimizer.episode.course import Course
+from optimizer.episode.objectives import OBJECTIVES
 from optimizer.episode.real_server import RealServerError, find_rcssserver3d
 from optimizer.evaluation.pool import (
     EpisodeRunnerFactory,
@@ -31,10 +33,12 @@ from optimizer.evaluation.pool import (
 from optimizer.run.driver import BarProgress, Driver, ResumeMismatch
 from optimizer.run.folder import RunFolder, RunFolderError, new_run_path
 from optimizer.run.run_settings import (
+    course_of,
     episode_config,
     manifest_settings,
     resolve_settings,
     scoring_config,
+    steers,
 )
 from optimizer.settings import Settings
 
@@ -77,13 +81,25 @@ class EvaluationSetup:
     family: str = DEFAULT_FAMILY
     #: fitness per metre of sideways drift (``EpisodeConfig.drift_penalty``)
     drift_penalty: float = 0.0
+    #: the course every walk walks (``EpisodeConfig.on_course``; its start and time limit are
+    #: ``start`` and ``walk_time``), None for walks scored by eq. 9
+    course: Course | None = None
+    #: a course walker steers by the server's pose where it sends one (``EpisodeConfig.true_pose``)
+    true_pose: bool = True
 
 
 def pool_evaluator(setup: EvaluationSetup) -> Evaluator:
     """The local evaluator: one worker process per core (or per server), each with one runner;
     or, with ``--scheduler`` / ``--dask-local``, a Dask cluster (``optimizer.evaluation.dask_cluster``)."""
     config = episode_config(
-        setup.walk_time, setup.start, setup.agent_mode, setup.command_noise, setup.family, setup.drift_penalty
+        setup.walk_time,
+        setup.start,
+        setup.agent_mode,
+        setup.command_noise,
+        setup.family,
+        setup.drift_penalty,
+        setup.course,
+        setup.true_pose,
     )
     if setup.scheduler is not None or setup.dask_local is not None:
         try:
@@ -153,8 +169,10 @@ def prepare_run(
             parser.error(f"--resume: {exc}")
         if args.seed is not None and args.seed != folder.manifest["seed"]:
             parser.error(f"--resume: --seed {args.seed} conflicts with the run's --seed {folder.manifest['seed']}")
+    take_course(parser, args)
     resolved = resolve_settings(parser, args, table.defaults(command) if defaults is None else defaults, stored)
     settings = Settings.from_stored(resolved, command)
+    check_objective(parser, settings)
     family = family_named(settings.episode.family)
     if settings.episode.bounds not in family.boxes:
         parser.error(
@@ -194,8 +212,57 @@ def prepare_run(
         scoring.command_noise,
         episode.family,
         scoring.drift_penalty,
+        course_of(settings),
+        episode.true_pose,
     )
     return Run(command, folder, settings, seed, setup, resumed=stored is not None)
+
+
+def take_course(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """``--course`` given: it stands for ``--objective course`` (unless the objective is given, which
+    ``check_objective`` then judges), and its start and time limit for ``--start`` and ``--walk-time``
+    (stored as those settings, so that everything reading the run's start reads the course's)."""
+    if args.course is None:
+        return
+    if args.objective is None:
+        args.objective = "course"
+    for name, flag in (("start", "--start"), ("walk_time", "--walk-time")):
+        if getattr(args, name) is not None:
+            parser.error(f"--course sets the start and the time limit of every walk: leave out {flag}")
+    if args.resume is None:  # a resumed run has them stored; a course given then is compared as itself
+        course = Course.from_document(args.course)
+        args.start, args.walk_time = list(course.start), course.time_limit
+
+
+def check_objective(parser: argparse.ArgumentParser, settings: Settings) -> None:
+    """Refuse an objective and a course that do not go together: a course objective needs a course,
+    a steerable family (the refinement's too) and no drift penalty (a course walk is scored by its
+    time); a course or ``--no-true-pose`` needs the course objective."""
+    scoring, episode = settings.scoring, settings.episode
+    if OBJECTIVES[scoring.objective].needs_course:
+        if scoring.course is None:
+            parser.error(f"--objective {scoring.objective}: give the course to walk, --course FILE")
+        if scoring.drift_penalty:
+            parser.error(
+                f"--drift-penalty {scoring.drift_penalty:g}: a course walk is scored by its time, not by its "
+                "straightness; leave it at 0"
+            )
+        families = [("--family", episode.family)]
+        refined = settings.refinement
+        if "refine_family" in settings.keys and refined.budget and refined.family is not None:
+            names = [refined.family] if isinstance(refined.family, str) else list(refined.family)
+            families += [("--refine-family", name) for name in names]
+        for flag, name in families:
+            if not steers(family_named(name)):
+                parser.error(
+                    f"{flag} {name}: a course is walked by a steerable family (gait.Steerable: one that takes a "
+                    f"command), which {name} is not"
+                )
+    else:
+        if scoring.course is not None:
+            parser.error(f"--course: a course is walked with --objective course, not --objective {scoring.objective}")
+        if not episode.true_pose:
+            parser.error("--no-true-pose: only a course walker steers by its pose; give --course FILE")
 
 
 def check_where(parser: argparse.ArgumentParser, args: argparse.Namespace, servers: tuple[ServerAddress, ...]) -> None:

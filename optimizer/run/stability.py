@@ -90,15 +90,34 @@ class StabilityReport:
         ran = [r.fitness for r in self.repeats if r.ran]
         return (min(ran), sum(ran) / len(ran)) if ran else (0.0, 0.0)
 
+    def finish_times(self) -> list[float] | None:
+        """A course check's finished walks' times (s); None for a check of walks scored by eq. 9."""
+        if not any(r.on_course for r in self.repeats):
+            return None
+        return [r.time for r in self.repeats if r.ran and r.finished]
+
     def summary(self) -> str:
+        times = self.finish_times()
+        if times is not None:  # a course: a distance is metres of course done, the time is what counts
+            text = f", finished {len(times)}" + (
+                f" in {min(times):.2f}-{max(times):.2f} s (mean {sum(times) / len(times):.2f} s)" if times else ""
+            )
+            failed = f", {self.failed} could not be run" if self.failed else ""
+            return f"fell in {self.falls} of {len(self.repeats)} check walks{text}{failed}"
         spread = self.spread()
         text = "" if spread is None else f", {spread[0]:.2f}-{spread[1]:.2f} m (mean {spread[2]:.2f} m)"
         failed = f", {self.failed} could not be run" if self.failed else ""
         return f"fell in {self.falls} of {len(self.repeats)} check walks{text}{failed}"
 
     def to_dict(self) -> dict[str, Any]:
+        """The check for results.json; a course check adds how many finished and their mean time,
+        and each walk whether it finished and the poses it reached (its distance: metres of course done)."""
         shortest, longest, mean = self.spread() or (None, None, None)
         ran = [r.distance for r in self.repeats if r.ran]
+        times = self.finish_times()
+        course = (
+            {} if times is None else {"finished": len(times), "mean_time": sum(times) / len(times) if times else None}
+        )
         return {
             "key": self.gait.key,
             "score": self.gait.fitness,
@@ -109,6 +128,7 @@ class StabilityReport:
             "max_distance": longest,
             "mean_distance": mean,
             "std_distance": float(np.std(ran, ddof=1)) if len(ran) > 1 else None,
+            **course,
             "walks": [
                 {
                     "key": r.key,
@@ -117,6 +137,7 @@ class StabilityReport:
                     "fell": r.fell,
                     "time": r.time,
                     "status": r.status,
+                    **({} if r.finished is None else {"finished": r.finished, "reached": r.reached}),
                 }
                 for r in self.repeats
             ],

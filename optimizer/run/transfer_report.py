@@ -14,6 +14,7 @@ from matplotlib.figure import Figure
 
 from gait import GaitFamily, GaitFileError, family_named, load_gait
 from optimizer.episode import Start
+from optimizer.episode.course import Course
 from optimizer.evaluation.pool import EpisodeTask
 from optimizer.evaluation.record import EpisodeRecord, WalkKind
 from optimizer.run.folder import RunFolder, write_json
@@ -134,7 +135,13 @@ def gait_files(folder: Path, gait: ReportedGait) -> list[Path]:
 
 
 def update_cards(
-    folder: Path, gaits: Sequence[ReportedGait], side: str, walk_time: float, heading: float, family: str
+    folder: Path,
+    gaits: Sequence[ReportedGait],
+    side: str,
+    walk_time: float,
+    heading: float,
+    family: str,
+    course: Course | None = None,
 ) -> tuple[list[Path], list[str]]:
     """Put each gait's new walks on the card beside each of its gait files as ``side`` (the
     card's other sides kept), or start a card there; returns the gait files whose card was
@@ -158,7 +165,7 @@ def update_cards(
                 notes.append(f"{path.name}: its card was of other genes; replaced by a card of the new walks")
                 card = None
             if card is None:
-                card = WalkCard(gait.name, gait.genes, walk_time, heading, family=gait.family or family)
+                card = WalkCard(gait.name, gait.genes, walk_time, heading, family=gait.family or family, course=course)
             write_card(card.with_side(side, walks), path)
             written.append(path)
     if fileless:
@@ -321,6 +328,7 @@ def write_report(
     family: GaitFamily,
     real: bool,
     walk_time: float,
+    course: Course | None = None,
 ) -> tuple[list[Path], list[str]]:
     """Every file of a transfer: its table (CSV and Markdown), plot and JSON, and the new walks as a
     side of each gait's walk card; returns the cards written and notes on the gaits that got none."""
@@ -331,4 +339,4 @@ def write_report(
     write_markdown(gaits, folder / "transfer.md", run_kind, target)
     plot(gaits, folder / "transfer.png", run_kind, target)
     write_transfer_json(folder / "transfer.json", gaits, measured)
-    return update_cards(folder, gaits, side_name(real), walk_time, measured["start"][2], family.name)
+    return update_cards(folder, gaits, side_name(real), walk_time, measured["start"][2], family.name, course)

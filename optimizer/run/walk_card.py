@@ -17,6 +17,11 @@ from the gait's repeated walks (a stability check's, or ``optimizer.transfer``'s
 A server's walks are a *side* of the card ("stand-in", "real server"); ``optimizer.transfer``
 adds or replaces the side it walked on, keeping the other, so one card sets the two servers
 side by side. Like ``optimizer.run.report``, this module draws on a bare ``Figure``, never pyplot.
+
+A gait scored on a course (``optimizer.episode.course``) has a *course card*: it keeps the course,
+its table counts the walks that finished, their times and the poses reached (a distance there is
+metres of course done), and its picture draws the tracks on the field with the course's poses as
+arrows inside their reach circles.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from gait import DEFAULT_FAMILY, family_named
+from optimizer.episode.course import Course, CourseError
 from optimizer.episode.scoring import TRACK_FIELDS, TracePoint, heading_change, sideways_drift
 from optimizer.evaluation.record import EpisodeRecord
 from optimizer.run.folder import write_json
@@ -70,6 +76,9 @@ class CardWalk:
     heading: float | None = None
     ran: bool = True
     key: str = ""
+    #: a course walk's outcome (``EpisodeRecord.finished``, ``.reached``); None for other walks
+    finished: bool | None = None
+    reached: int | None = None
 
     @classmethod
     def from_record(cls, record: EpisodeRecord) -> CardWalk:
@@ -86,6 +95,8 @@ class CardWalk:
             heading=None if record.start is None else record.start[2],
             ran=record.ran,
             key=record.key,
+            finished=record.finished,
+            reached=record.reached,
         )
 
     def to_json(self) -> dict[str, Any]:
@@ -99,6 +110,8 @@ class CardWalk:
             "heading_change": self.heading_change,
             "heading": self.heading,
         }
+        if self.finished is not None:
+            document.update(finished=self.finished, reached=self.reached)
         document["track"] = None if self.track is None else [list(p) for p in self.track]
         return document
 
@@ -118,6 +131,8 @@ class CardWalk:
                 heading=_optional_float(document.get("heading")),
                 ran=_boolean(document.get("ran", True), "ran"),
                 key=str(document.get("key", "")),
+                finished=None if document.get("finished") is None else _boolean(document["finished"], "finished"),
+                reached=None if document.get("reached") is None else int(document["reached"]),
             )
         except CardError:
             raise
@@ -138,6 +153,8 @@ class WalkCard:
     sides: Mapping[str, tuple[CardWalk, ...]] = field(default_factory=dict)
     #: the gait family the genes belong to (``gait.FAMILIES``)
     family: str = DEFAULT_FAMILY
+    #: the course the walks walked (a course card), None for walks scored by eq. 9
+    course: Course | None = None
 
     @classmethod
     def from_records(
@@ -149,17 +166,19 @@ class WalkCard:
         side: str,
         records: Iterable[EpisodeRecord],
         family: str = DEFAULT_FAMILY,
+        course: Course | None = None,
     ) -> WalkCard:
         """A card of one side, from its walks' episode records (a check's repeats, a transfer's)."""
         walks = tuple(CardWalk.from_record(r) for r in records)
-        return cls(name, tuple(float(g) for g in genes), float(walk_time), float(heading), {side: walks}, family)
+        genes_ = tuple(float(g) for g in genes)
+        return cls(name, genes_, float(walk_time), float(heading), {side: walks}, family, course)
 
     def with_side(self, side: str, walks: Sequence[CardWalk]) -> WalkCard:
         """This card with ``side``'s walks replaced by ``walks`` (added last if it is new); the
         other sides are kept as they are, so walks on one server never disturb another's."""
         sides = dict(self.sides)
         sides[side] = tuple(walks)
-        return WalkCard(self.name, self.genes, self.walk_time, self.heading, sides, self.family)
+        return WalkCard(self.name, self.genes, self.walk_time, self.heading, sides, self.family, self.course)
 
     def summary(self, side: str) -> dict[str, Any]:
         """The figures of one side (``KeyError`` for a side the card lacks), None where no walk
@@ -174,6 +193,8 @@ class WalkCard:
         drifts = [abs(w.drift) for w in ran if w.drift is not None]
         turns = [abs(w.heading_change) for w in ran if w.heading_change is not None]
         mean = statistics.fmean(distances) if distances else None
+        if self.course is not None:
+            return {**self._course_summary(ran), "failed": len(walks) - len(ran)}
         return {
             "walks": len(ran),
             "falls": sum(1 for w in ran if w.fell),
@@ -191,9 +212,29 @@ class WalkCard:
             "drawn": sum(1 for w in ran if w.track),
         }
 
+    def _course_summary(self, ran: Sequence[CardWalk]) -> dict[str, Any]:
+        """A course card's figures of the walks that ran: ``finished`` of them, their ``time_*`` (s;
+        fastest and slowest), the mean of the poses ``reached`` (of ``poses``), and ``speed``: the
+        mean of each walk's metres of course done over its own time."""
+        times = [w.time for w in ran if w.finished]
+        reached = [w.reached for w in ran if w.reached is not None]
+        speeds = [w.distance / w.time for w in ran if w.time > 0]
+        return {
+            "walks": len(ran),
+            "falls": sum(1 for w in ran if w.fell),
+            "finished": len(times),
+            "time_mean": statistics.fmean(times) if times else None,
+            "time_min": min(times, default=None),
+            "time_max": max(times, default=None),
+            "poses": len(self.course.poses) if self.course is not None else 0,
+            "reached_mean": statistics.fmean(reached) if reached else None,
+            "speed": statistics.fmean(speeds) if speeds else None,
+            "drawn": sum(1 for w in ran if w.track),
+        }
+
     def to_json(self) -> dict[str, Any]:
         """The card file's object; ``summary`` is there for readers of the file and is recomputed
-        from the walks when read back."""
+        from the walks when read back. A course card keeps its course (``course``)."""
         return {
             "format": CARD_FORMAT,
             "name": self.name,
@@ -201,6 +242,7 @@ class WalkCard:
             "genes": list(self.genes),
             "walk_time": self.walk_time,
             "heading": self.heading,
+            **({} if self.course is None else {"course": self.course.to_document()}),
             "summary": {side: self.summary(side) for side in self.sides},
             "sides": {side: [w.to_json() for w in walks] for side, walks in self.sides.items()},
         }
@@ -214,6 +256,10 @@ class WalkCard:
         if not isinstance(sides, dict) or not all(isinstance(w, list) for w in sides.values()):
             raise CardError('"sides" must map each side to a list of walks')
         try:
+            course = None if document.get("course") is None else Course.from_document(document["course"])
+        except CourseError as exc:
+            raise CardError(f'"course": {exc}') from None
+        try:
             return cls(
                 name=str(document["name"]),
                 genes=tuple(float(g) for g in document["genes"]),
@@ -221,6 +267,7 @@ class WalkCard:
                 heading=float(document["heading"]),
                 sides={str(side): tuple(CardWalk.from_json(w) for w in walks) for side, walks in sides.items()},
                 family=str(document.get("family", DEFAULT_FAMILY)),  # a card from before families: TFS
+                course=course,
             )
         except CardError:
             raise
@@ -312,29 +359,69 @@ _LABELS = (
 )
 
 
+def _course_rows(summary: Mapping[str, Any]) -> list[str]:
+    s = summary
+    times = "-" if s["time_mean"] is None else f"{s['time_mean']:.2f} ({s['time_min']:.2f}-{s['time_max']:.2f})"
+    return [
+        f"{s['walks']}" + (f" (+{s['failed']} could not be run)" if s["failed"] else ""),
+        f"{s['falls']}/{s['walks']}",
+        f"{s['finished']}/{s['walks']}",
+        times,
+        "-" if s["reached_mean"] is None else f"{s['reached_mean']:.1f} of {s['poses']}",
+        _number(".3f", s["speed"]),
+        f"{s['drawn']}/{s['walks']}",
+    ]
+
+
+_COURSE_LABELS = (
+    "walks",
+    "falls",
+    "finished",
+    "time of those finished (s): mean (fastest-slowest)",
+    "poses reached: mean",
+    "speed (m of course/s)",
+    "walks drawn",
+)
+
+
 def card_markdown(card: WalkCard, picture: str | None = None) -> str:
     """The card as Markdown: the gait, then one column per side (server)."""
     genes = family_named(card.family).describe(card.genes)
     lines = [f"# Walk card: {card.name}", "", f"Genes ({card.family} family): {genes}.", ""]
+    rows, labels = (_rows, _LABELS) if card.course is None else (_course_rows, _COURSE_LABELS)
     if not card.sides:
         lines.append("No walks yet.")
     else:
         sides = list(card.sides)
-        cells = [_rows(card.summary(side)) for side in sides]
+        cells = [rows(card.summary(side)) for side in sides]
         lines.append("| | " + " | ".join(sides) + " |")
         lines.append("|---|" + "---:|" * len(sides))
-        for i, label in enumerate(_LABELS):
+        for i, label in enumerate(labels):
             lines.append(f"| {label} | " + " | ".join(c[i] for c in cells) + " |")
-    lines += [
-        "",
-        f"A walk lasts {card.walk_time:g} s unless it falls; speed is the mean distance over {card.walk_time:g} s. "
-        "Drift: how far the torso ended left or right of the line it started on; heading change: how far "
-        "it turned while upright (worst = the largest of either sign). Walks that could not be run are "
-        "in no figure.",
-    ]
+    if card.course is None:
+        lines += [
+            "",
+            f"A walk lasts {card.walk_time:g} s unless it falls; speed is the mean distance over {card.walk_time:g} s. "
+            "Drift: how far the torso ended left or right of the line it started on; heading change: how far "
+            "it turned while upright (worst = the largest of either sign). Walks that could not be run are "
+            "in no figure.",
+        ]
+    else:
+        course = card.course
+        lines += [
+            "",
+            f"Each walk walks a course of {len(course.poses)} poses ({course.size:.2f} m of course) from "
+            f"{_pose_text(course.start)}, reaching each within {course.reach[0]:g} m and {course.reach[1]:g} deg, "
+            f"in order; it ends at the last pose, at a fall or after {course.time_limit:g} s. Speed: metres of "
+            "course done over the walk's own time. Walks that could not be run are in no figure.",
+        ]
     if picture is not None:
         lines += ["", f"![tracks of each walk]({picture})"]
     return "\n".join(lines) + "\n"
+
+
+def _pose_text(pose: Sequence[float]) -> str:
+    return f"({pose[0]:g}, {pose[1]:g}, {pose[2]:g} deg)"
 
 
 def _points(track: Sequence[Sequence[float]]) -> list[TracePoint]:
@@ -360,6 +447,8 @@ def card_figure(card: WalkCard) -> Figure:
     from matplotlib.figure import Figure  # here: matplotlib costs every episode process ~0.8 s to import
     from matplotlib.lines import Line2D
 
+    if card.course is not None:
+        return course_card_figure(card, card.course)
     sides = list(card.sides) or [""]
     fig = Figure(figsize=(5.4 * len(sides), 4.4), layout="constrained")
     axes = fig.subplots(1, len(sides), sharex=True, sharey=True, squeeze=False)[0]
@@ -411,6 +500,93 @@ def card_figure(card: WalkCard) -> Figure:
         fontsize="small",
     )
     fig.suptitle(f"Walk card: {card.name}")
+    return fig
+
+
+def course_card_figure(card: WalkCard, course: Course) -> Figure:
+    """A course card's picture: one panel per side, the field from above (x right, y up, metres):
+    the course's poses as arrows along their headings inside their reach circles (gids ``pose:<i>``
+    and ``reach:<i>``, 0 the first pose), its start (``start``), and each walk's torso track (blue:
+    finished, grey: ran out of time, red ending in an x: fell; gids ``walk:<key>``, ``fall:<key>``)."""
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Circle
+
+    sides = list(card.sides) or [""]
+    fig = Figure(figsize=(5.4 * len(sides), 5.0), layout="constrained")
+    axes = fig.subplots(1, len(sides), sharex=True, sharey=True, squeeze=False)[0]
+    xs = [course.start[0], *(p[0] for p in course.poses)]
+    ys = [course.start[1], *(p[1] for p in course.poses)]
+    arrow = max(0.3, 2.0 * course.reach[0])
+    for ax, side in zip(axes, sides):
+        for i, (x, y, heading) in enumerate(course.poses):
+            ax.add_patch(Circle((x, y), course.reach[0], fill=False, color="tab:green", alpha=0.8, gid=f"reach:{i}"))
+            h = math.radians(heading)
+            ax.annotate(
+                "",
+                xy=(x + arrow * math.cos(h), y + arrow * math.sin(h)),
+                xytext=(x, y),
+                arrowprops={"arrowstyle": "->", "color": "tab:green", "linewidth": 1.5},
+                gid=f"pose:{i}",
+            )
+            ax.text(x, y, f" {i + 1}", color="tab:green", fontsize="small", va="bottom")
+        sx, sy, sh = course.start
+        ax.plot([sx], [sy], marker="o", color="black", markersize=5, gid="start")
+        ax.annotate(
+            "",
+            xy=(sx + arrow * math.cos(math.radians(sh)), sy + arrow * math.sin(math.radians(sh))),
+            xytext=(sx, sy),
+            arrowprops={"arrowstyle": "->", "color": "black"},
+        )
+        for walk in card.sides.get(side, ()):
+            if not walk.ran or not walk.track:
+                continue
+            points = _points(walk.track)
+            px, py = [p.x for p in points], [p.y for p in points]
+            xs += px
+            ys += py
+            colour = "tab:red" if walk.fell else ("tab:blue" if walk.finished else "tab:grey")
+            ax.plot(px, py, color=colour, alpha=0.7, linewidth=1.2, gid=f"walk:{walk.key}")
+            if walk.fell:
+                ax.plot(
+                    px[-1], py[-1], marker="x", markersize=9, markeredgewidth=2, color=colour, gid=f"fall:{walk.key}"
+                )
+        ax.set_aspect("equal", adjustable="box")
+        ax.grid(alpha=0.3)
+        ax.set_xlabel("x (m)")
+        if side:
+            s = card.summary(side)
+            time = "" if s["time_mean"] is None else f", {s['time_mean']:.1f} s mean"
+            ax.set_title(f"{side}: {s['finished']} of {s['walks']} finished{time}, {s['falls']} fell")
+            missing = s["walks"] - s["drawn"]
+            if missing:
+                ax.text(
+                    0.01,
+                    0.02,
+                    f"{missing} walk(s) without a track, not drawn",
+                    transform=ax.transAxes,
+                    fontsize="small",
+                    color="dimgrey",
+                )
+        else:
+            ax.set_title("no walks yet")
+    margin = course.reach[0] + arrow
+    axes[0].set_xlim(min(xs) - margin, max(xs) + margin)
+    axes[0].set_ylim(min(ys) - margin, max(ys) + margin)
+    axes[0].set_ylabel("y (m)")
+    axes[0].legend(
+        handles=[
+            Line2D(
+                [], [], color="tab:green", marker="o", fillstyle="none", linestyle="", label="pose (arrow) and reach"
+            ),
+            Line2D([], [], color="tab:blue", label="finished"),
+            Line2D([], [], color="tab:grey", label="out of time"),
+            Line2D([], [], color="tab:red", marker="x", label="fell (x: where)"),
+        ],
+        loc="best",
+        fontsize="small",
+    )
+    fig.suptitle(f"Walk card: {card.name} (course)")
     return fig
 
 
