@@ -1,0 +1,381 @@
+"""Where the robot stands: the torso's x, y and heading in the field frame, every cycle.
+
+Two sources behind one interface (``PoseSource``), both fed once per cycle with the perception
+and the walk engine's odometry (its planned displacement since the last cycle):
+
+- ``TruePose`` reads the server's ground truth where it sends it (``mypos``/``myorien`` inside
+  ``See``, every third cycle, when the server is set to send them): the head's centre and heading,
+  moved to the torso through the neck angles and the torso's tilt.
+- ``VisionPose`` estimates the pose from what the camera sees: the named flags and goal posts,
+  and the field lines matched to the known ones. Each vision cycle fits the torso's full pose
+  (x, y, heading, height, pitch, roll) to every seen point by Gauss-Newton, with the predicted
+  pose and the accelerometer's tilt as a prior: an iterated Kalman update. The lines carry most
+  of the information where few flags are in view: every seen line point lies on the ground (the
+  camera's height and tilt), lies on its matched line (the position across it and the heading),
+  and a line end the view did not cut is the line's end (the position along it).
+
+Between vision cycles both carry the pose with the odometry, turned by the gyro's yaw rate: the
+gyro is exact in the server, the walk engine's planned turn is not.
+
+Frames (docs/robot_and_server.md section 1): the field frame of the robot's own team (the right
+team's is turned half round, as its beam and ``mypos`` are); the torso frame x right, y forward,
+z up; heading 0 along field +x, left positive.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from agent.fall import FallDetector
+from agent.field_model import CAMERA_ABOVE_PITCH, LANDMARKS, LINES, NECK_PITCH_HEIGHT, mirrored
+from gait import Command
+from protocol.nao import CYCLE
+from protocol.perception import Perception, Vision
+
+Pose = tuple[float, float, float]
+
+
+class PoseSource(Protocol):
+    """The torso's pose in the field frame, kept up to date once per cycle."""
+
+    def update(self, perception: Perception, odometry: Command) -> None:
+        """This cycle's perception and the walk's planned displacement since the last cycle
+        (forward m, left m, turn deg in the torso frame)."""
+        ...
+
+    @property
+    def pose(self) -> Pose:
+        """The torso's x, y (m) and heading (deg, 0 = +x, left positive, in [-180, 180))."""
+        ...
+
+
+@dataclass(frozen=True)
+class LocalizationConfig:
+    """How much the estimator trusts each source; the camera's figures are the server's
+    (docs/robot_and_server.md section 5)."""
+
+    #: turn by the gyro's yaw rate rather than the odometry's planned turn
+    use_gyro: bool = True
+    #: a seen point's error across the line of sight per metre of distance (the angle noise,
+    #: about 0.15 deg, plus some for the torso's motion within the cycle)
+    angle_sigma: float = 0.003
+    #: a seen point's error at any distance: the camera's fixed offset (up to 5 mm per axis)
+    #: and the printed two decimals
+    point_sigma: float = 0.008
+    #: a line end farther out than this (deg) from the view's centre was cut by the view's edge
+    #: (60 deg), so it is a point of the line but not its end
+    cut_margin_deg: float = 59.0
+    #: seen line pieces shorter than this (m) are only used as ground points, not matched
+    min_line_length: float = 0.3
+    #: a seen line matches a known line when both its ends lie within this (m) of it, widened by
+    #: ``match_sigmas`` times the pose's uncertainty at the line's distance, capped at ``max_gate``
+    match_gate: float = 0.25
+    match_sigmas: float = 3.0
+    max_gate: float = 1.5
+    #: Gauss-Newton steps per vision cycle (the first with the named landmarks only)
+    iterations: int = 4
+    #: the torso centre's height (m) and the spread allowed around it
+    torso_height: float = 0.37
+    height_sigma: float = 0.05
+    #: the accelerometer's tilt is trusted to within this (deg)
+    tilt_sigma_deg: float = 4.0
+    #: uncertainty of the start pose (the server's beam adds up to 0.05 m and 10 deg)
+    start_sigma_xy: float = 0.05
+    start_sigma_deg: float = 7.0
+    #: odometry's error per cycle (m, deg) plus per metre moved and per degree turned
+    cycle_sigma_xy: float = 0.004
+    cycle_sigma_deg: float = 0.3
+    moved_sigma: float = 0.2
+    turned_sigma: float = 0.1
+    #: a fit this far (in the prior's standard deviations) from the prediction is not trusted
+    max_innovation: float = 12.0
+    #: how much a rejected fit widens the prior, so that a lost robot finds itself again
+    reject_inflation: float = 2.0
+
+
+def _rz(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _rx(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def _ry(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def torso_rotation(heading: float, pitch: float, roll: float) -> np.ndarray:
+    """The torso's axes in the field (columns x right, y forward, z up) for a heading, pitch
+    (about its x, nose up positive) and roll (about its y), radians. The heading is exactly the
+    direction of the forward axis on the ground."""
+    return _rz(heading - math.pi / 2) @ _rx(pitch) @ _ry(roll)
+
+
+def tilt(up: tuple[float, float, float]) -> tuple[float, float]:
+    """(pitch, roll) in radians of a torso whose frame sees the world's up direction as ``up``:
+    ``torso_rotation``'s transpose maps (0, 0, 1) to (-sin r cos p, sin p, cos r cos p)."""
+    return math.asin(max(-1.0, min(1.0, up[1]))), math.atan2(-up[0], up[2])
+
+
+def neck(joints: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The head's rotation in the torso frame and the camera's position there, from the neck's
+    yaw (hj1) and pitch (hj2) perceptors in degrees (0 where absent)."""
+    rotation = _rz(math.radians(joints.get("hj1", 0.0))) @ _rx(math.radians(joints.get("hj2", 0.0)))
+    camera = np.array([0.0, 0.0, NECK_PITCH_HEIGHT]) + rotation[:, 2] * CAMERA_ABOVE_PITCH
+    return rotation, camera
+
+
+def head_points(polar: np.ndarray) -> np.ndarray:
+    """Seen points (rows of distance m, horizontal deg, vertical deg) in the head frame (x right,
+    y forward, z up), inverting the camera's (server_stub/sensors/vision.py ``_polar_row``)."""
+    d = polar[:, 0]
+    h = np.radians(polar[:, 1])
+    v = np.radians(polar[:, 2])
+    flat = d * np.cos(v)
+    return np.column_stack((-flat * np.sin(h), flat * np.cos(h), d * np.sin(v)))
+
+
+def _wrap_deg(a: float) -> float:
+    return (a + 180.0) % 360.0 - 180.0
+
+
+class _Tracker:
+    """What both sources share: the torso's tilt (the fall detector's attitude filter, gyro and
+    accelerometer), the team's side, and the pose carried by odometry between vision cycles."""
+
+    def __init__(self, start: Pose, config: LocalizationConfig) -> None:
+        self.config = config
+        self._x, self._y, self._heading = start[0], start[1], math.radians(start[2])
+        #: never falls (threshold below -1): only its estimate of the up direction is used
+        self._attitude = FallDetector(threshold=-2.0)
+        self.side = "left"
+
+    @property
+    def pose(self) -> Pose:
+        return (self._x, self._y, _wrap_deg(math.degrees(self._heading)))
+
+    def _advance(self, perception: Perception, odometry: Command) -> tuple[float, float, float]:
+        """Carry the pose by one cycle's motion; returns it (forward m, left m, turn rad)."""
+        if perception.game.team is not None:
+            self.side = perception.game.team
+        gyro = perception.gyro
+        self._attitude.update(perception.acc, gyro)
+        if gyro is not None and self.config.use_gyro:
+            # the yaw rate about the world's vertical, whatever the torso's tilt
+            up = self._attitude.up
+            turn = math.radians(gyro[0] * up[0] + gyro[1] * up[1] + gyro[2] * up[2]) * CYCLE
+        else:
+            turn = math.radians(odometry.turn)
+        forward, left = odometry.forward, odometry.left
+        middle = self._heading + 0.5 * turn
+        c, s = math.cos(middle), math.sin(middle)
+        self._x += c * forward - s * left
+        self._y += s * forward + c * left
+        self._heading += turn
+        return forward, left, turn
+
+
+class TruePose(_Tracker):
+    """The server's ground truth, moved from the head to the torso, carried by odometry and the
+    gyro between the vision cycles that bring it."""
+
+    def __init__(self, start: Pose, config: LocalizationConfig = LocalizationConfig()) -> None:
+        super().__init__(start, config)
+
+    def update(self, perception: Perception, odometry: Command) -> None:
+        self._advance(perception, odometry)
+        vision = perception.vision
+        if vision is None or vision.mypos is None or vision.myorien is None:
+            return
+        pitch, roll = tilt(self._attitude.up)
+        rotation, camera = neck(perception.joints)
+        # the head's forward axis in a torso frame turned to heading 90 deg (no turn about z):
+        # the whole rotation adds (heading - 90 deg) to its direction on the ground
+        forward = _rx(pitch) @ _ry(roll) @ rotation[:, 1]
+        heading = math.radians(vision.myorien) + math.pi / 2 - math.atan2(forward[1], forward[0])
+        torso = np.asarray(vision.mypos) - torso_rotation(heading, pitch, roll) @ camera
+        self._x, self._y, self._heading = float(torso[0]), float(torso[1]), heading
+
+
+class VisionPose(_Tracker):
+    """The robot's own estimate from its camera, odometry and gyro: an extended Kalman filter on
+    (x, y, heading) whose vision update is the Gauss-Newton fit described in the module
+    docstring."""
+
+    def __init__(self, start: Pose, config: LocalizationConfig = LocalizationConfig()) -> None:
+        super().__init__(start, config)
+        c = config
+        self._cov = np.diag([c.start_sigma_xy**2, c.start_sigma_xy**2, math.radians(c.start_sigma_deg) ** 2])
+        self._landmarks: dict[str, tuple[float, float, float]] = LANDMARKS
+        self._landmark_side = "left"
+        a, b = LINES[:, 0], LINES[:, 1]
+        self._line_length = np.hypot(*(b - a).T)
+        self._line_start = a
+        self._line_dir = (b - a) / self._line_length[:, None]
+        self._line_normal = np.column_stack((-self._line_dir[:, 1], self._line_dir[:, 0]))
+        #: how many vision fits were used and how many were rejected
+        self.accepted = 0
+        self.rejected = 0
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """The estimate's covariance over (x m, y m, heading rad)."""
+        return self._cov.copy()
+
+    def update(self, perception: Perception, odometry: Command) -> None:
+        forward, left, turn = self._advance(perception, odometry)
+        c = self.config
+        h = self._heading - 0.5 * turn
+        cos, sin = math.cos(h), math.sin(h)
+        jacobian = np.array([[1.0, 0.0, -sin * forward - cos * left], [0.0, 1.0, cos * forward - sin * left], [0, 0, 1]])
+        sxy = c.cycle_sigma_xy + c.moved_sigma * math.hypot(forward, left)
+        sh = math.radians(c.cycle_sigma_deg) + c.turned_sigma * abs(turn)
+        self._cov = jacobian @ self._cov @ jacobian.T + np.diag([sxy * sxy, sxy * sxy, sh * sh])
+        vision = perception.vision
+        if vision is not None:
+            self._correct(vision, perception.joints)
+
+    def _correct(self, vision: Vision, joints: Mapping[str, float]) -> None:
+        """The vision update; a fit that disagrees too much with the prediction is dropped and
+        the prediction's uncertainty widened instead."""
+        if self.side != self._landmark_side:
+            self._landmarks = mirrored(LANDMARKS) if self.side == "right" else LANDMARKS
+            self._landmark_side = self.side
+        fit = self._fit(vision, joints)
+        if fit is None:
+            return
+        state, cov = fit
+        prior = np.array([self._x, self._y, self._heading])
+        innovation = state - prior
+        distance2 = float(innovation @ np.linalg.solve(self._cov, innovation))
+        if distance2 > self.config.max_innovation**2:
+            self.rejected += 1
+            self._cov = self._cov * self.config.reject_inflation
+            return
+        self.accepted += 1
+        self._x, self._y, self._heading = (float(v) for v in state)
+        self._cov = cov
+
+    def _fit(self, vision: Vision, joints: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray] | None:
+        """The maximum a posteriori torso pose given this cycle's view: ((x, y, heading), its
+        covariance), or None when nothing usable is in view.
+
+        Unknowns s = (x, y, heading, z, pitch, roll) of the torso. A seen point p (head frame)
+        lands in the field at w = t + R q with q = camera + R_neck p its place in the torso frame.
+        Every residual is g . w - b for a direction g: a landmark's three axes, a line point's
+        height (z = 0), its distance across its matched line and, for a line end the view did not
+        cut, along it. The derivatives of R q are axis x (R q): z for the heading, the torso's
+        level right axis for the pitch, its forward axis (after the pitch) for the roll."""
+        c = self.config
+        names = [name for name in vision.objects if name in self._landmarks]
+        n_land, n_lines = len(names), len(vision.lines)
+        if n_land == 0 and n_lines == 0:
+            return None
+        polar = np.array([vision.objects[n] for n in names] + [p for line in vision.lines for p in line], dtype=float)
+        head = head_points(polar)
+        rotation, camera = neck(joints)
+        q = head @ rotation.T + camera
+        distance = polar[:, 0]
+        weight = 1.0 / (c.point_sigma**2 + (c.angle_sigma * distance) ** 2)
+        line_head = head[n_land:]
+        margin = math.radians(c.cut_margin_deg)
+        cut = (np.abs(np.arctan2(-line_head[:, 0], line_head[:, 1])) > margin) | (
+            np.abs(np.arctan2(line_head[:, 2], line_head[:, 1])) > margin
+        )
+
+        # the rows every step uses: each landmark's three axes, each line point's height
+        eye = np.eye(3)
+        land = np.array([self._landmarks[n] for n in names], dtype=float).reshape(-1, 3)
+        fixed_g = np.concatenate((np.tile(eye, (n_land, 1)), np.tile(eye[2], (2 * n_lines, 1))))
+        fixed_b = np.concatenate((land.ravel(), np.zeros(2 * n_lines)))
+        fixed_i = np.concatenate((np.repeat(np.arange(n_land), 3), n_land + np.arange(2 * n_lines)))
+
+        pitch, roll = tilt(self._attitude.up)
+        prior = np.array([self._x, self._y, self._heading, c.torso_height, pitch, roll])
+        info = np.zeros((6, 6))
+        info[:3, :3] = np.linalg.inv(self._cov)
+        tilt_info = 1.0 / math.radians(c.tilt_sigma_deg) ** 2
+        info[3:, 3:] = np.diag([1.0 / c.height_sigma**2, tilt_info, tilt_info])
+        # how far off a line may look at a distance, from the prior's spread
+        sigma_xy = math.sqrt(max(self._cov[0, 0], self._cov[1, 1]))
+        sigma_heading = math.sqrt(self._cov[2, 2])
+
+        s = prior.copy()
+        g, b, idx = fixed_g, fixed_b, fixed_i
+        hessian = info
+        for step in range(c.iterations):
+            r_torso = torso_rotation(s[2], s[4], s[5])
+            v = q @ r_torso.T
+            w = v + s[[0, 1, 3]]
+            if step > 0 and n_lines:
+                lg, lb, li = self._line_rows(w[n_land:], cut, distance[n_land:], sigma_xy, sigma_heading)
+                g = np.concatenate((fixed_g, lg))
+                b = np.concatenate((fixed_b, lb))
+                idx = np.concatenate((fixed_i, n_land + li))
+            vi = v[idx]
+            residual = np.einsum("ij,ij->i", g, w[idx]) - b
+            jac = np.empty((len(b), 6))
+            jac[:, 0] = g[:, 0]
+            jac[:, 1] = g[:, 1]
+            jac[:, 3] = g[:, 2]
+            jac[:, 2] = g[:, 1] * vi[:, 0] - g[:, 0] * vi[:, 1]
+            # the pitch turns about the level right axis, the roll about the pitched forward axis
+            right = np.array([math.sin(s[2]), -math.cos(s[2]), 0.0])
+            forward = np.array([math.cos(s[4]) * math.cos(s[2]), math.cos(s[4]) * math.sin(s[2]), math.sin(s[4])])
+            jac[:, 4] = np.einsum("ij,ij->i", g, np.cross(right, vi))
+            jac[:, 5] = np.einsum("ij,ij->i", g, np.cross(forward, vi))
+            weighted = jac * weight[idx][:, None]
+            hessian = jac.T @ weighted + info
+            gradient = weighted.T @ residual + info @ (s - prior)
+            s = s - np.linalg.solve(hessian, gradient)
+        return s[:3], np.linalg.inv(hessian)[:3, :3]
+
+    def _line_rows(
+        self, ends: np.ndarray, cut: np.ndarray, distance: np.ndarray, sigma_xy: float, sigma_heading: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each seen line matched to the known line both its ends lie nearest to (within the
+        gate), and its rows: across the line at both ends, along it at each end the view did not
+        cut. ``ends``: the seen ends in the field as the current estimate places them, in pairs."""
+        c = self.config
+        a, b = ends[0::2, :2], ends[1::2, :2]
+        far = np.maximum(distance[0::2], distance[1::2])
+        gate = np.minimum(c.match_gate + c.match_sigmas * (sigma_xy + far * sigma_heading), c.max_gate)[:, None]
+        start, direction, normal, length = self._line_start, self._line_dir, self._line_normal, self._line_length
+        da = a[:, None, :] - start[None]
+        db = b[:, None, :] - start[None]
+        across_a = np.einsum("jmk,mk->jm", da, normal)
+        across_b = np.einsum("jmk,mk->jm", db, normal)
+        along_a = np.einsum("jmk,mk->jm", da, direction)
+        along_b = np.einsum("jmk,mk->jm", db, direction)
+        inside = (along_a > -gate) & (along_a < length + gate) & (along_b > -gate) & (along_b < length + gate)
+        cost = np.where(inside, np.maximum(np.abs(across_a), np.abs(across_b)), np.inf)
+        best = np.argmin(cost, axis=1)
+        seen = np.arange(len(best))
+        matched = (cost[seen, best] < gate[:, 0]) & (np.hypot(*(b - a).T) >= c.min_line_length)
+        lines = best[matched]
+        pieces = seen[matched]
+        # both ends across the line
+        point = np.concatenate((2 * pieces, 2 * pieces + 1))
+        model = np.concatenate((lines, lines))
+        n = normal[model]
+        rows_g = [np.column_stack((n, np.zeros(len(model))))]
+        rows_b = [np.einsum("ik,ik->i", n, start[model])]
+        rows_i = [point]
+        # uncut ends along the line, to the nearer of its two ends
+        along = np.concatenate((along_a[pieces, lines], along_b[pieces, lines]))
+        whole = ~cut[point]
+        t = direction[model[whole]]
+        end = np.where(along[whole] > 0.5 * length[model[whole]], length[model[whole]], 0.0)
+        rows_g.append(np.column_stack((t, np.zeros(len(t)))))
+        rows_b.append(np.einsum("ik,ik->i", t, start[model[whole]]) + end)
+        rows_i.append(point[whole])
+        return np.concatenate(rows_g), np.concatenate(rows_b), np.concatenate(rows_i)
