@@ -31,6 +31,7 @@ from typing import Protocol
 
 import numpy as np
 
+from agent import pose_fit
 from agent.fall import FallDetector
 from agent.field_model import CAMERA_ABOVE_PITCH, LANDMARKS, LINES, NECK_PITCH_HEIGHT, mirrored
 from gait import Command
@@ -144,6 +145,16 @@ def head_points(polar: np.ndarray) -> np.ndarray:
     return np.column_stack((-flat * np.sin(h), flat * np.cos(h), d * np.sin(v)))
 
 
+def _known_lines() -> np.ndarray:
+    """The field's lines as ``pose_fit`` takes them: start x, y, unit direction x, y, length."""
+    start, end = LINES[:, 0], LINES[:, 1]
+    length = np.hypot(*(end - start).T)
+    return np.column_stack((start, (end - start) / length[:, None], length))
+
+
+_KNOWN_LINES = _known_lines()
+
+
 def _wrap_deg(a: float) -> float:
     return (a + 180.0) % 360.0 - 180.0
 
@@ -214,14 +225,25 @@ class VisionPose(_Tracker):
     def __init__(self, start: Pose, config: LocalizationConfig = LocalizationConfig()) -> None:
         super().__init__(start, config)
         c = config
-        self._cov = np.diag([c.start_sigma_xy**2, c.start_sigma_xy**2, math.radians(c.start_sigma_deg) ** 2])
+        sxy, sh = c.start_sigma_xy**2, math.radians(c.start_sigma_deg) ** 2
+        #: the covariance over (x m, y m, heading rad) as its six numbers xx, xy, xh, yy, yh, hh:
+        #: kept as floats, so that a cycle without vision costs a few multiplications
+        self._cov = (sxy, 0.0, 0.0, sxy, 0.0, sh)
         self._landmarks: dict[str, tuple[float, float, float]] = LANDMARKS
         self._landmark_side = "left"
-        a, b = LINES[:, 0], LINES[:, 1]
-        self._line_length = np.hypot(*(b - a).T)
-        self._line_start = a
-        self._line_dir = (b - a) / self._line_length[:, None]
-        self._line_normal = np.column_stack((-self._line_dir[:, 1], self._line_dir[:, 0]))
+        self._settings = np.array(
+            [
+                c.point_sigma,
+                c.angle_sigma,
+                math.tan(math.radians(c.cut_margin_deg)),
+                c.match_gate,
+                c.match_sigmas,
+                c.max_gate,
+                c.min_line_length,
+                c.height_sigma,
+                math.radians(c.tilt_sigma_deg),
+            ]
+        )
         #: how many vision fits were used and how many were rejected
         self.accepted = 0
         self.rejected = 0
@@ -229,153 +251,61 @@ class VisionPose(_Tracker):
     @property
     def covariance(self) -> np.ndarray:
         """The estimate's covariance over (x m, y m, heading rad)."""
-        return self._cov.copy()
+        xx, xy, xh, yy, yh, hh = self._cov
+        return np.array([[xx, xy, xh], [xy, yy, yh], [xh, yh, hh]])
 
     def update(self, perception: Perception, odometry: Command) -> None:
         forward, left, turn = self._advance(perception, odometry)
         c = self.config
+        # P <- F P F' + Q, F the motion's Jacobian: identity but for the heading's column (a, b)
         h = self._heading - 0.5 * turn
         cos, sin = math.cos(h), math.sin(h)
-        jacobian = np.array([[1.0, 0.0, -sin * forward - cos * left], [0.0, 1.0, cos * forward - sin * left], [0, 0, 1]])
+        a, b = -sin * forward - cos * left, cos * forward - sin * left
+        xx, xy, xh, yy, yh, hh = self._cov
         sxy = c.cycle_sigma_xy + c.moved_sigma * math.hypot(forward, left)
         sh = math.radians(c.cycle_sigma_deg) + c.turned_sigma * abs(turn)
-        self._cov = jacobian @ self._cov @ jacobian.T + np.diag([sxy * sxy, sxy * sxy, sh * sh])
+        self._cov = (
+            xx + 2.0 * a * xh + a * a * hh + sxy * sxy,
+            xy + a * yh + b * xh + a * b * hh,
+            xh + a * hh,
+            yy + 2.0 * b * yh + b * b * hh + sxy * sxy,
+            yh + b * hh,
+            hh + sh * sh,
+        )
         vision = perception.vision
         if vision is not None:
             self._correct(vision, perception.joints)
 
     def _correct(self, vision: Vision, joints: Mapping[str, float]) -> None:
-        """The vision update; a fit that disagrees too much with the prediction is dropped and
-        the prediction's uncertainty widened instead."""
+        """The vision update (``agent.pose_fit``); a fit that moves the pose too far from the
+        prediction is dropped and the prediction's uncertainty widened instead."""
         if self.side != self._landmark_side:
             self._landmarks = mirrored(LANDMARKS) if self.side == "right" else LANDMARKS
             self._landmark_side = self.side
-        fit = self._fit(vision, joints)
-        if fit is None:
+        landmarks = self._landmarks
+        places = [landmarks[name] for name in vision.objects if name in landmarks]
+        if not places and not vision.lines:
             return
-        state, cov = fit
-        prior = np.array([self._x, self._y, self._heading])
-        innovation = state - prior
-        distance2 = float(innovation @ np.linalg.solve(self._cov, innovation))
-        if distance2 > self.config.max_innovation**2:
+        seen = [p for name, p in vision.objects.items() if name in landmarks]
+        seen += [p for line in vision.lines for p in line]
+        rotation, camera = neck(joints)
+        c = self.config
+        pitch, roll = tilt(self._attitude.up)
+        state, cov, distance2 = pose_fit.fit(
+            np.array(seen, dtype=float),
+            rotation,
+            camera,
+            np.array(places, dtype=float).reshape(-1, 3),
+            _KNOWN_LINES,
+            np.array([self._x, self._y, self._heading, c.torso_height, pitch, roll]),
+            self.covariance,
+            self._settings,
+            c.iterations,
+        )
+        if distance2 > c.max_innovation**2:
             self.rejected += 1
-            self._cov = self._cov * self.config.reject_inflation
+            self._cov = tuple(v * c.reject_inflation for v in self._cov)  # type: ignore[assignment]
             return
         self.accepted += 1
-        self._x, self._y, self._heading = (float(v) for v in state)
-        self._cov = cov
-
-    def _fit(self, vision: Vision, joints: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray] | None:
-        """The maximum a posteriori torso pose given this cycle's view: ((x, y, heading), its
-        covariance), or None when nothing usable is in view.
-
-        Unknowns s = (x, y, heading, z, pitch, roll) of the torso. A seen point p (head frame)
-        lands in the field at w = t + R q with q = camera + R_neck p its place in the torso frame.
-        Every residual is g . w - b for a direction g: a landmark's three axes, a line point's
-        height (z = 0), its distance across its matched line and, for a line end the view did not
-        cut, along it. The derivatives of R q are axis x (R q): z for the heading, the torso's
-        level right axis for the pitch, its forward axis (after the pitch) for the roll."""
-        c = self.config
-        names = [name for name in vision.objects if name in self._landmarks]
-        n_land, n_lines = len(names), len(vision.lines)
-        if n_land == 0 and n_lines == 0:
-            return None
-        polar = np.array([vision.objects[n] for n in names] + [p for line in vision.lines for p in line], dtype=float)
-        head = head_points(polar)
-        rotation, camera = neck(joints)
-        q = head @ rotation.T + camera
-        distance = polar[:, 0]
-        weight = 1.0 / (c.point_sigma**2 + (c.angle_sigma * distance) ** 2)
-        line_head = head[n_land:]
-        margin = math.radians(c.cut_margin_deg)
-        cut = (np.abs(np.arctan2(-line_head[:, 0], line_head[:, 1])) > margin) | (
-            np.abs(np.arctan2(line_head[:, 2], line_head[:, 1])) > margin
-        )
-
-        # the rows every step uses: each landmark's three axes, each line point's height
-        eye = np.eye(3)
-        land = np.array([self._landmarks[n] for n in names], dtype=float).reshape(-1, 3)
-        fixed_g = np.concatenate((np.tile(eye, (n_land, 1)), np.tile(eye[2], (2 * n_lines, 1))))
-        fixed_b = np.concatenate((land.ravel(), np.zeros(2 * n_lines)))
-        fixed_i = np.concatenate((np.repeat(np.arange(n_land), 3), n_land + np.arange(2 * n_lines)))
-
-        pitch, roll = tilt(self._attitude.up)
-        prior = np.array([self._x, self._y, self._heading, c.torso_height, pitch, roll])
-        info = np.zeros((6, 6))
-        info[:3, :3] = np.linalg.inv(self._cov)
-        tilt_info = 1.0 / math.radians(c.tilt_sigma_deg) ** 2
-        info[3:, 3:] = np.diag([1.0 / c.height_sigma**2, tilt_info, tilt_info])
-        # how far off a line may look at a distance, from the prior's spread
-        sigma_xy = math.sqrt(max(self._cov[0, 0], self._cov[1, 1]))
-        sigma_heading = math.sqrt(self._cov[2, 2])
-
-        s = prior.copy()
-        g, b, idx = fixed_g, fixed_b, fixed_i
-        hessian = info
-        for step in range(c.iterations):
-            r_torso = torso_rotation(s[2], s[4], s[5])
-            v = q @ r_torso.T
-            w = v + s[[0, 1, 3]]
-            if step > 0 and n_lines:
-                lg, lb, li = self._line_rows(w[n_land:], cut, distance[n_land:], sigma_xy, sigma_heading)
-                g = np.concatenate((fixed_g, lg))
-                b = np.concatenate((fixed_b, lb))
-                idx = np.concatenate((fixed_i, n_land + li))
-            vi = v[idx]
-            residual = np.einsum("ij,ij->i", g, w[idx]) - b
-            jac = np.empty((len(b), 6))
-            jac[:, 0] = g[:, 0]
-            jac[:, 1] = g[:, 1]
-            jac[:, 3] = g[:, 2]
-            jac[:, 2] = g[:, 1] * vi[:, 0] - g[:, 0] * vi[:, 1]
-            # the pitch turns about the level right axis, the roll about the pitched forward axis
-            right = np.array([math.sin(s[2]), -math.cos(s[2]), 0.0])
-            forward = np.array([math.cos(s[4]) * math.cos(s[2]), math.cos(s[4]) * math.sin(s[2]), math.sin(s[4])])
-            jac[:, 4] = np.einsum("ij,ij->i", g, np.cross(right, vi))
-            jac[:, 5] = np.einsum("ij,ij->i", g, np.cross(forward, vi))
-            weighted = jac * weight[idx][:, None]
-            hessian = jac.T @ weighted + info
-            gradient = weighted.T @ residual + info @ (s - prior)
-            s = s - np.linalg.solve(hessian, gradient)
-        return s[:3], np.linalg.inv(hessian)[:3, :3]
-
-    def _line_rows(
-        self, ends: np.ndarray, cut: np.ndarray, distance: np.ndarray, sigma_xy: float, sigma_heading: float
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Each seen line matched to the known line both its ends lie nearest to (within the
-        gate), and its rows: across the line at both ends, along it at each end the view did not
-        cut. ``ends``: the seen ends in the field as the current estimate places them, in pairs."""
-        c = self.config
-        a, b = ends[0::2, :2], ends[1::2, :2]
-        far = np.maximum(distance[0::2], distance[1::2])
-        gate = np.minimum(c.match_gate + c.match_sigmas * (sigma_xy + far * sigma_heading), c.max_gate)[:, None]
-        start, direction, normal, length = self._line_start, self._line_dir, self._line_normal, self._line_length
-        da = a[:, None, :] - start[None]
-        db = b[:, None, :] - start[None]
-        across_a = np.einsum("jmk,mk->jm", da, normal)
-        across_b = np.einsum("jmk,mk->jm", db, normal)
-        along_a = np.einsum("jmk,mk->jm", da, direction)
-        along_b = np.einsum("jmk,mk->jm", db, direction)
-        inside = (along_a > -gate) & (along_a < length + gate) & (along_b > -gate) & (along_b < length + gate)
-        cost = np.where(inside, np.maximum(np.abs(across_a), np.abs(across_b)), np.inf)
-        best = np.argmin(cost, axis=1)
-        seen = np.arange(len(best))
-        matched = (cost[seen, best] < gate[:, 0]) & (np.hypot(*(b - a).T) >= c.min_line_length)
-        lines = best[matched]
-        pieces = seen[matched]
-        # both ends across the line
-        point = np.concatenate((2 * pieces, 2 * pieces + 1))
-        model = np.concatenate((lines, lines))
-        n = normal[model]
-        rows_g = [np.column_stack((n, np.zeros(len(model))))]
-        rows_b = [np.einsum("ik,ik->i", n, start[model])]
-        rows_i = [point]
-        # uncut ends along the line, to the nearer of its two ends
-        along = np.concatenate((along_a[pieces, lines], along_b[pieces, lines]))
-        whole = ~cut[point]
-        t = direction[model[whole]]
-        end = np.where(along[whole] > 0.5 * length[model[whole]], length[model[whole]], 0.0)
-        rows_g.append(np.column_stack((t, np.zeros(len(t)))))
-        rows_b.append(np.einsum("ik,ik->i", t, start[model[whole]]) + end)
-        rows_i.append(point[whole])
-        return np.concatenate(rows_g), np.concatenate(rows_b), np.concatenate(rows_i)
+        self._x, self._y, self._heading = float(state[0]), float(state[1]), float(state[2])
+        self._cov = (cov[0, 0], cov[0, 1], cov[0, 2], cov[1, 1], cov[1, 2], cov[2, 2])
