@@ -78,8 +78,8 @@ class LocalizationConfig:
     match_gate: float = 0.25
     match_sigmas: float = 3.0
     max_gate: float = 1.5
-    #: Gauss-Newton steps per vision cycle (the first with the named landmarks only)
-    iterations: int = 4
+    #: Gauss-Newton steps per vision cycle (the first two with the named landmarks only)
+    iterations: int = 5
     #: the torso centre's height (m) and the spread allowed around it
     torso_height: float = 0.37
     height_sigma: float = 0.05

@@ -17,8 +17,9 @@ residual is g . w - b for a direction g and a number b:
 The derivatives of R q: axis x (R q), with the axes z for the heading, the level right axis
 (sin h, -cos h, 0) for the pitch and the pitched forward axis (cos p cos h, cos p sin h, sin p)
 for the roll. Gauss-Newton with the prior as extra rows (information ``info`` about ``prior``):
-an iterated Kalman update. The first step uses the landmarks and the ground only, which fixes
-the heading well enough to match lines; the lines are matched again before each later step.
+an iterated Kalman update. The first steps use the landmarks and the ground only, which fixes
+the heading well enough to match lines; the lines are matched again before each later step,
+within gates from the previous step's covariance.
 """
 
 from __future__ import annotations
@@ -93,8 +94,12 @@ def fit(
     n_pieces = (n - n_land) // 2
     n_known = lines.shape[0]
     matched = np.full(n_pieces, -1)
+    # two steps on the landmarks before the lines are matched: from a heading some degrees off
+    # (a beam's noise) the first step alone leaves lines looking near the wrong ones
+    first_match = 2 if n_land > 0 else 1
     s = prior.copy()
     hessian = info.copy()
+    known = covariance
     jac = np.empty(6)
     for step in range(iterations):
         h, p = s[2], s[4]
@@ -103,7 +108,7 @@ def fit(
         w[:, 0] += s[0]
         w[:, 1] += s[1]
         w[:, 2] += s[3]
-        if step > 0:
+        if step >= first_match:
             for j in range(n_pieces):
                 ax, ay = w[n_land + 2 * j, 0], w[n_land + 2 * j, 1]
                 bx, by = w[n_land + 2 * j + 1, 0], w[n_land + 2 * j + 1, 1]
@@ -164,5 +169,9 @@ def fit(
                     for c in range(6):
                         hessian[a, c] += wi * jac[a] * jac[c]
         s = s - np.linalg.solve(hessian, gradient)
+        # the gates of the next matching from what this step knows
+        known = np.linalg.inv(hessian)
+        sigma_xy = math.sqrt(max(known[0, 0], known[1, 1]))
+        sigma_heading = math.sqrt(known[2, 2])
     change = s[:3] - prior[:3]
-    return s[:3], np.linalg.inv(hessian)[:3, :3], change @ prior_info @ change
+    return s[:3], known[:3, :3], change @ prior_info @ change
