@@ -53,6 +53,11 @@ class PoseSource(Protocol):
         """The torso's x, y (m) and heading (deg, 0 = +x, left positive, in [-180, 180))."""
         ...
 
+    def reset(self, start: Pose) -> None:
+        """The robot was beamed to ``start`` (x m, y m, heading deg): the estimate starts again
+        there, as uncertain as a beam's noise makes it."""
+        ...
+
 
 @dataclass(frozen=True)
 class LocalizationConfig:
@@ -192,11 +197,15 @@ class _Tracker:
     """What both sources share: the torso's tilt (gyro and accelerometer), the team's side, and
     the pose carried by odometry between vision cycles."""
 
-    def __init__(self, start: Pose, config: LocalizationConfig) -> None:
+    def __init__(self, start: Pose, config: LocalizationConfig, side: str) -> None:
         self.config = config
         self._x, self._y, self._heading = start[0], start[1], math.radians(start[2])
         self._attitude = _Attitude(config.acc_weight)
-        self.side = "left"
+        #: the team's side, "left" or "right"; the first GS after ``init`` names it
+        self.side = side
+
+    def reset(self, start: Pose) -> None:
+        self._x, self._y, self._heading = start[0], start[1], math.radians(start[2])
 
     @property
     def pose(self) -> Pose:
@@ -227,8 +236,8 @@ class TruePose(_Tracker):
     """The server's ground truth, moved from the head to the torso, carried by odometry and the
     gyro between the vision cycles that bring it."""
 
-    def __init__(self, start: Pose, config: LocalizationConfig = LocalizationConfig()) -> None:
-        super().__init__(start, config)
+    def __init__(self, start: Pose, config: LocalizationConfig = LocalizationConfig(), side: str = "left") -> None:
+        super().__init__(start, config, side)
 
     def update(self, perception: Perception, odometry: Command) -> None:
         self._advance(perception, odometry)
@@ -250,13 +259,19 @@ class VisionPose(_Tracker):
     (x, y, heading) whose vision update is the Gauss-Newton fit described in the module
     docstring."""
 
-    def __init__(self, start: Pose, config: LocalizationConfig = LocalizationConfig()) -> None:
-        super().__init__(start, config)
+    def __init__(self, start: Pose, config: LocalizationConfig = LocalizationConfig(), side: str = "left") -> None:
+        super().__init__(start, config, side)
         c = config
-        sxy, sh = c.start_sigma_xy**2, math.radians(c.start_sigma_deg) ** 2
         #: the covariance over (x m, y m, heading rad) as its six numbers xx, xy, xh, yy, yh, hh:
         #: kept as floats, so that a cycle without vision costs a few multiplications
-        self._cov = (sxy, 0.0, 0.0, sxy, 0.0, sh)
+        self._cov = self._start_cov = (
+            c.start_sigma_xy**2,
+            0.0,
+            0.0,
+            c.start_sigma_xy**2,
+            0.0,
+            math.radians(c.start_sigma_deg) ** 2,
+        )
         self._landmarks: dict[str, tuple[float, float, float]] = LANDMARKS
         self._landmark_side = "left"
         self._settings = np.array(
@@ -275,6 +290,10 @@ class VisionPose(_Tracker):
         #: how many vision fits were used and how many were rejected
         self.accepted = 0
         self.rejected = 0
+
+    def reset(self, start: Pose) -> None:
+        super().reset(start)
+        self._cov = self._start_cov
 
     @property
     def covariance(self) -> np.ndarray:
