@@ -41,6 +41,52 @@ def _rotation(h: float, p: float, r: float) -> np.ndarray:
 
 
 @njit(cache=True)
+def _cholesky(a: np.ndarray) -> np.ndarray:
+    """The lower factor L of a symmetric positive definite matrix, a = L L' (numba's LAPACK
+    wrappers copy and check more than a 6 x 6 system costs)."""
+    n = a.shape[0]
+    low = np.zeros_like(a)
+    for i in range(n):
+        for j in range(i + 1):
+            total = a[i, j]
+            for k in range(j):
+                total -= low[i, k] * low[j, k]
+            low[i, j] = math.sqrt(total) if i == j else total / low[j, j]
+    return low
+
+
+@njit(cache=True)
+def _solve(low: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x with L L' x = b."""
+    n = b.shape[0]
+    y = np.empty(n)
+    for i in range(n):
+        total = b[i]
+        for k in range(i):
+            total -= low[i, k] * y[k]
+        y[i] = total / low[i, i]
+    x = np.empty(n)
+    for i in range(n - 1, -1, -1):
+        total = y[i]
+        for k in range(i + 1, n):
+            total -= low[k, i] * x[k]
+        x[i] = total / low[i, i]
+    return x
+
+
+@njit(cache=True)
+def _inverse(low: np.ndarray) -> np.ndarray:
+    n = low.shape[0]
+    out = np.empty((n, n))
+    unit = np.zeros(n)
+    for j in range(n):
+        unit[:] = 0.0
+        unit[j] = 1.0
+        out[:, j] = _solve(low, unit)
+    return out
+
+
+@njit(cache=True)
 def fit(
     polar: np.ndarray,
     neck: np.ndarray,
@@ -101,13 +147,15 @@ def fit(
     hessian = info.copy()
     known = covariance
     jac = np.empty(6)
+    w = np.empty((n, 3))
+    origin = np.empty(3)
     for step in range(iterations):
         h, p = s[2], s[4]
+        origin[0], origin[1], origin[2] = s[0], s[1], s[3]
         rot = _rotation(h, p, s[5])
-        w = q @ rot.T
-        w[:, 0] += s[0]
-        w[:, 1] += s[1]
-        w[:, 2] += s[3]
+        for i in range(n):
+            for k in range(3):
+                w[i, k] = origin[k] + rot[k, 0] * q[i, 0] + rot[k, 1] * q[i, 1] + rot[k, 2] * q[i, 2]
         if step >= first_match:
             for j in range(n_pieces):
                 ax, ay = w[n_land + 2 * j, 0], w[n_land + 2 * j, 1]
@@ -130,7 +178,10 @@ def fit(
                         matched[j] = m
         ch, sh, cp, sp = math.cos(h), math.sin(h), math.cos(p), math.sin(p)
         hessian = info.copy()
-        gradient = info @ (s - prior)
+        gradient = np.zeros(6)
+        for a in range(6):
+            for c in range(6):
+                gradient[a] += info[a, c] * (s[c] - prior[c])
         for i in range(q.shape[0]):
             vx, vy, vz = w[i, 0] - s[0], w[i, 1] - s[1], w[i, 2] - s[3]
             # the turns' effect on w: z x v, right x v, forward x v
@@ -165,13 +216,20 @@ def fit(
                 jac[5] = gx * t_r[0] + gy * t_r[1] + gz * t_r[2]
                 wi = weight[i]
                 for a in range(6):
-                    gradient[a] += wi * jac[a] * residual
-                    for c in range(6):
-                        hessian[a, c] += wi * jac[a] * jac[c]
-        s = s - np.linalg.solve(hessian, gradient)
-        # the gates of the next matching from what this step knows
-        known = np.linalg.inv(hessian)
-        sigma_xy = math.sqrt(max(known[0, 0], known[1, 1]))
-        sigma_heading = math.sqrt(known[2, 2])
+                    wj = wi * jac[a]
+                    gradient[a] += wj * residual
+                    for c in range(a + 1):
+                        hessian[a, c] += wj * jac[c]
+        for a in range(6):  # the lower triangle was summed
+            for c in range(a):
+                hessian[c, a] = hessian[a, c]
+        low = _cholesky(hessian)
+        s = s - _solve(low, gradient)
+        if step + 1 >= first_match and step + 1 < iterations:
+            # the gates of the next matching from what this step knows
+            known = _inverse(low)
+            sigma_xy = math.sqrt(max(known[0, 0], known[1, 1]))
+            sigma_heading = math.sqrt(known[2, 2])
+    known = _inverse(_cholesky(hessian))
     change = s[:3] - prior[:3]
     return s[:3], known[:3, :3], change @ prior_info @ change
