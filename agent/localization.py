@@ -180,6 +180,7 @@ class _Attitude:
         self.up = (0.0, 0.0, 1.0)
 
     def update(self, acc: tuple[float, float, float] | None, gyro: tuple[float, float, float] | None) -> None:
+        """One cycle's accelerometer (m/s^2) and gyro (deg/s), both in the torso frame."""
         ux, uy, uz = self.up
         if gyro is not None:  # a direction fixed in the world turns by -w x up in the torso frame
             wx, wy, wz = (math.radians(g) * CYCLE for g in gyro)
@@ -352,8 +353,11 @@ class VisionPose(_Tracker):
         )
         if distance2 > c.max_innovation**2:
             self.rejected += 1
-            self._cov = tuple(v * c.reject_inflation for v in self._cov)  # type: ignore[assignment]
+            k = c.reject_inflation
+            xx, xy, xh, yy, yh, hh = self._cov
+            self._cov = (k * xx, k * xy, k * xh, k * yy, k * yh, k * hh)
             return
         self.accepted += 1
         self._x, self._y, self._heading = float(state[0]), float(state[1]), float(state[2])
-        self._cov = (cov[0, 0], cov[0, 1], cov[0, 2], cov[1, 1], cov[1, 2], cov[2, 2])
+        xx, xy, xh, yy, yh, hh = cov[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]].tolist()
+        self._cov = (xx, xy, xh, yy, yh, hh)
