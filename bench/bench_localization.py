@@ -14,8 +14,9 @@ median and worst, at every vision cycle after the first three of a scene:
 - the real server's recorded walks (tests/data/rcssserver3d/walk_calibration), against its
   ``mypos`` moved to the torso (``TruePose``), and that against the monitor's torso track;
 - the live real server: standing at the same poses as on the stand-in (``VisionPose`` against
-  ``TruePose``), and the fastest gait walked from three of them (in BeforeKickOff, with no
-  trainer: a robot that crosses the halfway line is moved back 2.5 m by the referee);
+  ``TruePose``), the course (beamed to each cycle's pose), and the fastest gait walked from
+  three of the starts (in BeforeKickOff, with no trainer: a robot that crosses the halfway line
+  is moved back 2.5 m by the referee);
 - the cost of ``update``: a cycle without vision, a vision cycle (the See already read), and the
   See's reading itself (the parser's, paid on first use of ``perception.vision``).
 """
@@ -282,6 +283,46 @@ def real_standing(command: str) -> list[tuple[float, float]]:
         server.close()
 
 
+def real_course(command: str, seed: int) -> list[tuple[float, float]]:
+    """The course on the real server: the robot beamed to each cycle's pose (the sync profile
+    has no beam noise), odometry the asked-for motion with 10 % errors, the truth ``mypos``
+    moved to the torso (``TruePose``)."""
+    server = _RealServer(command)
+    rng = np.random.default_rng(seed)
+    try:
+        server.send(b"(scene rsg/agent/nao/nao.rsg)")
+        server.receive()
+        server.send(b"(init (unum 1)(teamname Loc))")
+        server.receive()
+        server.send(b"(beam -12 0 0)")
+        for _ in range(10):
+            server.receive()
+            server.send(b"")
+        config = LocalizationConfig(use_gyro=False)
+        vision_pose, true_pose = VisionPose(COURSE[0], config), TruePose(COURSE[0], config)
+        previous = COURSE[0]
+        errors = []
+        for x, y, heading in _course_poses():
+            perception = server.receive()
+            h = math.radians(previous[2])
+            dx, dy = x - previous[0], y - previous[1]
+            scale = 1.0 + 0.1 * rng.standard_normal(3)
+            moved = Command(
+                (math.cos(h) * dx + math.sin(h) * dy) * scale[0],
+                (-math.sin(h) * dx + math.cos(h) * dy) * scale[1],
+                ((heading - previous[2] + 180) % 360 - 180) * scale[2],
+            )
+            previous = (x, y, heading)
+            vision_pose.update(perception, moved)
+            true_pose.update(perception, Command())
+            if perception.vision is not None:
+                errors.append(error(vision_pose.pose, true_pose.pose))
+            server.send(f"(beam {x:.4f} {y:.4f} {heading:.3f})".encode())
+        return errors[3:]
+    finally:
+        server.close()
+
+
 def real_walk(command: str, pose: Pose) -> list[tuple[float, float]]:
     server = _RealServer(command)
     true_pose = TruePose(pose)
@@ -348,6 +389,7 @@ def main() -> None:
     command = os.environ.get("RCSSSERVER3D")
     if command:
         print(line("real server, standing (13 poses)", real_standing(command)))
+        print(line("real server, the course (beamed each cycle)", real_course(command, 3)))
         walked = []
         for pose in [WALK_STARTS[0], *WALK_STARTS[2:4]]:  # the ones that stay in the own half
             walked += real_walk(command, pose)
