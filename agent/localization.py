@@ -35,6 +35,7 @@ import numpy as np
 from agent import pose_fit
 from agent.field_model import CAMERA_ABOVE_PITCH, LANDMARKS, LINES, NECK_PITCH_HEIGHT, mirrored
 from gait import Command
+from protocol.errors import ProtocolError
 from protocol.nao import CYCLE
 from protocol.perception import Perception, Vision
 
@@ -232,6 +233,17 @@ class _Tracker:
         self._heading += turn
         return forward, left, turn
 
+    @staticmethod
+    def _vision(perception: Perception) -> Vision | None:
+        """This cycle's See, or None: also when it cannot be read. The real server now and then
+        prints ``nan`` for a line end (seen once in some 20,000 cycles, a robot beamed along
+        the course), and the parser refuses the whole See then; that cycle counts as one
+        without vision."""
+        try:
+            return perception.vision
+        except ProtocolError:
+            return None
+
 
 class TruePose(_Tracker):
     """The server's ground truth, moved from the head to the torso, carried by odometry and the
@@ -242,7 +254,7 @@ class TruePose(_Tracker):
 
     def update(self, perception: Perception, odometry: Command) -> None:
         self._advance(perception, odometry)
-        vision = perception.vision
+        vision = self._vision(perception)
         if vision is None or vision.mypos is None or vision.myorien is None:
             return
         pitch, roll = tilt(self._attitude.up)
@@ -320,7 +332,7 @@ class VisionPose(_Tracker):
             yh + b * hh,
             hh + sh * sh,
         )
-        vision = perception.vision
+        vision = self._vision(perception)
         if vision is not None:
             self._correct(vision, perception.joints)
 

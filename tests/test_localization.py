@@ -152,6 +152,18 @@ def test_no_landmark_and_no_line_keeps_the_odometry_estimate() -> None:
     assert estimator.accepted == 0 and estimator.rejected == 0
 
 
+def test_an_unreadable_see_counts_as_no_vision() -> None:
+    # the real server once printed nan for a line end; the parser refuses such a See
+    message = (
+        "(time (now 1.00))(GYR (n torso) (rt 0.00 0.00 0.00))(ACC (n torso) (a 0.00 0.00 9.81))"
+        "(HJ (n hj1) (ax 0.00))(HJ (n hj2) (ax 0.00))(See (F1L (pol 13.42 26.57 -2.30)) "
+        "(mypos -9.00 -2.00 0.54) (myorien 90.00) (L (pol nan 12.00 -3.00) (pol 12.50 20.00 -2.50)))"
+    )
+    for source in (VisionPose((-9.0, -2.0, 90.0), LocalizationConfig(use_gyro=False)), TruePose((-9.0, -2.0, 90.0))):
+        source.update(parse_perception(message), Command(0.02, 0.0, 0.0))
+        assert source.pose == pytest.approx((-9.0, -1.98, 90.0))
+
+
 def test_a_view_far_from_the_prediction_is_rejected() -> None:
     pose = (-9.0, -2.0, 90.0)
     estimator = VisionPose(pose)
