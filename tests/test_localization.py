@@ -153,11 +153,12 @@ def test_no_landmark_and_no_line_keeps_the_odometry_estimate() -> None:
 
 
 def test_an_unreadable_see_counts_as_no_vision() -> None:
-    # the real server once printed nan for a line end; the parser refuses such a See
+    # the real server's own words (a robot beamed to (-10, 2.24, 166.29)): the parser refuses the See
     message = (
-        "(time (now 1.00))(GYR (n torso) (rt 0.00 0.00 0.00))(ACC (n torso) (a 0.00 0.00 9.81))"
-        "(HJ (n hj1) (ax 0.00))(HJ (n hj2) (ax 0.00))(See (F1L (pol 13.42 26.57 -2.30)) "
-        "(mypos -9.00 -2.00 0.54) (myorien 90.00) (L (pol nan 12.00 -3.00) (pol 12.50 20.00 -2.50)))"
+        "(time (now 57.66))(GS (sl 0) (sr 0) (t 0.00) (pm BeforeKickOff))(GYR (n torso) (rt 0.00 0.00 0.00))"
+        "(ACC (n torso) (a 0.00 0.00 9.81))(HJ (n hj1) (ax -0.00))(HJ (n hj2) (ax -0.00))(See (G1L (pol 5.15 27.10 "
+        "2.43)) (G2L (pol 5.99 47.06 2.18)) (F1L (pol 9.25 -43.64 -3.50)) (mypos -10.00 2.24 0.55) (myorien 166.29) "
+        "(L (pol 7.26 60.32 -4.41) (pol 9.26 -43.61 -3.44)) (L (pol nan nan nan) (pol 7.25 60.00 -4.37)))"
     )
     for source in (VisionPose((-9.0, -2.0, 90.0), LocalizationConfig(use_gyro=False)), TruePose((-9.0, -2.0, 90.0))):
         source.update(parse_perception(message), Command(0.02, 0.0, 0.0))
