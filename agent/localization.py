@@ -303,6 +303,7 @@ class VisionPose(_Tracker):
         #: how many vision fits were used and how many were rejected
         self.accepted = 0
         self.rejected = 0
+        pose_fit.warm_up()  # compiled (or loaded) here, at the beam, not in a walking cycle
 
     def reset(self, start: Pose) -> None:
         super().reset(start)
