@@ -38,12 +38,6 @@ class FallDetector:
         self.fallen = False
 
     @property
-    def up(self) -> Vec3:
-        """The world's up direction in the torso frame (unit; straight up until the first reading):
-        the torso's tilt, which the localization needs to place the camera."""
-        return (0.0, 0.0, 1.0) if self._up is None else self._up
-
-    @property
     def up_z(self) -> float:
         """The estimated z of the torso's up axis in the world (1 upright, 0 lying)."""
         return 1.0 if self._up is None else self._up[2]
