@@ -24,7 +24,8 @@ import numpy as np
 from agent.config import AgentConfig
 from agent.controller import velocities_towards
 from agent.fall import FallDetector
-from agent.goto import GoTo, PoseSource, ServerPoseWhereSent
+from agent.goto import GoTo, ServerPoseWhereSent
+from agent.localization import PoseSource, TruePose, VisionPose
 from gait import Command, Steerable, Walker
 from protocol import commands
 from protocol.nao import BEAM_PLAY_MODES, CYCLE, JOINT_BY_EFFECTOR, joints_of
@@ -77,8 +78,6 @@ class Action:
 def own_pose_sources(config: AgentConfig) -> PoseSource:
     """Where a walk to poses takes its pose from: the server's where sent (unless
     ``config.true_pose`` is off), else the robot's own estimate, both from the beam pose on."""
-    from agent.localization import TruePose, VisionPose
-
     own = VisionPose(config.beam)
     return ServerPoseWhereSent(TruePose(config.beam), own) if config.true_pose else own
 
@@ -196,6 +195,8 @@ class WalkBehaviour:
 
     def _beam(self) -> str:
         if self.play_mode in BEAM_PLAY_MODES:
+            if self.pose is not None:
+                self.pose.reset(self.config.beam)  # a beam puts the robot back where it started
             return commands.beam(*self.config.beam)
         log.info("beam skipped: play mode %s does not allow it", self.play_mode)
         return ""

@@ -5,7 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from agent.goto import GotoConfig, Pose
+from agent.goto import GotoConfig
+from agent.localization import Pose
 
 
 @dataclass(frozen=True)

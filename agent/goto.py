@@ -17,13 +17,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol
 
+from agent.localization import Pose, PoseSource
 from gait import Command
 from protocol.perception import Perception
-
-#: A pose on the field: x, y (m) and heading (deg, 0 = +x, left +).
-Pose = tuple[float, float, float]
 
 
 @dataclass(frozen=True)
@@ -62,15 +59,6 @@ def in_torso_frame(dx: float, dy: float, heading_deg: float) -> tuple[float, flo
 _SLOWEST = 1e-3
 
 
-class PoseSource(Protocol):
-    """Where the robot believes its torso is (``agent.localization``), updated once a cycle."""
-
-    def update(self, perception: Perception, odometry: Command) -> None: ...
-
-    @property
-    def pose(self) -> Pose: ...
-
-
 class ServerPoseWhereSent:
     """The server's ground truth where it sends it, else the robot's own estimate: which one is
     decided by the first perception with vision (``mypos`` in it or not); both are kept until then."""
@@ -85,6 +73,10 @@ class ServerPoseWhereSent:
         vision = perception.vision
         if vision is not None and len(self._candidates) == 2:
             self._candidates = (self._candidates[0] if vision.mypos is not None else self._candidates[1],)
+
+    def reset(self, start: Pose) -> None:
+        for source in self._candidates:
+            source.reset(start)
 
     @property
     def uses_server_pose(self) -> bool:

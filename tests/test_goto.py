@@ -86,6 +86,9 @@ class _Fixed:
     def update(self, perception: Perception, odometry: Command) -> None:
         self.updates += 1
 
+    def reset(self, start: tuple[float, float, float]) -> None:
+        self.pose = start
+
 
 def _perception(vision: Vision | None = None, play_mode: str = "PlayOn") -> Perception:
     game = GameState(play_mode=play_mode, time=0.0)
