@@ -14,8 +14,9 @@ socket path, and scores with the same ``Judge``:
 - every number crosses as the text would carry it: perceptions rounded to 2 decimals
   (``%.2f``), velocity commands to 4 (``%.4f``), the judge's torso to 6 significant digits
   (``%g``) and only when the monitor's delta rule would resend it (a move over 0.005);
-- what this agent does not read is not made: vision, the gyro, foot pressure, hearing, and all
-  body parts but the torso for the judge.
+- what this agent does not read is not made: foot pressure, hearing, and all body parts but the
+  torso for the judge; vision only for an agent that looks (one walking to poses), as the full
+  perception text of that cycle, parsed (its noise drawn as the socket server draws it).
 
 ``tests/test_episode_inprocess.py`` checks that fast and slow gaits walk the same distances and fall
 the same way, to the last digit, here and over the sockets.
@@ -186,8 +187,9 @@ class InProcessStub:
             walk_command=config.command,
         )
         behaviour = WalkBehaviour(agent_config, gait.walker())
-        # an agent that looks gets the perception the sockets would carry, read as it reads it
-        full_text = behaviour.reads_vision
+        # an agent that looks gets, in the cycles the camera sees, the perception the sockets
+        # would carry, read as it reads it (the vision's noise drawn as the server draws it)
+        looks = behaviour.reads_vision
         state = sim.join()
         inbox: list[bytes | np.ndarray | dict[str, float]] = [commands.scene(config.robot_type or None).encode()]
         to_agent: Perception | None = None
@@ -213,8 +215,8 @@ class InProcessStub:
                 sim.step()
                 cycles += 1
                 if state.robot is not None:
-                    if full_text:
-                        to_agent = parse_perception(sim.perception(state, sim.vision_due))
+                    if looks and sim.vision_due:
+                        to_agent = parse_perception(sim.perception(state, True))
                     else:
                         to_agent = _perception(sim, state)
                 if sim.monitor_due:
