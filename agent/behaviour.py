@@ -25,7 +25,7 @@ from agent.config import AgentConfig
 from agent.controller import velocities_towards
 from agent.fall import FallDetector
 from agent.goto import GoTo, ServerPoseWhereSent
-from agent.localization import PoseSource, TruePose, VisionPose
+from agent.localization import PoseSource, TruePose, VisionPose, readable_vision
 from gait import Command, Steerable, Walker
 from protocol import commands
 from protocol.nao import BEAM_PLAY_MODES, CYCLE, JOINT_BY_EFFECTOR, joints_of
@@ -177,7 +177,7 @@ class WalkBehaviour:
         if self.phase is Phase.WALKING:
             pose = self.pose.pose
             gait.command = self.goto.command(pose, gait.max_command, gait.max_backward)
-            if perception.vision is not None and perception.game.time is not None:
+            if perception.game.time is not None and readable_vision(perception) is not None:
                 self.pose_log.append((perception.game.time, *pose))
         else:
             gait.command = Command()

@@ -18,7 +18,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from agent.localization import Pose, PoseSource
+from agent.localization import Pose, PoseSource, readable_vision
 from gait import Command
 from protocol.perception import Perception
 
@@ -70,7 +70,7 @@ class ServerPoseWhereSent:
     def update(self, perception: Perception, odometry: Command) -> None:
         for source in self._candidates:
             source.update(perception, odometry)
-        vision = perception.vision
+        vision = readable_vision(perception)
         if vision is not None and len(self._candidates) == 2:
             self._candidates = (self._candidates[0] if vision.mypos is not None else self._candidates[1],)
 

@@ -42,6 +42,16 @@ from protocol.perception import Perception, Vision
 Pose = tuple[float, float, float]
 
 
+def readable_vision(perception: Perception) -> Vision | None:
+    """This cycle's See, or None: also when it cannot be read. The real server now and then
+    prints ``nan`` for a line end (seen once in some 20,000 cycles, a robot beamed along the
+    course), and the parser refuses the whole See then; that cycle counts as one without vision."""
+    try:
+        return perception.vision
+    except ProtocolError:
+        return None
+
+
 class PoseSource(Protocol):
     """The torso's pose in the field frame, kept up to date once per cycle."""
 
@@ -233,17 +243,6 @@ class _Tracker:
         self._heading += turn
         return forward, left, turn
 
-    @staticmethod
-    def _vision(perception: Perception) -> Vision | None:
-        """This cycle's See, or None: also when it cannot be read. The real server now and then
-        prints ``nan`` for a line end (seen once in some 20,000 cycles, a robot beamed along
-        the course), and the parser refuses the whole See then; that cycle counts as one
-        without vision."""
-        try:
-            return perception.vision
-        except ProtocolError:
-            return None
-
 
 class TruePose(_Tracker):
     """The server's ground truth, moved from the head to the torso, carried by odometry and the
@@ -254,7 +253,7 @@ class TruePose(_Tracker):
 
     def update(self, perception: Perception, odometry: Command) -> None:
         self._advance(perception, odometry)
-        vision = self._vision(perception)
+        vision = readable_vision(perception)
         if vision is None or vision.mypos is None or vision.myorien is None:
             return
         pitch, roll = tilt(self._attitude.up)
@@ -333,7 +332,7 @@ class VisionPose(_Tracker):
             yh + b * hh,
             hh + sh * sh,
         )
-        vision = self._vision(perception)
+        vision = readable_vision(perception)
         if vision is not None:
             self._correct(vision, perception.joints)
 
