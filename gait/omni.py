@@ -116,7 +116,7 @@ class OmniWalker:
 
     def __init__(self, genes: tuple[float, ...]) -> None:
         self.params = OmniParams(*genes)
-        self.command = Command(self.params.max_forward, 0.0, 0.0)
+        self.command = Command(float(self.params.max_forward), 0.0, 0.0)
         self._state = standing(1)
         self._time: float | None = None
         self._gyro = np.zeros((1, 3))

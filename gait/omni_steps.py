@@ -34,26 +34,30 @@ HIP_HALF_WIDTH = 0.055
 _AT_REST = 1e-9
 
 
+#: A gene's value: one robot's float, or an array of one per robot.
+Gene = float | np.ndarray
+
+
 class OmniParams(NamedTuple):
     """The omni walk's genes (``gait.omni.GENE_NAMES`` in order; floats or arrays of one per robot)."""
 
-    period: np.ndarray  # s, one step
-    hip_height: np.ndarray  # m, hip anchor above the sole
-    width: np.ndarray  # m, each foot further out than its hip
-    x_offset: np.ndarray  # m, feet ahead of the hips
-    lean: np.ndarray  # deg, torso pitched forward at the hips
-    lift: np.ndarray  # m, swing foot's height at mid-swing
-    sway: np.ndarray  # m, torso's sideways shift over the support foot
-    double_support: np.ndarray  # share of a step both feet are down
-    max_forward: np.ndarray  # m/s
-    max_backward: np.ndarray  # m/s
-    max_left: np.ndarray  # m/s, either side
-    max_turn: np.ndarray  # deg/s, either way
-    ramp: np.ndarray  # share of the top speed the speed may change per step
-    gyro_pitch: np.ndarray  # deg of ankle pitch per deg/s of pitch rate
-    gyro_roll: np.ndarray  # deg of ankle roll per deg/s of roll rate
-    gyro_hip: np.ndarray  # deg of hip pitch per deg/s of pitch rate
-    arm: np.ndarray  # deg of shoulder pitch per m of the other foot ahead
+    period: Gene  # s, one step
+    hip_height: Gene  # m, hip anchor above the sole
+    width: Gene  # m, each foot further out than its hip
+    x_offset: Gene  # m, feet ahead of the hips
+    lean: Gene  # deg, torso pitched forward at the hips
+    lift: Gene  # m, swing foot's height at mid-swing
+    sway: Gene  # m, torso's sideways shift over the support foot
+    double_support: Gene  # share of a step both feet are down
+    max_forward: Gene  # m/s
+    max_backward: Gene  # m/s
+    max_left: Gene  # m/s, either side
+    max_turn: Gene  # deg/s, either way
+    ramp: Gene  # share of the top speed the speed may change per step
+    gyro_pitch: Gene  # deg of ankle pitch per deg/s of pitch rate
+    gyro_roll: Gene  # deg of ankle roll per deg/s of roll rate
+    gyro_hip: Gene  # deg of hip pitch per deg/s of pitch rate
+    arm: Gene  # deg of shoulder pitch per m of the other foot ahead
 
 
 class StepState(NamedTuple):
