@@ -141,7 +141,7 @@ def advance(
         swing=swing,
         walking=(state.walking & ~stop) | start_now,
         speed=np.where(stop[:, None], 0.0, speed),
-        start=np.where(new[:, None, None], state.end, state.start),
+        start=np.where((new | stop)[:, None, None], state.end, state.start),
         end=np.where(new[:, None, None], end, np.where(stop[:, None, None], 0.0, state.end)),
     )
     # after a wrap, the new support foot's share of the step walked so far
