@@ -92,11 +92,11 @@ def joint_angles(state: StepState, p: OmniParams, gyro: np.ndarray) -> np.ndarra
     sole, rotation = sole_targets(state, p)
     legs = [np.degrees(leg_ik(side, sole[:, k], rotation[:, k])) for k, side in enumerate("lr")]
     out = np.concatenate([*legs, np.zeros((len(sole), 2))], axis=-1)
-    pitch_rate, roll_rate = gyro[:, 0:1], gyro[:, 1:2]
+    pitch_rate, roll_rate = gyro[:, 0], gyro[:, 1]
     for first in (0, 6):
-        out[:, first + 2 : first + 3] += np.asarray(p.gyro_hip) * pitch_rate
-        out[:, first + 4 : first + 5] += np.asarray(p.gyro_pitch) * pitch_rate
-        out[:, first + 5 : first + 6] += np.asarray(p.gyro_roll) * roll_rate
+        out[:, first + 2] += np.asarray(p.gyro_hip) * pitch_rate
+        out[:, first + 4] += np.asarray(p.gyro_pitch) * pitch_rate
+        out[:, first + 5] += np.asarray(p.gyro_roll) * roll_rate
     offsets, _ = foot_offsets(state, p)
     ahead = offsets[:, 1, 0] - offsets[:, 0, 0]  # right foot ahead of the left (m)
     out[:, 12] = ARMS_DOWN + np.asarray(p.arm) * ahead  # the left arm with the right leg

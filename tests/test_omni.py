@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 from gait import DEFAULT_FAMILY, FAMILIES, OMNI, Command, Steerable, load_gait, save_gait
 from gait.leg_ik import LEG_LENGTH, leg_fk, leg_ik, rot_x, rot_y, rot_z
 from gait.nao_legs import LIMIT_MARGIN_DEG
-from gait.omni import EFFECTORS, OmniWalker
-from gait.omni_steps import OmniParams, clip_command
+from gait.omni import EFFECTORS, OmniWalker, joint_angles
+from gait.omni_steps import OmniParams, advance, clip_command, standing
 from optimizer.episode import EpisodeConfig, EpisodeRunner
 from protocol.nao import JOINT_BY_EFFECTOR, JOINTS
 
@@ -186,3 +186,25 @@ def test_the_family_is_registered_after_the_default_and_its_box_holds_the_robot(
     repaired = OMNI.repair(np.full(len(OMNI.gene_names), 1e6), OMNI.bounds)
     OMNI.gait(repaired)
     assert JOINT_BY_EFFECTOR["lle1"].max_deg == 1.0  # le1 turns a foot outwards only: the leading foot turns
+
+
+def test_many_robots_step_at_once_as_each_alone() -> None:
+    """The per-cycle math takes a robot axis: three robots with their own genes, commands and
+    gyros, stepped together, get the targets and odometry each gets alone."""
+    rng = np.random.default_rng(5)
+    low, high = OMNI.bounds[:, 0], OMNI.bounds[:, 1]
+    genes = low + rng.random((3, len(low))) * (high - low)
+    commands = np.array([[0.3, 0.1, 20.0], [-0.2, -0.1, -30.0], [0.0, 0.2, 0.0]])
+    gyros = rng.normal(0.0, 30.0, (3, 3))
+    together = standing(3)
+    params = OmniParams(*genes.T)
+    alone = [standing(1) for _ in range(3)]
+    for _ in range(60):
+        together, odometry = advance(together, CYCLE, clip_command(commands, params), params)
+        angles = joint_angles(together, params, gyros)
+        for k in range(3):
+            p = OmniParams(*genes[k])
+            alone[k], own = advance(alone[k], CYCLE, clip_command(commands[k : k + 1], p), p)
+            assert np.allclose(own[0], odometry[k]) and np.allclose(
+                joint_angles(alone[k], p, gyros[k : k + 1])[0], angles[k]
+            )
