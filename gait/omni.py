@@ -8,7 +8,9 @@ sway, lean, swing shape, top speeds, accelerations, feedback gains, arm swing) a
 yawed: turning is le1, its 45-deg axis compensated by the other hip joints) into joint angles.
 
 Feedback (``sense``): the gyro's pitch rate moves both ankle pitches and hip pitches, its roll
-rate both ankle rolls, each by its gain (either sign: which way steadies is the search's to
+rate both ankle rolls; the torso's tilt, read from the accelerometer (smoothed over ~0.1 s: a
+walk's own accelerations average out, a fall's lean stays), moves the hip pitches (pitch beyond
+``lean``) and hip rolls; each by its gain, of either sign (which way steadies is the search's to
 find, not an assumption about the joints' axes). Foot pressure is not used: the optimizer's
 in-process episodes do not make it.
 
@@ -49,10 +51,14 @@ GENE_UNITS: dict[str, str] = {
     "gyro_roll": "deg/(deg/s)",
     "gyro_hip": "deg/(deg/s)",
     "arm": "deg/m",
+    "tilt_pitch": "deg/deg",
+    "tilt_roll": "deg/deg",
 }
 
 #: The arms hang at -90 deg of shoulder pitch (docs/robot_and_server.md section 1).
 ARMS_DOWN = -90.0
+#: Share of the gap to each new tilt reading taken per cycle: a 0.1 s time constant, five cycles.
+TILT_SMOOTHING = 0.2
 #: The shortest step: 5 control cycles, 2.5 times the server's action latency.
 _SHORTEST_STEP = 0.1
 #: The hip may stand no higher than this below the leg's full length (m): a straight knee has no
@@ -78,6 +84,8 @@ BOUNDS: np.ndarray = np.array(
         [-0.2, 0.2],  # gyro_roll
         [-0.2, 0.2],  # gyro_hip
         [-400.0, 400.0],  # arm
+        [-1.0, 1.0],  # tilt_pitch
+        [-1.0, 1.0],  # tilt_roll
     ]
 )
 
@@ -85,10 +93,19 @@ BOUNDS: np.ndarray = np.array(
 EFFECTORS: tuple[str, ...] = tuple(f"{side}le{k}" for side in "lr" for k in range(1, 7)) + ("lae1", "rae1")
 
 
-def joint_angles(state: StepState, p: OmniParams, gyro: np.ndarray) -> np.ndarray:
+def tilt(acc: np.ndarray) -> np.ndarray:
+    """The torso's pitch forward and roll to the right (n, 2; deg) that put gravity where the
+    accelerometer (n, 3; m/s^2 in the torso frame, x right, y forward, z up) feels it."""
+    pitch = np.degrees(np.arctan2(-acc[:, 1], acc[:, 2]))
+    roll = np.degrees(np.arctan2(-acc[:, 0], acc[:, 2]))
+    return np.stack([pitch, roll], axis=-1)
+
+
+def joint_angles(state: StepState, p: OmniParams, gyro: np.ndarray, tilted: np.ndarray) -> np.ndarray:
     """Joint targets (n, 14; degrees, ``EFFECTORS`` order, not yet clamped) for each robot's
-    planned soles, plus the gyro's feedback (``gyro`` (n, 3), deg/s in the torso frame: x is the
-    pitch rate, y the roll rate) and the arm swing."""
+    planned soles, plus the feedback of the gyro (``gyro`` (n, 3), deg/s in the torso frame: x
+    is the pitch rate, y the roll rate) and of the torso's tilt (``tilted`` (n, 2), ``tilt``'s),
+    and the arm swing."""
     sole, rotation = sole_targets(state, p)
     legs = [np.degrees(leg_ik(side, sole[:, k], rotation[:, k])) for k, side in enumerate("lr")]
     out = np.concatenate([*legs, np.zeros((len(sole), 2))], axis=-1)
@@ -97,6 +114,8 @@ def joint_angles(state: StepState, p: OmniParams, gyro: np.ndarray) -> np.ndarra
         out[:, first + 2] += np.asarray(p.gyro_hip) * pitch_rate
         out[:, first + 4] += np.asarray(p.gyro_pitch) * pitch_rate
         out[:, first + 5] += np.asarray(p.gyro_roll) * roll_rate
+        out[:, first + 2] += np.asarray(p.tilt_pitch) * (tilted[:, 0] - np.asarray(p.lean))
+        out[:, first + 1] += np.asarray(p.tilt_roll) * tilted[:, 1]
     offsets, _ = foot_offsets(state, p)
     ahead = offsets[:, 1, 0] - offsets[:, 0, 0]  # right foot ahead of the left (m)
     out[:, 12] = ARMS_DOWN + np.asarray(p.arm) * ahead  # the left arm with the right leg
@@ -120,6 +139,7 @@ class OmniWalker:
         self._state = standing(1)
         self._time: float | None = None
         self._gyro = np.zeros((1, 3))
+        self._tilt = np.array([[float(self.params.lean), 0.0]])  # as planned until felt
         self._pose = np.zeros(3)  # x m, y m, heading rad since the last ``moved``
         self._limits: tuple[Limits, tuple[np.ndarray, np.ndarray]] | None = None
 
@@ -140,6 +160,8 @@ class OmniWalker:
     def sense(self, gyro: Vec3 | None, acc: Vec3 | None, joints: Mapping[str, float]) -> None:
         if gyro is not None:
             self._gyro = np.array([gyro], dtype=float)
+        if acc is not None and any(acc):
+            self._tilt += TILT_SMOOTHING * (tilt(np.array([acc], dtype=float)) - self._tilt)
 
     def moved(self) -> Command:
         x, y, heading = self._pose
@@ -156,7 +178,7 @@ class OmniWalker:
         if self._limits is None or self._limits[0] is not limits:
             self._limits = (limits, _limits_array(limits))
         low, high = self._limits[1]
-        angles = np.minimum(np.maximum(joint_angles(self._state, p, self._gyro)[0], low), high)
+        angles = np.minimum(np.maximum(joint_angles(self._state, p, self._gyro, self._tilt)[0], low), high)
         return dict(zip(EFFECTORS, angles.tolist()))
 
     def _integrate(self, step: np.ndarray) -> None:
@@ -184,7 +206,7 @@ def _walker(genes: tuple[float, ...]) -> OmniWalker:
 
 OMNI = GaitFamily(
     name="omni",
-    about="an omnidirectional walk engine: steps planned from a command, analytic leg IK, gyro feedback (17 genes)",
+    about="an omnidirectional walk engine: steps from a command, analytic leg IK, gyro and tilt feedback (19 genes)",
     gene_names=GENE_NAMES,
     gene_units=GENE_UNITS,
     boxes={"robot": BOUNDS},

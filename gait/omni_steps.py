@@ -58,6 +58,8 @@ class OmniParams(NamedTuple):
     gyro_roll: Gene  # deg of ankle roll per deg/s of roll rate
     gyro_hip: Gene  # deg of hip pitch per deg/s of pitch rate
     arm: Gene  # deg of shoulder pitch per m of the other foot ahead
+    tilt_pitch: Gene  # deg of hip pitch per deg the torso pitches beyond ``lean`` (accelerometer)
+    tilt_roll: Gene  # deg of hip roll per deg the torso rolls (accelerometer)
 
 
 class StepState(NamedTuple):

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from gait import DEFAULT_FAMILY, FAMILIES, OMNI, Command, Steerable, load_gait, save_gait
 from gait.leg_ik import LEG_LENGTH, leg_fk, leg_ik, rot_x, rot_y, rot_z
 from gait.nao_legs import LIMIT_MARGIN_DEG
-from gait.omni import EFFECTORS, OmniWalker, joint_angles
+from gait.omni import EFFECTORS, OmniWalker, joint_angles, tilt
 from gait.omni_steps import OmniParams, advance, clip_command, standing
 from optimizer.episode import EpisodeConfig, EpisodeRunner
 from protocol.nao import JOINT_BY_EFFECTOR, JOINTS
@@ -48,15 +48,15 @@ def walk(walker: OmniWalker, command: Command, seconds: float, t0: float = 0.04)
 
 
 @settings(max_examples=40, deadline=None)
-@given(g=genes(), steps=st.lists(st.tuples(commands, gyros, st.integers(1, 40)), min_size=1, max_size=4))
+@given(g=genes(), steps=st.lists(st.tuples(commands, gyros, gyros, st.integers(1, 40)), min_size=1, max_size=4))
 def test_targets_stay_inside_the_limits_for_any_genes_and_commands(g, steps) -> None:
     walker = OMNI.gait(g).walker()
     assert isinstance(walker, OmniWalker)
     t = 0.04
-    for command, gyro, cycles in steps:
+    for command, gyro, acc, cycles in steps:
         walker.command = command
         for _ in range(cycles):
-            walker.sense(gyro, (0.0, 0.0, 9.81), {})
+            walker.sense(gyro, acc, {})
             targets = walker.joint_targets(t, LIMITS)
             t += CYCLE
             assert set(targets) == set(EFFECTORS)
@@ -196,15 +196,21 @@ def test_many_robots_step_at_once_as_each_alone() -> None:
     genes = low + rng.random((3, len(low))) * (high - low)
     commands = np.array([[0.3, 0.1, 20.0], [-0.2, -0.1, -30.0], [0.0, 0.2, 0.0]])
     gyros = rng.normal(0.0, 30.0, (3, 3))
+    tilts = rng.normal(0.0, 10.0, (3, 2))
     together = standing(3)
     params = OmniParams(*genes.T)
     alone = [standing(1) for _ in range(3)]
     for _ in range(60):
         together, odometry = advance(together, CYCLE, clip_command(commands, params), params)
-        angles = joint_angles(together, params, gyros)
+        angles = joint_angles(together, params, gyros, tilts)
         for k in range(3):
             p = OmniParams(*genes[k])
             alone[k], own = advance(alone[k], CYCLE, clip_command(commands[k : k + 1], p), p)
             assert np.allclose(own[0], odometry[k]) and np.allclose(
-                joint_angles(alone[k], p, gyros[k : k + 1])[0], angles[k]
+                joint_angles(alone[k], p, gyros[k : k + 1], tilts[k : k + 1])[0], angles[k]
             )
+
+
+def test_the_tilt_is_read_from_gravity_in_the_accelerometer() -> None:
+    upright, face_down, on_right_side = tilt(np.array([[0.0, 0.0, 9.81], [0.0, -9.8, 1.0], [-9.81, 0.0, 0.0]]))
+    assert np.allclose(upright, 0.0) and face_down[0] > 80.0 and on_right_side[1] == pytest.approx(90.0)
