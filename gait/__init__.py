@@ -8,6 +8,7 @@ from gait.families import DEFAULT_FAMILY, FAMILIES, family_named
 from gait.family import Command, Gait, GaitFamily, Steerable, Walker
 from gait.gait_file import DEFAULT_GAIT_PATH, GaitFileError, load_gait, save_gait
 from gait.nao_legs import LEG_EFFECTORS, leg_joint_targets
+from gait.omni import OMNI, OmniWalker
 from gait.params import BOUNDS_BY_NAME, GENE_BOUNDS, GENE_NAMES, LEGACY_GENE_BOUNDS, TFSParams, repair_genes
 from gait.tfs import LegAngles, TFSGait
 from gait.tfs_family import TFS
@@ -20,6 +21,8 @@ __all__ = [
     "TFS",
     "TFS_PLUS",
     "TFS_START",
+    "OMNI",
+    "OmniWalker",
     "family_named",
     "Gait",
     "GaitFamily",

@@ -10,12 +10,13 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from gait.family import GaitFamily
+from gait.omni import OMNI
 from gait.tfs_family import TFS
 from gait.tfs_plus import TFS_PLUS
 from gait.tfs_start import TFS_START
 
 #: Every family, by name; the first is the default.
-FAMILIES: Mapping[str, GaitFamily] = {family.name: family for family in (TFS, TFS_PLUS, TFS_START)}
+FAMILIES: Mapping[str, GaitFamily] = {family.name: family for family in (TFS, TFS_PLUS, TFS_START, OMNI)}
 
 DEFAULT_FAMILY: str = TFS.name
 
