@@ -16,7 +16,11 @@ keep the legs apart and inside the hip's range:
   feet side by side, after which the generator stands still until the command is not zero.
 
 All functions take arrays with a leading robot axis (one row per robot; ``OmniParams`` fields
-broadcast against it), so many robots step at once; ``gait.omni`` wraps one row.
+broadcast against it), so many robots step at once; ``gait.omni`` wraps one row. The math is in
+numba kernels (``clip_into``, ``advance_into``, ``feet_into``) that loop over the rows with scalar
+math inside and write into arrays the caller gives, the genes as ``param_rows``: numpy's overhead
+on arrays of a few elements was most of a cycle. The functions without ``_into`` make the arrays;
+a walker that keeps its own makes none per cycle.
 """
 
 from __future__ import annotations
