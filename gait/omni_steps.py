@@ -26,6 +26,7 @@ a walker that keeps its own makes none per cycle.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -78,8 +79,13 @@ class StepState(NamedTuple):
 
 def standing(n: int) -> StepState:
     """``n`` robots standing, feet side by side."""
+    return empty_state(n, np.zeros)
+
+
+def empty_state(n: int, make: Callable[..., np.ndarray] = np.empty) -> StepState:
+    """A state of ``n`` robots (arrays by ``make``: not set yet, ``advance_into``'s output)."""
     return StepState(
-        np.zeros(n), np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.bool_), np.zeros((n, 3)), *np.zeros((2, n, 2, 3))
+        make(n), make(n, dtype=np.int64), make(n, dtype=np.bool_), make((n, 3)), make((n, 2, 3)), make((n, 2, 3))
     )
 
 
@@ -101,13 +107,6 @@ def clip_command(command: np.ndarray, p: OmniParams) -> np.ndarray:
     out = np.empty_like(command)
     clip_into(command, param_rows(p), out)
     return out
-
-
-def empty_state(n: int) -> StepState:
-    """A state of ``n`` robots to be written (``advance_into``'s output)."""
-    return StepState(
-        np.empty(n), np.empty(n, dtype=np.int64), np.empty(n, dtype=np.bool_), np.empty((n, 3)), *np.empty((2, n, 2, 3))
-    )
 
 
 def advance(
