@@ -2,8 +2,10 @@
 sole anywhere in reach with any orientation (the omni walk asks for flat, yawed soles).
 
 Why analytic: an omnidirectional walk plans where the feet go, not joint angles; solving the six
-joints in closed form costs a few array operations a cycle, for one robot or many (every function
-takes arrays with any leading axes, e.g. one row per robot).
+joints in closed form costs about a microsecond a leg, compiled (``ik_into``, a numba kernel over
+rows with scalar math inside: numpy's overhead on 3 x 3 arrays cost ~1 ms a cycle), for one robot
+or many (``leg_ik`` takes arrays with any leading axes, e.g. one row per robot). The forward
+kinematics, for checks rather than cycles, stays numpy.
 
 Frames and figures are the robot model's (docs/robot_and_server.md sections 1-3): the body frame
 has +x to the robot's right, +y forward, +z up; each hinge turns by the right-hand rule about its
@@ -24,6 +26,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 #: Hip anchor of each side relative to the torso centre (m, body frame): le1, le2 and le3 meet there.
 HIP_ANCHOR: dict[str, tuple[float, float, float]] = {"l": (-0.055, -0.010, -0.115), "r": (0.055, -0.010, -0.115)}
@@ -102,28 +105,103 @@ def leg_ik(side: str, sole: np.ndarray, foot: np.ndarray) -> np.ndarray:
     the rotation ``foot``. Out of reach, the leg stretches towards the target (never NaN);
     joint limits are the caller's."""
     sole = np.asarray(sole, dtype=float)
-    roll_anchor = sole - _apply(foot, SOLE_BELOW_ANKLE)
-    foot_t = np.swapaxes(foot, -1, -2)
-    a6 = np.zeros(sole.shape[:-1])
-    for _ in range(_PASSES):
-        pitch_anchor = roll_anchor - _apply(foot @ np.swapaxes(rot_y(a6), -1, -2), ANKLE_GAP)
-        q = _apply(foot_t, pitch_anchor)  # the ankle pitch axis -> hip, seen from the foot (negated)
-        down = np.where(q[..., 2] <= 0.0, 1.0, -1.0)  # le6 within +-90 deg, whichever way the hip lies
-        a6 = np.arctan2(down * q[..., 0], -down * q[..., 2])
-    w = _apply(rot_y(a6), q)  # in the ankle's y-z plane
-    reach = np.clip((np.sum(w * w, axis=-1) - _L1**2 - _L2**2) / (2 * _L1 * _L2), -1.0, 1.0)
-    bend = np.arccos(reach)
-    a4 = _DELTA - bend
-    # v: the same vector as the leg's joints make it, before the ankle pitch turns it onto w
-    vy = _L1 * np.sin(bend)
-    vz = -_L1 * np.cos(bend) - _L2
-    a5 = np.arctan2(vz, vy) - np.arctan2(w[..., 2], w[..., 1])
-    a5 = (a5 + math.pi) % (2 * math.pi) - math.pi
-    r123 = foot @ np.swapaxes(rot_y(a6), -1, -2) @ np.swapaxes(rot_x(a5), -1, -2) @ np.swapaxes(rot_x(a4), -1, -2)
-    m = (rot_y(_Q) if side == "r" else rot_y(-_Q)) @ r123  # = Rz(+-le1) Ry(le2 +- 45 deg) Rx(le3)
-    yaw = np.arctan2(m[..., 1, 0], m[..., 0, 0])
-    pitch = -np.arcsin(np.clip(m[..., 2, 0], -1.0, 1.0))
-    a3 = np.arctan2(m[..., 2, 1], m[..., 2, 2])
-    a1 = yaw if side == "r" else -yaw
-    a2 = pitch - _Q if side == "r" else pitch + _Q
-    return np.stack([a1, a2, a3, a4, a5, a6], axis=-1)
+    rows = np.ascontiguousarray(sole.reshape(-1, 3))
+    feet = np.ascontiguousarray(np.broadcast_to(np.asarray(foot, dtype=float), sole.shape + (3,)).reshape(-1, 3, 3))
+    out = np.empty((len(rows), 6))
+    ik_into(_RIGHT if side == "r" else _LEFT, rows, feet, out)
+    return out.reshape(sole.shape[:-1] + (6,))
+
+
+def legs_ik(sole: np.ndarray, foot: np.ndarray) -> np.ndarray:
+    """``leg_ik`` of both legs of each robot at once: ``sole`` (n, 2, 3) and ``foot`` (n, 2, 3, 3)
+    the left's then the right's; joint angles (n, 2, 6)."""
+    out = np.empty((len(sole), 2, 6))
+    ik_into(LEFT_RIGHT, sole.reshape(-1, 3), foot.reshape(-1, 3, 3), out.reshape(-1, 6))
+    return out
+
+
+#: which leg each row is (``ik_into``'s rows cycle through it): all left, all right, in pairs
+_LEFT, _RIGHT, LEFT_RIGHT = np.array([False]), np.array([True]), np.array([False, True])
+#: the sole below the ankle roll axis and the gap between the ankle's axes (m, along the foot's z)
+_SOLE_Z = float(SOLE_BELOW_ANKLE[2])
+_GAP_Z = float(ANKLE_GAP[2])
+_L1_SQ = _L1**2
+_L2_SQ = _L2**2
+_TWO_L1_L2 = 2 * _L1 * _L2
+_TWO_PI = 2 * math.pi
+#: rot_y(45 deg) (right leg) and rot_y(-45 deg) (left leg)
+_TURN_RIGHT = np.ascontiguousarray(rot_y(_Q))
+_TURN_LEFT = np.ascontiguousarray(rot_y(-_Q))
+
+
+@njit(cache=True)
+def _times(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
+    """out = a @ b (3 x 3)."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+
+
+@njit(cache=True)
+def _times_rot_t(a: np.ndarray, angle: float, i: int, j: int, out: np.ndarray) -> None:
+    """out = a @ R.T, R the rotation by ``angle`` in the plane of axes i -> j (``_rot``'s)."""
+    c, s = math.cos(angle), math.sin(angle)
+    k = 3 - i - j
+    for r in range(3):
+        # R.T has [i, i] = [j, j] = c, [i, j] = s, [j, i] = -s, [k, k] = 1
+        out[r, i] = a[r, i] * c + a[r, j] * -s
+        out[r, j] = a[r, i] * s + a[r, j] * c
+        out[r, k] = a[r, k]
+
+
+@njit(cache=True)
+def ik_into(legs: np.ndarray, soles: np.ndarray, feet: np.ndarray, out: np.ndarray) -> None:
+    """``leg_ik`` of each row of ``soles`` (m, 3) and ``feet`` (m, 3, 3) into ``out`` (m, 6): row
+    r the right leg's where ``legs[r % len(legs)]``, else the left's."""
+    m1 = np.empty((3, 3))
+    m2 = np.empty((3, 3))
+    m = np.empty((3, 3))
+    for r in range(len(soles)):
+        f = feet[r]
+        right = legs[r % len(legs)]
+        ra0 = soles[r, 0] - f[0, 2] * _SOLE_Z
+        ra1 = soles[r, 1] - f[1, 2] * _SOLE_Z
+        ra2 = soles[r, 2] - f[2, 2] * _SOLE_Z
+        a6 = 0.0
+        q0 = q1 = q2 = 0.0
+        for _ in range(_PASSES):
+            c, s = math.cos(a6), math.sin(a6)
+            # the pitch anchor: the roll anchor less (foot @ rot_y(a6).T) @ ANKLE_GAP
+            pa0 = ra0 - (f[0, 0] * -s + f[0, 2] * c) * _GAP_Z
+            pa1 = ra1 - (f[1, 0] * -s + f[1, 2] * c) * _GAP_Z
+            pa2 = ra2 - (f[2, 0] * -s + f[2, 2] * c) * _GAP_Z
+            # the ankle pitch axis -> hip, seen from the foot (negated)
+            q0 = f[0, 0] * pa0 + f[1, 0] * pa1 + f[2, 0] * pa2
+            q1 = f[0, 1] * pa0 + f[1, 1] * pa1 + f[2, 1] * pa2
+            q2 = f[0, 2] * pa0 + f[1, 2] * pa1 + f[2, 2] * pa2
+            down = 1.0 if q2 <= 0.0 else -1.0  # le6 within +-90 deg, whichever way the hip lies
+            a6 = math.atan2(down * q0, -down * q2)
+        c, s = math.cos(a6), math.sin(a6)
+        w1 = q1  # w: q in the ankle's y-z plane
+        w2 = -s * q0 + c * q2
+        w0 = c * q0 + s * q2
+        reach = min(max((w0 * w0 + w1 * w1 + w2 * w2 - _L1_SQ - _L2_SQ) / _TWO_L1_L2, -1.0), 1.0)
+        bend = math.acos(reach)
+        a4 = _DELTA - bend
+        # v: the same vector as the leg's joints make it, before the ankle pitch turns it onto w
+        vy = _L1 * math.sin(bend)
+        vz = -_L1 * math.cos(bend) - _L2
+        a5 = math.atan2(vz, vy) - math.atan2(w2, w1)
+        a5 = (a5 + math.pi) % _TWO_PI - math.pi
+        _times_rot_t(f, a6, 2, 0, m1)  # foot @ rot_y(a6).T
+        _times_rot_t(m1, a5, 1, 2, m2)  # @ rot_x(a5).T
+        _times_rot_t(m2, a4, 1, 2, m1)  # @ rot_x(a4).T: le1 * le2 * le3
+        _times(_TURN_RIGHT if right else _TURN_LEFT, m1, m)  # = Rz(+-le1) Ry(le2 +- 45 deg) Rx(le3)
+        yaw = math.atan2(m[1, 0], m[0, 0])
+        pitch = -math.asin(min(max(m[2, 0], -1.0), 1.0))
+        out[r, 0] = yaw if right else -yaw
+        out[r, 1] = pitch - _Q if right else pitch + _Q
+        out[r, 2] = math.atan2(m[2, 1], m[2, 2])
+        out[r, 3] = a4
+        out[r, 4] = a5
+        out[r, 5] = a6

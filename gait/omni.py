@@ -14,6 +14,13 @@ walk's own accelerations average out, a fall's lean stays), moves the hip pitche
 find, not an assumption about the joints' axes). Foot pressure is not used: the optimizer's
 in-process episodes do not make it.
 
+Speed: the per-cycle math is numba kernels over robot rows (here ``tilt_into`` and
+``targets_into``; the steps' and the legs' in their modules, each kernel calling only kernels of
+its own file, as numba's disk cache checks a kernel against its own file only). The walker keeps
+the arrays they write, so a cycle (``sense``, ``joint_targets``, ``moved``) makes none and costs
+some 30 us (``bench.bench_omni_cycle``); the first walker of a process loads the kernels
+(``warm_up``).
+
 At construction the command is full forward, so the straight-walk objective (paper eq. 9) and
 every search, check and card take an omni gait unchanged. The genes' box keeps each gene where
 the robot can follow it (hip height below the leg's length, lifts and sways a few cm, steps of
@@ -26,11 +33,22 @@ import math
 from collections.abc import Mapping
 
 import numpy as np
+from numba import njit
 
 from gait.family import Command, GaitFamily, Limits, Vec3
-from gait.leg_ik import LEG_LENGTH, leg_ik
+from gait.leg_ik import LEFT_RIGHT, LEG_LENGTH, ik_into, legs_ik
 from gait.nao_legs import LIMIT_MARGIN_DEG
-from gait.omni_steps import OmniParams, StepState, advance, clip_command, foot_offsets, sole_targets, standing
+from gait.omni_steps import (
+    OmniParams,
+    StepState,
+    advance_into,
+    clip_into,
+    empty_state,
+    feet,
+    feet_into,
+    param_rows,
+    standing,
+)
 
 GENE_NAMES: tuple[str, ...] = OmniParams._fields
 GENE_UNITS: dict[str, str] = {
@@ -96,9 +114,10 @@ EFFECTORS: tuple[str, ...] = tuple(f"{side}le{k}" for side in "lr" for k in rang
 def tilt(acc: np.ndarray) -> np.ndarray:
     """The torso's pitch forward and roll to the right (n, 2; deg) that put gravity where the
     accelerometer (n, 3; m/s^2 in the torso frame, x right, y forward, z up) feels it."""
-    pitch = np.degrees(np.arctan2(-acc[:, 1], acc[:, 2]))
-    roll = np.degrees(np.arctan2(-acc[:, 0], acc[:, 2]))
-    return np.stack([pitch, roll], axis=-1)
+    acc = np.ascontiguousarray(acc, dtype=float)
+    out = np.zeros((len(acc), 2))
+    tilt_into(acc, 1.0, out)
+    return out
 
 
 def joint_angles(state: StepState, p: OmniParams, gyro: np.ndarray, tilted: np.ndarray) -> np.ndarray:
@@ -106,21 +125,68 @@ def joint_angles(state: StepState, p: OmniParams, gyro: np.ndarray, tilted: np.n
     planned soles, plus the feedback of the gyro (``gyro`` (n, 3), deg/s in the torso frame: x
     is the pitch rate, y the roll rate) and of the torso's tilt (``tilted`` (n, 2), ``tilt``'s),
     and the arm swing."""
-    sole, rotation = sole_targets(state, p)
-    legs = [np.degrees(leg_ik(side, sole[:, k], rotation[:, k])) for k, side in enumerate("lr")]
-    out = np.concatenate([*legs, np.zeros((len(sole), 2))], axis=-1)
-    pitch_rate, roll_rate = gyro[:, 0], gyro[:, 1]
-    for first in (0, 6):
-        out[:, first + 2] += np.asarray(p.gyro_hip) * pitch_rate
-        out[:, first + 4] += np.asarray(p.gyro_pitch) * pitch_rate
-        out[:, first + 5] += np.asarray(p.gyro_roll) * roll_rate
-        out[:, first + 2] += np.asarray(p.tilt_pitch) * (tilted[:, 0] - np.asarray(p.lean))
-        out[:, first + 1] += np.asarray(p.tilt_roll) * tilted[:, 1]
-    offsets, _ = foot_offsets(state, p)
-    ahead = offsets[:, 1, 0] - offsets[:, 0, 0]  # right foot ahead of the left (m)
-    out[:, 12] = ARMS_DOWN + np.asarray(p.arm) * ahead  # the left arm with the right leg
-    out[:, 13] = ARMS_DOWN - np.asarray(p.arm) * ahead
+    offsets, _, sole, rotation = feet(state, p)
+    gyro, tilted = np.ascontiguousarray(gyro, dtype=float), np.ascontiguousarray(tilted, dtype=float)
+    out = np.empty((len(sole), len(EFFECTORS)))
+    targets_into(legs_ik(sole, rotation), gyro, tilted, param_rows(p), offsets, _NO_LOW, _NO_HIGH, out)
     return out
+
+
+_NO_LOW, _NO_HIGH = np.full(len(EFFECTORS), -np.inf), np.full(len(EFFECTORS), np.inf)
+_DEG = 180.0 / math.pi
+#: the genes' columns in ``param_rows`` (literal: a compiled kernel keeps the values it was compiled with)
+_LEAN, _GYRO_PITCH, _GYRO_ROLL, _GYRO_HIP, _ARM, _TILT_PITCH, _TILT_ROLL = 4, 13, 14, 15, 16, 17, 18
+assert [GENE_NAMES[k] for k in (_LEAN, _GYRO_PITCH, _GYRO_ROLL, _GYRO_HIP, _ARM, _TILT_PITCH, _TILT_ROLL)] == [
+    "lean",
+    "gyro_pitch",
+    "gyro_roll",
+    "gyro_hip",
+    "arm",
+    "tilt_pitch",
+    "tilt_roll",
+]
+
+
+@njit(cache=True)
+def tilt_into(acc: np.ndarray, share: float, tilted: np.ndarray) -> None:
+    """Moves ``tilted`` (n, 2) by ``share`` of the way to ``tilt(acc)`` (share 1 from zeros: sets it)."""
+    for r in range(len(acc)):
+        pitch = math.atan2(-acc[r, 1], acc[r, 2]) * _DEG
+        roll = math.atan2(-acc[r, 0], acc[r, 2]) * _DEG
+        tilted[r, 0] += share * (pitch - tilted[r, 0])
+        tilted[r, 1] += share * (roll - tilted[r, 1])
+
+
+@njit(cache=True)
+def targets_into(
+    legs: np.ndarray,
+    gyro: np.ndarray,
+    tilted: np.ndarray,
+    genes: np.ndarray,
+    offsets: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """``joint_angles`` into ``out``, from the legs' angles (n, 2, 6; rad) and the feet's offsets
+    (n, 2, 3), the genes as ``gait.omni_steps.param_rows``; each clamped into [low, high]."""
+    for r in range(len(legs)):
+        g = genes[r if len(genes) > 1 else 0]
+        pitch_rate, roll_rate = gyro[r, 0], gyro[r, 1]
+        for leg in range(2):
+            first = 6 * leg
+            for k in range(6):
+                out[r, first + k] = legs[r, leg, k] * _DEG
+            out[r, first + 2] += g[_GYRO_HIP] * pitch_rate
+            out[r, first + 4] += g[_GYRO_PITCH] * pitch_rate
+            out[r, first + 5] += g[_GYRO_ROLL] * roll_rate
+            out[r, first + 2] += g[_TILT_PITCH] * (tilted[r, 0] - g[_LEAN])
+            out[r, first + 1] += g[_TILT_ROLL] * tilted[r, 1]
+        ahead = offsets[r, 1, 0] - offsets[r, 0, 0]  # right foot ahead of the left (m)
+        out[r, 12] = ARMS_DOWN + g[_ARM] * ahead  # the left arm with the right leg
+        out[r, 13] = ARMS_DOWN - g[_ARM] * ahead
+        for k in range(len(low)):
+            out[r, k] = min(max(out[r, k], low[k]), high[k])
 
 
 def _limits_array(limits: Limits) -> tuple[np.ndarray, np.ndarray]:
@@ -131,17 +197,32 @@ def _limits_array(limits: Limits) -> tuple[np.ndarray, np.ndarray]:
 
 class OmniWalker:
     """One robot's omni walk (``gait.family.Steerable``): the step generator's row, its clock,
-    the gyro it last felt and the odometry not yet collected."""
+    the gyro it last felt and the odometry not yet collected. Each cycle runs the kernels on
+    arrays of its own (a row each), made once: no array is made per cycle."""
 
     def __init__(self, genes: tuple[float, ...]) -> None:
         self.params = OmniParams(*genes)
         self.command = Command(float(self.params.max_forward), 0.0, 0.0)
-        self._state = standing(1)
+        self._genes = param_rows(self.params)
+        self._state, self._next = standing(1), empty_state(1)
         self._time: float | None = None
         self._gyro = np.zeros((1, 3))
         self._tilt = np.array([[float(self.params.lean), 0.0]])  # as planned until felt
-        self._pose = np.zeros(3)  # x m, y m, heading rad since the last ``moved``
+        self._pose = (0.0, 0.0, 0.0)  # x m, y m, heading rad since the last ``moved``
         self._limits: tuple[Limits, tuple[np.ndarray, np.ndarray]] | None = None
+        # the cycle's arrays: accelerometer, command, clipped, dt, odometry, the feet's
+        # offsets, heights, soles and rotations, the legs' angles, the targets
+        self._acc = np.zeros((1, 3))
+        self._command, self._clipped, self._dt, self._odometry = (
+            np.zeros((1, 3)),
+            np.zeros((1, 3)),
+            np.zeros(1),
+            np.zeros((1, 3)),
+        )
+        self._feet = np.zeros((1, 2, 3)), np.zeros((1, 2)), np.zeros((1, 2, 3)), np.zeros((1, 2, 3, 3))
+        self._legs = np.zeros((1, 2, 6))
+        self._angles = np.zeros((1, len(EFFECTORS)))
+        warm_up()
 
     @property
     def max_command(self) -> Command:
@@ -159,35 +240,59 @@ class OmniWalker:
 
     def sense(self, gyro: Vec3 | None, acc: Vec3 | None, joints: Mapping[str, float]) -> None:
         if gyro is not None:
-            self._gyro = np.array([gyro], dtype=float)
+            self._gyro[0] = gyro
         if acc is not None and any(acc):
-            self._tilt += TILT_SMOOTHING * (tilt(np.array([acc], dtype=float)) - self._tilt)
+            self._acc[0] = acc
+            tilt_into(self._acc, TILT_SMOOTHING, self._tilt)
 
     def moved(self) -> Command:
         x, y, heading = self._pose
-        self._pose = np.zeros(3)
-        return Command(float(x), float(y), math.degrees(heading))
+        self._pose = (0.0, 0.0, 0.0)
+        return Command(x, y, math.degrees(heading))
 
     def joint_targets(self, t: float, limits: Limits) -> dict[str, float]:
-        p = self.params
-        dt = 0.0 if self._time is None else min(max(t - self._time, 0.0), 0.99 * float(p.period))
+        genes = self._genes
+        dt = 0.0 if self._time is None else min(max(t - self._time, 0.0), 0.99 * float(self.params.period))
         self._time = t if self._time is None else max(t, self._time)
-        command = clip_command(np.array([self.command], dtype=float), p)
-        self._state, odometry = advance(self._state, dt, command, p)
-        self._integrate(odometry[0])
+        self._command[0] = self.command
+        clip_into(self._command, genes, self._clipped)
+        self._dt[0] = dt
+        advance_into(*self._state, self._dt, self._clipped, genes, *self._next, self._odometry)
+        self._state, self._next = self._next, self._state
+        self._integrate(*self._odometry[0].tolist())
         if self._limits is None or self._limits[0] is not limits:
             self._limits = (limits, _limits_array(limits))
         low, high = self._limits[1]
-        angles = np.minimum(np.maximum(joint_angles(self._state, p, self._gyro, self._tilt)[0], low), high)
-        return dict(zip(EFFECTORS, angles.tolist()))
+        state, (offsets, _, sole, rotation) = self._state, self._feet
+        feet_into(state.phase, state.swing, state.walking, state.start, state.end, genes, *self._feet)
+        ik_into(LEFT_RIGHT, sole[0], rotation[0], self._legs[0])
+        targets_into(self._legs, self._gyro, self._tilt, genes, offsets, low, high, self._angles)
+        return dict(zip(EFFECTORS, self._angles[0].tolist()))
 
-    def _integrate(self, step: np.ndarray) -> None:
+    def _integrate(self, forward: float, left: float, turn: float) -> None:
         """Adds one cycle's odometry (forward, left in the torso's frame then; turn deg)."""
         x, y, heading = self._pose
         c, s = math.cos(heading), math.sin(heading)
-        self._pose = np.array(
-            [x + c * step[0] - s * step[1], y + s * step[0] + c * step[1], heading + math.radians(step[2])]
-        )
+        self._pose = (x + c * forward - s * left, y + s * forward + c * left, heading + math.radians(turn))
+
+
+_warm = False
+
+
+def warm_up() -> None:
+    """Compile the per-cycle kernels (or load them from numba's disk cache: once per checkout) now,
+    as the first walker is made, rather than in a walk's first cycle: a walker's first cycles,
+    with its argument types."""
+    global _warm
+    if _warm:
+        return
+    _warm = True
+    walker = OmniWalker(tuple(BOUNDS.mean(axis=1)))
+    limits = dict.fromkeys(EFFECTORS, (-90.0, 90.0))
+    walker.sense((1.0, 2.0, 3.0), (0.0, 0.0, 9.81), {})
+    walker.joint_targets(0.0, limits)
+    walker.joint_targets(0.02, limits)
+    joint_angles(walker._state, walker.params, walker._gyro, walker._tilt)
 
 
 def _check(genes: tuple[float, ...]) -> None:

@@ -16,17 +16,21 @@ keep the legs apart and inside the hip's range:
   feet side by side, after which the generator stands still until the command is not zero.
 
 All functions take arrays with a leading robot axis (one row per robot; ``OmniParams`` fields
-broadcast against it), so many robots step at once; ``gait.omni`` wraps one row.
+broadcast against it), so many robots step at once; ``gait.omni`` wraps one row. The math is in
+numba kernels (``clip_into``, ``advance_into``, ``feet_into``) that loop over the rows with scalar
+math inside and write into arrays the caller gives, the genes as ``param_rows``: numpy's overhead
+on arrays of a few elements was most of a cycle. The functions without ``_into`` make the arrays;
+a walker that keeps its own makes none per cycle.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
-
-from gait.leg_ik import rot_x, rot_z
+from numba import njit
 
 #: Half the distance between the hip anchors (m): where the feet stand with ``width`` 0.
 HIP_HALF_WIDTH = 0.055
@@ -75,40 +79,34 @@ class StepState(NamedTuple):
 
 def standing(n: int) -> StepState:
     """``n`` robots standing, feet side by side."""
-    zeros = np.zeros((n, 2, 3))
-    return StepState(np.zeros(n), np.zeros(n, dtype=int), np.zeros(n, dtype=bool), np.zeros((n, 3)), zeros, zeros)
+    return empty_state(n, np.zeros)
 
 
-def top_speeds(p: OmniParams, command: np.ndarray) -> np.ndarray:
-    """The top speed each way that ``command`` (n, 3) points: forward or backward, sideways, turning."""
-    forward = np.where(command[..., 0] >= 0.0, p.max_forward, p.max_backward)
-    return np.stack(np.broadcast_arrays(forward, p.max_left, p.max_turn), axis=-1)
+def empty_state(n: int, make: Callable[..., np.ndarray] = np.empty) -> StepState:
+    """A state of ``n`` robots (arrays by ``make``: not set yet, ``advance_into``'s output)."""
+    return StepState(
+        make(n), make(n, dtype=np.int64), make(n, dtype=np.bool_), make((n, 3)), make((n, 2, 3)), make((n, 2, 3))
+    )
+
+
+def param_rows(p: OmniParams) -> np.ndarray:
+    """The genes as the kernels take them: one row per robot (m, 19), m = 1 when every gene is
+    one float (all robots alike)."""
+    try:
+        genes = np.array(p, dtype=float)
+    except ValueError:  # floats and arrays mixed
+        genes = np.array(np.broadcast_arrays(*(np.asarray(g, dtype=float) for g in p)))
+    return np.ascontiguousarray(genes.reshape(len(p), -1).T)
 
 
 def clip_command(command: np.ndarray, p: OmniParams) -> np.ndarray:
     """``command`` (n, 3) scaled down, direction kept, onto the ellipsoid of the top speeds when
-    it lies outside: one axis at its top leaves no room for the others."""
-    command = np.asarray(command, dtype=float)
-    norm = np.sqrt(np.sum((command / top_speeds(p, command)) ** 2, axis=-1, keepdims=True))
-    return command / np.maximum(norm, 1.0)
-
-
-def _step(speed: np.ndarray, swing: np.ndarray, period: np.ndarray) -> np.ndarray:
-    """The displacement (forward m, left m, yaw rad) of a step of ``swing``'s foot at ``speed``:
-    sideways and turning only on the leading foot's step, twice as far."""
-    leads_left, leads_right = swing == 0, swing == 1
-    left, turn = speed[..., 1], speed[..., 2]
-    side = np.where((leads_left & (left > 0)) | (leads_right & (left < 0)), 2.0 * left, 0.0)
-    yaw = np.where((leads_left & (turn > 0)) | (leads_right & (turn < 0)), 2.0 * np.radians(turn), 0.0)
-    return np.stack([speed[..., 0], side, yaw], axis=-1) * np.asarray(period)[..., None]
-
-
-def _support_offset(state: StepState, phase: np.ndarray) -> np.ndarray:
-    """The support foot's offset (n, 3) at ``phase`` of the current step (it moves linearly)."""
-    rows = np.arange(len(phase))
-    support = 1 - state.swing
-    a, b = state.start[rows, support], state.end[rows, support]
-    return a + (b - a) * phase[:, None]
+    it lies outside: one axis at its top leaves no room for the others (forward or backward,
+    sideways, turning: the top speed each way the command points)."""
+    command = np.ascontiguousarray(command, dtype=float)
+    out = np.empty_like(command)
+    clip_into(command, param_rows(p), out)
+    return out
 
 
 def advance(
@@ -117,61 +115,28 @@ def advance(
     """The state ``dt`` seconds later (less than a step) under ``command`` (n, 3, already
     clipped), and the odometry of that time: how far the planned steps carried each torso
     (n, 3: forward m, left m, turn deg)."""
-    period = np.broadcast_to(np.asarray(p.period, dtype=float), state.phase.shape)
-    phase = state.phase + np.where(state.walking, np.asarray(dt) / period, 0.0)
-    wrap = state.walking & (phase >= 1.0)
-    moving = np.any(command != 0.0, axis=-1)
-    start_now = ~state.walking & moving
-    odometry = _support_offset(state, state.phase) - _support_offset(state, np.minimum(phase, 1.0))
+    n = len(state.phase)
+    dts = np.empty(n)
+    dts[:] = dt
+    new, odometry = empty_state(n), np.empty((n, 3))
+    advance_into(*state, dts, np.ascontiguousarray(command, dtype=float), param_rows(p), *new, odometry)
+    return new, odometry
 
-    latch = wrap | start_now
-    first = np.where((command[:, 1] < 0) | ((command[:, 1] == 0) & (command[:, 2] < 0)), 1, 0)
-    swing = np.where(start_now, first, np.where(wrap, 1 - state.swing, state.swing))
-    tops = np.stack(np.broadcast_arrays(np.maximum(p.max_forward, p.max_backward), p.max_left, p.max_turn), axis=-1)
-    limit = np.asarray(p.ramp)[..., None] * tops
-    speed = np.where(latch[:, None], state.speed + np.clip(command - state.speed, -limit, limit), state.speed)
-    d = _step(speed, swing, period)
-    rows = np.arange(len(phase))
-    end = state.end.copy()
-    end[rows, swing] = d / 2
-    end[rows, 1 - swing] = -d / 2
-    at_rest = np.all(np.abs(state.end) < _AT_REST, axis=(1, 2))
-    stop = wrap & ~moving & np.all(speed == 0.0, axis=-1) & at_rest
-    new = latch & ~stop
-    next_state = StepState(
-        phase=np.where(wrap, phase - 1.0, np.where(start_now | stop, 0.0, phase)) * ~stop,
-        swing=swing,
-        walking=(state.walking & ~stop) | start_now,
-        speed=np.where(stop[:, None], 0.0, speed),
-        start=np.where((new | stop)[:, None, None], state.end, state.start),
-        end=np.where(new[:, None, None], end, np.where(stop[:, None, None], 0.0, state.end)),
-    )
-    # after a wrap, the new support foot's share of the step walked so far
-    walked = np.where(wrap & ~stop, next_state.phase, 0.0)
-    odometry = odometry + np.where(
-        (wrap & ~stop)[:, None],
-        _support_offset(next_state, np.zeros_like(walked)) - _support_offset(next_state, walked),
-        0.0,
-    )
-    odometry[:, 2] = np.degrees(odometry[:, 2])
-    return next_state, odometry
+
+def feet(state: StepState, p: OmniParams) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``foot_offsets`` and ``sole_targets`` at once: offsets (n, 2, 3), heights (n, 2), soles
+    (n, 2, 3) and the feet's rotations (n, 2, 3, 3)."""
+    n = len(state.phase)
+    out = np.empty((n, 2, 3)), np.empty((n, 2)), np.empty((n, 2, 3)), np.empty((n, 2, 3, 3))
+    feet_into(state.phase, state.swing, state.walking, state.start, state.end, param_rows(p), *out)
+    return out
 
 
 def foot_offsets(state: StepState, p: OmniParams) -> tuple[np.ndarray, np.ndarray]:
     """Each foot's offset from its standing place now (n, 2, 3: forward m, left m, yaw rad) and
     its height above the ground (n, 2): support feet move linearly, the swing foot along a
     cosine in the part of the step it is off the ground."""
-    ds = np.asarray(p.double_support)
-    u = np.clip((state.phase - ds / 2) / (1.0 - ds), 0.0, 1.0)
-    share = np.stack([state.phase, (1.0 - np.cos(math.pi * u)) / 2], axis=-1)  # (n, 2): support, swing
-    rows = np.arange(len(state.phase))
-    swing = state.swing
-    by_foot = np.empty((len(rows), 2))
-    by_foot[rows, swing] = share[:, 1]
-    by_foot[rows, 1 - swing] = share[:, 0]
-    offsets = state.start + (state.end - state.start) * by_foot[..., None]
-    height = np.zeros((len(rows), 2))
-    height[rows, swing] = np.asarray(p.lift) * np.sin(math.pi * u) * state.walking
+    offsets, height, _, _ = feet(state, p)
     return offsets, height
 
 
@@ -179,18 +144,157 @@ def sole_targets(state: StepState, p: OmniParams) -> tuple[np.ndarray, np.ndarra
     """Each sole's target relative to its hip anchor in the torso's body frame (n, 2, 3; x right,
     y forward, z up: ``gait.leg_ik``'s) and the foot's rotation in that frame (n, 2, 3, 3):
     flat on the ground, yawed by its offset, with the torso leaned forward by ``lean``."""
-    offsets, height = foot_offsets(state, p)
-    side = np.array([1.0, -1.0])  # left, right
-    home_y = side * (HIP_HALF_WIDTH + np.asarray(p.width)[..., None])
-    x = np.asarray(p.x_offset)[..., None] + offsets[..., 0]
-    y = home_y + offsets[..., 1]
-    yaw = offsets[..., 2]
-    c, s = np.cos(yaw), np.sin(yaw)
-    sway = np.asarray(p.sway) * np.sin(math.pi * state.phase) * np.where(state.swing == 0, 1.0, -1.0) * state.walking
-    forward = c * x - s * y
-    left = s * x + c * y + sway[:, None] - side * HIP_HALF_WIDTH
-    down = height - np.asarray(p.hip_height)[..., None]
-    body = np.stack([-left, forward, down], axis=-1)
-    lean = rot_x(np.radians(np.atleast_1d(p.lean)))[:, None]  # (n or 1, 1, 3, 3)
-    sole = np.einsum("...ij,...j->...i", lean, body)
-    return sole, lean @ rot_z(yaw)
+    _, _, sole, rotation = feet(state, p)
+    return sole, rotation
+
+
+# The kernels: one robot per row, the genes' row ``r`` of m rows (``param_rows``) or row 0 of one.
+_PERIOD, _HIP_HEIGHT, _WIDTH, _X_OFFSET, _LEAN, _LIFT, _SWAY, _DOUBLE_SUPPORT = range(8)
+_MAX_FORWARD, _MAX_BACKWARD, _MAX_LEFT, _MAX_TURN, _RAMP = range(8, 13)
+_RAD = math.pi / 180.0
+_DEG = 180.0 / math.pi
+
+
+@njit(cache=True)
+def clip_into(command: np.ndarray, genes: np.ndarray, out: np.ndarray) -> None:
+    """``clip_command`` into ``out``, the genes as ``param_rows``."""
+    for r in range(len(command)):
+        g = genes[r if len(genes) > 1 else 0]
+        forward = g[_MAX_FORWARD] if command[r, 0] >= 0.0 else g[_MAX_BACKWARD]
+        a, b, c = command[r, 0] / forward, command[r, 1] / g[_MAX_LEFT], command[r, 2] / g[_MAX_TURN]
+        norm = max(math.sqrt(a * a + b * b + c * c), 1.0)
+        for k in range(3):
+            out[r, k] = command[r, k] / norm
+
+
+@njit(cache=True)
+def advance_into(
+    phase: np.ndarray,
+    swing: np.ndarray,
+    walking: np.ndarray,
+    speed: np.ndarray,
+    start: np.ndarray,
+    end: np.ndarray,
+    dt: np.ndarray,
+    command: np.ndarray,
+    genes: np.ndarray,
+    phase_out: np.ndarray,
+    swing_out: np.ndarray,
+    walking_out: np.ndarray,
+    speed_out: np.ndarray,
+    start_out: np.ndarray,
+    end_out: np.ndarray,
+    odometry: np.ndarray,
+) -> None:
+    """``advance`` (a state's arrays, each row's ``dt``) into the next state's arrays (not the
+    same) and ``odometry``, the genes as ``param_rows``."""
+    d = np.empty(3)
+    for r in range(len(phase)):
+        g = genes[r if len(genes) > 1 else 0]
+        period = g[_PERIOD]
+        now = phase[r] + (dt[r] / period if walking[r] else 0.0)
+        wrap = walking[r] and now >= 1.0
+        c0, c1, c2 = command[r, 0], command[r, 1], command[r, 2]
+        moving = c0 != 0.0 or c1 != 0.0 or c2 != 0.0
+        start_now = not walking[r] and moving
+        # the support foot moves linearly: the odometry is how far it went back
+        support = 1 - swing[r]
+        until = min(now, 1.0)
+        for k in range(3):
+            a, b = start[r, support, k], end[r, support, k]
+            odometry[r, k] = (a + (b - a) * phase[r]) - (a + (b - a) * until)
+        latch = wrap or start_now
+        if start_now:
+            new_swing = 1 if c1 < 0 or (c1 == 0 and c2 < 0) else 0
+        else:
+            new_swing = 1 - swing[r] if wrap else swing[r]
+        tops = (max(g[_MAX_FORWARD], g[_MAX_BACKWARD]), g[_MAX_LEFT], g[_MAX_TURN])
+        still = True
+        for k in range(3):
+            v = speed[r, k]
+            if latch:
+                limit = g[_RAMP] * tops[k]
+                v = v + min(max(command[r, k] - v, -limit), limit)
+            speed_out[r, k] = v
+            still = still and v == 0.0
+        # the step: sideways and turning only on the leading foot's step, twice as far
+        left, turn = speed_out[r, 1], speed_out[r, 2]
+        leads_left, leads_right = new_swing == 0, new_swing == 1
+        d[0] = speed_out[r, 0] * period
+        d[1] = (2.0 * left if (leads_left and left > 0) or (leads_right and left < 0) else 0.0) * period
+        d[2] = (2.0 * (turn * _RAD) if (leads_left and turn > 0) or (leads_right and turn < 0) else 0.0) * period
+        at_rest = True
+        for f in range(2):
+            for k in range(3):
+                at_rest = at_rest and abs(end[r, f, k]) < _AT_REST
+        stop = wrap and not moving and still and at_rest
+        new = latch and not stop
+        if stop:
+            phase_out[r] = 0.0
+        elif wrap:
+            phase_out[r] = now - 1.0
+        else:
+            phase_out[r] = 0.0 if start_now else now
+        swing_out[r] = new_swing
+        walking_out[r] = (walking[r] and not stop) or start_now
+        for f in range(2):
+            for k in range(3):
+                start_out[r, f, k] = end[r, f, k] if new or stop else start[r, f, k]
+                if new:
+                    end_out[r, f, k] = d[k] / 2 if f == new_swing else -d[k] / 2
+                else:
+                    end_out[r, f, k] = 0.0 if stop else end[r, f, k]
+        if stop:
+            speed_out[r, :] = 0.0
+        if wrap and not stop:  # the new support foot's share of the step walked so far
+            support = 1 - new_swing
+            for k in range(3):
+                a, b = start_out[r, support, k], end_out[r, support, k]
+                odometry[r, k] += (a + (b - a) * 0.0) - (a + (b - a) * phase_out[r])
+        odometry[r, 2] = odometry[r, 2] * _DEG
+
+
+@njit(cache=True)
+def feet_into(
+    phase: np.ndarray,
+    swing: np.ndarray,
+    walking: np.ndarray,
+    start: np.ndarray,
+    end: np.ndarray,
+    genes: np.ndarray,
+    offsets: np.ndarray,
+    height: np.ndarray,
+    sole: np.ndarray,
+    rotation: np.ndarray,
+) -> None:
+    """``feet`` (a state's arrays) into its four outputs, the genes as ``param_rows``."""
+    for r in range(len(phase)):
+        g = genes[r if len(genes) > 1 else 0]
+        ds = g[_DOUBLE_SUPPORT]
+        u = min(max((phase[r] - ds / 2) / (1.0 - ds), 0.0), 1.0)
+        swinging = (1.0 - math.cos(math.pi * u)) / 2
+        lift = g[_LIFT] * math.sin(math.pi * u) if walking[r] else 0.0
+        sway = g[_SWAY] * math.sin(math.pi * phase[r]) * (1.0 if swing[r] == 0 else -1.0) if walking[r] else 0.0
+        lean = g[_LEAN] * _RAD
+        cl, sl = math.cos(lean), math.sin(lean)
+        for f in range(2):
+            share = swinging if f == swing[r] else phase[r]
+            for k in range(3):
+                offsets[r, f, k] = start[r, f, k] + (end[r, f, k] - start[r, f, k]) * share
+            height[r, f] = lift if f == swing[r] else 0.0
+            side = 1.0 if f == 0 else -1.0
+            x = g[_X_OFFSET] + offsets[r, f, 0]
+            y = side * (HIP_HALF_WIDTH + g[_WIDTH]) + offsets[r, f, 1]
+            yaw = offsets[r, f, 2]
+            c, s = math.cos(yaw), math.sin(yaw)
+            forward = c * x - s * y
+            left = s * x + c * y + sway - side * HIP_HALF_WIDTH
+            down = height[r, f] - g[_HIP_HEIGHT]
+            # rot_x(lean) @ (-left, forward, down), and rot_x(lean) @ rot_z(yaw)
+            sole[r, f, 0] = -left
+            sole[r, f, 1] = cl * forward + -sl * down
+            sole[r, f, 2] = sl * forward + cl * down
+            rot = rotation[r, f]
+            rot[0, 0], rot[0, 1], rot[0, 2] = c, -s, 0.0
+            rot[1, 0], rot[1, 1], rot[1, 2] = cl * s, cl * c, -sl
+            rot[2, 0], rot[2, 1], rot[2, 2] = sl * s, sl * c, cl
