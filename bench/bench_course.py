@@ -7,6 +7,8 @@ PATH; the sync profile, which sends ``mypos``):
   steering by the server's pose, then as many by the robot's own estimate (``--no-true-pose``),
   each walk with its own draw of the calibrated command dither (seeds 0, 1, ...): how many
   finished and fell, the mean time, each leg's mean time.
+- **Straight to a pose.** ``--runs`` walks of ``optimizer/courses/straight_15m.json`` (15 m ahead
+  to a pose) by the server's pose: finished means the walk came within 0.25 m and 15 deg of it.
 - **Pose estimate.** Along the own-estimate walks: the estimate the agent steered by at each vision
   cycle against the torso's true pose (the judge's, at the same game time): median and worst error
   in metres and degrees.
@@ -42,7 +44,10 @@ from optimizer.episode.runner import quiet_agent_logs
 from optimizer.episode.scoring import TracePoint
 from protocol.cli_values import positive_float, positive_int
 
-DEFAULT_COURSE = Path(__file__).resolve().parent.parent / "optimizer" / "courses" / "omni_course.json"
+COURSES = Path(__file__).resolve().parent.parent / "optimizer" / "courses"
+DEFAULT_COURSE = COURSES / "omni_course.json"
+#: 15 m straight ahead to a pose: finishing it means the walk ended within the reach of the pose.
+STRAIGHT_COURSE = COURSES / "straight_15m.json"
 #: The commands the targets name (forward, backwards, sideways m/s; turning deg/s).
 TARGET_COMMANDS: tuple[tuple[float, float, float], ...] = (
     (1.0, 0.0, 0.0),
@@ -204,18 +209,26 @@ def main(argv: Sequence[str] | None = None) -> int:
         except RealServerError as exc:
             p.error(f"no real server ({exc}); use --skip-real")
     quiet_agent_logs()
-    report: dict[str, Any] = {"gait": str(args.gait), "course": course.to_document(), "course_runs": [], "map": []}
+    report: dict[str, Any] = {
+        "gait": str(args.gait),
+        "course": course.to_document(),
+        "course_runs": [],
+        "straight_runs": [],
+        "map": [],
+    }
     for server in servers:
         if not args.skip_course:
             print(f"course on {server}:")
             for true_pose in (True, False):
                 report["course_runs"].append(course_runs(gait, course, server, true_pose, args.runs))
+            print(f"straight to a pose on {server}:")
+            report["straight_runs"].append(course_runs(gait, Course.load(STRAIGHT_COURSE), server, True, args.runs))
         if not args.skip_map:
             print(f"targets on {server} ({args.target_runs} walks each, {args.map_seconds:g} s):")
             report["map"] += command_walks(gait, server, TARGET_COMMANDS, args.target_runs, args.map_seconds)
             print(f"map on {server} (1 walk each):")
             report["map"] += command_walks(gait, server, MAP_COMMANDS, 1, args.map_seconds)
-    print(json.dumps(report["course_runs"], indent=1))
+    print(json.dumps({k: report[k] for k in ("course_runs", "straight_runs")}, indent=1))
     if args.out is not None:
         args.out.write_text(json.dumps(report, indent=1) + "\n")
     return 0
