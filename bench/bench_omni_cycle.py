@@ -52,8 +52,9 @@ def many_robots(n: int = 64, cycles: int = 300) -> float:
     state = standing(n)
 
     def cycle(state):
-        state, _ = advance(state, CYCLE, clip_command(commands, params), params)
-        joint_angles(state, params, gyros, tilts)
+        clipped = clip_command(commands, params)
+        state, _ = advance(state, CYCLE, clipped, params)
+        joint_angles(state, clipped, params, gyros, tilts)
         return state
 
     for _ in range(20):

@@ -10,7 +10,9 @@ read them (``python -m agent --gait FILE``). Format::
      "notes": "free text (optional)"}
 
 Files of the first format, ``"format": "tfs-gait/1"`` with no family, hold the paper's TFS gait and
-still load.
+still load. A family that gained a gene after files of it were written reads those files with the
+gene at the value that walks as before (``ADDED_GENES``): an ``omni`` file of 19 genes, from before
+``lag_comp``, loads as the same walk with ``lag_comp`` 0.
 """
 
 from __future__ import annotations
@@ -30,6 +32,9 @@ TFS_FORMAT_1 = "tfs-gait/1"
 #: Shipped with the package: the slow TFS gait that walked 2.91-3.14 m in 15 s on a real
 #: rcssserver3d 0.7.3 (tests/data/rcssserver3d/walk_calibration), a safe start for any search.
 DEFAULT_GAIT_PATH: Path = Path(__file__).with_name("default_gait.json")
+#: Per family, the genes it gained after files of it were written, each at the value that leaves
+#: its walk as it was: a file without them loads with these (and without their units).
+ADDED_GENES: dict[str, dict[str, float]] = {"omni": {"lag_comp": 0.0}}
 
 
 class GaitFileError(ValueError):
@@ -53,6 +58,7 @@ def load_gait(path: str | Path = DEFAULT_GAIT_PATH) -> Gait:
     params = document.get("params")
     if not isinstance(params, dict):
         raise GaitFileError(f'gait file {path}: missing the "params" object')
+    params = {**ADDED_GENES.get(family.name, {}), **params}
     missing = [name for name in family.gene_names if name not in params]
     unknown = sorted(set(params) - set(family.gene_names))
     if missing or unknown:

@@ -12,14 +12,19 @@ rate both ankle rolls; the torso's tilt, read from the accelerometer (smoothed o
 walk's own accelerations average out, a fall's lean stays), moves the hip pitches (pitch beyond
 ``lean``) and hip rolls; each by its gain, of either sign (which way steadies is the search's to
 find, not an assumption about the joints' axes). Foot pressure is not used: the optimizer's
-in-process episodes do not make it.
+in-process episodes do not make it. The planned targets are led by ``lag_comp`` times their
+rate, against the agent's proportional controller, which trails a moving target by 1/gain; the
+rate is the planned targets' change over the next cycle (the step state advanced 0.02 s under
+the same command: the joint targets planned for the next cycle), into arrays of the walker's own.
+With ``lag_comp`` 0 the lead adds exactly 0: the walk is the one before the gene.
 
-Speed: the per-cycle math is numba kernels over robot rows (here ``tilt_into`` and
-``targets_into``; the steps' and the legs' in their modules, each kernel calling only kernels of
-its own file, as numba's disk cache checks a kernel against its own file only). The walker keeps
-the arrays they write, so a cycle (``sense``, ``joint_targets``, ``moved``) makes none and costs
-some 30 us (``bench.bench_omni_cycle``); the first walker of a process loads the kernels
-(``warm_up``).
+Speed: the per-cycle math is numba kernels over robot rows (here ``tilt_into``,
+``targets_into``, ``planned_into``, ``feedback_into``; the steps' and the legs' in their modules,
+each kernel calling only kernels of its own file, as numba's disk cache checks a kernel against
+its own file only). The walker keeps the arrays they write, so a cycle (``sense``,
+``joint_targets``, ``moved``) makes none and costs some 40 us (``bench.bench_omni_cycle``; of
+them some 10 plan the next cycle, for ``lag_comp``'s rate); the first walker of a process loads
+the kernels (``warm_up``).
 
 At construction the command is full forward, so the straight-walk objective (paper eq. 9) and
 every search, check and card take an omni gait unchanged. The genes' box keeps each gene where
@@ -41,6 +46,7 @@ from gait.nao_legs import LIMIT_MARGIN_DEG
 from gait.omni_steps import (
     OmniParams,
     StepState,
+    advance,
     advance_into,
     clip_into,
     empty_state,
@@ -71,12 +77,18 @@ GENE_UNITS: dict[str, str] = {
     "arm": "deg/m",
     "tilt_pitch": "deg/deg",
     "tilt_roll": "deg/deg",
+    "lag_comp": "s",
 }
 
 #: The arms hang at -90 deg of shoulder pitch (docs/robot_and_server.md section 1).
 ARMS_DOWN = -90.0
 #: Share of the gap to each new tilt reading taken per cycle: a 0.1 s time constant, five cycles.
 TILT_SMOOTHING = 0.2
+#: The joint controller's time constant is 1/15 s (agent.config: gain 15/s): leading a target by
+#: its rate times that much cancels the lag a planned motion suffers; the box allows 1.5 times it.
+_LAG_COMP_MAX = 0.1
+#: The interval over which a planned target's rate is taken (one control cycle, s).
+RATE_STEP = 0.02
 #: The shortest step: 5 control cycles, 2.5 times the server's action latency.
 _SHORTEST_STEP = 0.1
 #: The hip may stand no higher than this below the leg's full length (m): a straight knee has no
@@ -104,6 +116,7 @@ BOUNDS: np.ndarray = np.array(
         [-400.0, 400.0],  # arm
         [-1.0, 1.0],  # tilt_pitch
         [-1.0, 1.0],  # tilt_roll
+        [0.0, _LAG_COMP_MAX],  # lag_comp
     ]
 )
 
@@ -120,31 +133,58 @@ def tilt(acc: np.ndarray) -> np.ndarray:
     return out
 
 
-def joint_angles(state: StepState, p: OmniParams, gyro: np.ndarray, tilted: np.ndarray) -> np.ndarray:
-    """Joint targets (n, 14; degrees, ``EFFECTORS`` order, not yet clamped) for each robot's
-    planned soles, plus the feedback of the gyro (``gyro`` (n, 3), deg/s in the torso frame: x
-    is the pitch rate, y the roll rate) and of the torso's tilt (``tilted`` (n, 2), ``tilt``'s),
-    and the arm swing."""
+def planned_angles(state: StepState, p: OmniParams) -> np.ndarray:
+    """Joint targets (n, 14; degrees, ``EFFECTORS`` order, not clamped) that put each robot's
+    soles where its steps plan them, and swing its arms."""
     offsets, _, sole, rotation = feet(state, p)
+    out = np.empty((len(sole), len(EFFECTORS)))
+    planned_into(legs_ik(sole, rotation), offsets, param_rows(p), out)
+    return out
+
+
+def feedback_angles(p: OmniParams, gyro: np.ndarray, tilted: np.ndarray) -> np.ndarray:
+    """What the sensors add to the targets (n, 14): the gyro's (``gyro`` (n, 3), deg/s in the
+    torso frame: x is the pitch rate, y the roll rate) and the torso tilt's (``tilted`` (n, 2),
+    ``tilt``'s)."""
+    gyro, tilted = np.ascontiguousarray(gyro, dtype=float), np.ascontiguousarray(tilted, dtype=float)
+    out = np.zeros((len(gyro), len(EFFECTORS)))
+    feedback_into(gyro, tilted, param_rows(p), out)
+    return out
+
+
+def joint_angles(
+    state: StepState, command: np.ndarray, p: OmniParams, gyro: np.ndarray, tilted: np.ndarray
+) -> np.ndarray:
+    """Joint targets (n, 14; degrees, ``EFFECTORS`` order, not clamped): the planned ones led by
+    ``lag_comp`` times their rate (taken over the next cycle under ``command``, (n, 3) clipped),
+    plus the feedback."""
+    offsets, _, sole, rotation = feet(state, p)
+    following, _ = advance(state, RATE_STEP, command, p)
+    next_offsets, _, next_sole, next_rotation = feet(following, p)
     gyro, tilted = np.ascontiguousarray(gyro, dtype=float), np.ascontiguousarray(tilted, dtype=float)
     out = np.empty((len(sole), len(EFFECTORS)))
-    targets_into(legs_ik(sole, rotation), gyro, tilted, param_rows(p), offsets, _NO_LOW, _NO_HIGH, out)
+    targets_into(
+        legs_ik(sole, rotation),
+        offsets,
+        legs_ik(next_sole, next_rotation),
+        next_offsets,
+        gyro,
+        tilted,
+        param_rows(p),
+        _NO_LOW,
+        _NO_HIGH,
+        out,
+    )
     return out
 
 
 _NO_LOW, _NO_HIGH = np.full(len(EFFECTORS), -np.inf), np.full(len(EFFECTORS), np.inf)
 _DEG = 180.0 / math.pi
 #: the genes' columns in ``param_rows`` (literal: a compiled kernel keeps the values it was compiled with)
-_LEAN, _GYRO_PITCH, _GYRO_ROLL, _GYRO_HIP, _ARM, _TILT_PITCH, _TILT_ROLL = 4, 13, 14, 15, 16, 17, 18
-assert [GENE_NAMES[k] for k in (_LEAN, _GYRO_PITCH, _GYRO_ROLL, _GYRO_HIP, _ARM, _TILT_PITCH, _TILT_ROLL)] == [
-    "lean",
-    "gyro_pitch",
-    "gyro_roll",
-    "gyro_hip",
-    "arm",
-    "tilt_pitch",
-    "tilt_roll",
-]
+_LEAN, _GYRO_PITCH, _GYRO_ROLL, _GYRO_HIP, _ARM, _TILT_PITCH, _TILT_ROLL, _LAG_COMP = 4, 13, 14, 15, 16, 17, 18, 19
+assert [
+    GENE_NAMES[k] for k in (_LEAN, _GYRO_PITCH, _GYRO_ROLL, _GYRO_HIP, _ARM, _TILT_PITCH, _TILT_ROLL, _LAG_COMP)
+] == ["lean", "gyro_pitch", "gyro_roll", "gyro_hip", "arm", "tilt_pitch", "tilt_roll", "lag_comp"]
 
 
 @njit(cache=True)
@@ -158,33 +198,67 @@ def tilt_into(acc: np.ndarray, share: float, tilted: np.ndarray) -> None:
 
 
 @njit(cache=True)
+def _planned(legs: np.ndarray, offsets: np.ndarray, arm: float, r: int, k: int) -> float:
+    """Row ``r``'s planned target of effector ``k`` (deg) from its legs' angles (rad) and feet's
+    offsets: a leg joint's angle, or a shoulder's swing of ``arm`` deg per m."""
+    if k < 12:
+        return legs[r, k // 6, k % 6] * _DEG
+    ahead = offsets[r, 1, 0] - offsets[r, 0, 0]  # right foot ahead of the left (m)
+    return ARMS_DOWN + arm * ahead if k == 12 else ARMS_DOWN - arm * ahead  # the left arm with the right leg
+
+
+@njit(cache=True)
+def _add_feedback(gyro: np.ndarray, tilted: np.ndarray, g: np.ndarray, r: int, out: np.ndarray) -> None:
+    """Adds row ``r``'s gyro and tilt feedback to ``out[r]``, by the genes ``g``."""
+    pitch_rate, roll_rate = gyro[r, 0], gyro[r, 1]
+    for first in (0, 6):
+        out[r, first + 2] += g[_GYRO_HIP] * pitch_rate
+        out[r, first + 4] += g[_GYRO_PITCH] * pitch_rate
+        out[r, first + 5] += g[_GYRO_ROLL] * roll_rate
+        out[r, first + 2] += g[_TILT_PITCH] * (tilted[r, 0] - g[_LEAN])
+        out[r, first + 1] += g[_TILT_ROLL] * tilted[r, 1]
+
+
+@njit(cache=True)
+def planned_into(legs: np.ndarray, offsets: np.ndarray, genes: np.ndarray, out: np.ndarray) -> None:
+    """``planned_angles`` into ``out``, from the legs' angles (n, 2, 6; rad) and the feet's
+    offsets (n, 2, 3), the genes as ``gait.omni_steps.param_rows``."""
+    for r in range(len(legs)):
+        g = genes[r if len(genes) > 1 else 0]
+        for k in range(out.shape[1]):
+            out[r, k] = _planned(legs, offsets, g[_ARM], r, k)
+
+
+@njit(cache=True)
+def feedback_into(gyro: np.ndarray, tilted: np.ndarray, genes: np.ndarray, out: np.ndarray) -> None:
+    """Adds ``feedback_angles`` to ``out``, the genes as ``gait.omni_steps.param_rows``."""
+    for r in range(len(gyro)):
+        _add_feedback(gyro, tilted, genes[r if len(genes) > 1 else 0], r, out)
+
+
+@njit(cache=True)
 def targets_into(
     legs: np.ndarray,
+    offsets: np.ndarray,
+    next_legs: np.ndarray,
+    next_offsets: np.ndarray,
     gyro: np.ndarray,
     tilted: np.ndarray,
     genes: np.ndarray,
-    offsets: np.ndarray,
     low: np.ndarray,
     high: np.ndarray,
     out: np.ndarray,
 ) -> None:
     """``joint_angles`` into ``out``, from the legs' angles (n, 2, 6; rad) and the feet's offsets
-    (n, 2, 3), the genes as ``gait.omni_steps.param_rows``; each clamped into [low, high]."""
+    (n, 2, 3) now and one cycle on (``next_``), the genes as ``gait.omni_steps.param_rows``; each
+    clamped into [low, high]. With ``lag_comp`` 0 the lead adds exactly 0: the planned targets."""
     for r in range(len(legs)):
         g = genes[r if len(genes) > 1 else 0]
-        pitch_rate, roll_rate = gyro[r, 0], gyro[r, 1]
-        for leg in range(2):
-            first = 6 * leg
-            for k in range(6):
-                out[r, first + k] = legs[r, leg, k] * _DEG
-            out[r, first + 2] += g[_GYRO_HIP] * pitch_rate
-            out[r, first + 4] += g[_GYRO_PITCH] * pitch_rate
-            out[r, first + 5] += g[_GYRO_ROLL] * roll_rate
-            out[r, first + 2] += g[_TILT_PITCH] * (tilted[r, 0] - g[_LEAN])
-            out[r, first + 1] += g[_TILT_ROLL] * tilted[r, 1]
-        ahead = offsets[r, 1, 0] - offsets[r, 0, 0]  # right foot ahead of the left (m)
-        out[r, 12] = ARMS_DOWN + g[_ARM] * ahead  # the left arm with the right leg
-        out[r, 13] = ARMS_DOWN - g[_ARM] * ahead
+        for k in range(len(low)):
+            now = _planned(legs, offsets, g[_ARM], r, k)
+            rate = (_planned(next_legs, next_offsets, g[_ARM], r, k) - now) / RATE_STEP
+            out[r, k] = now + g[_LAG_COMP] * rate
+        _add_feedback(gyro, tilted, g, r, out)
         for k in range(len(low)):
             out[r, k] = min(max(out[r, k], low[k]), high[k])
 
@@ -211,7 +285,8 @@ class OmniWalker:
         self._pose = (0.0, 0.0, 0.0)  # x m, y m, heading rad since the last ``moved``
         self._limits: tuple[Limits, tuple[np.ndarray, np.ndarray]] | None = None
         # the cycle's arrays: accelerometer, command, clipped, dt, odometry, the feet's
-        # offsets, heights, soles and rotations, the legs' angles, the targets
+        # offsets, heights, soles and rotations, the legs' angles, the targets; and the plan
+        # one cycle on (for the targets' rate): its state, dt, odometry, feet and legs
         self._acc = np.zeros((1, 3))
         self._command, self._clipped, self._dt, self._odometry = (
             np.zeros((1, 3)),
@@ -222,6 +297,9 @@ class OmniWalker:
         self._feet = np.zeros((1, 2, 3)), np.zeros((1, 2)), np.zeros((1, 2, 3)), np.zeros((1, 2, 3, 3))
         self._legs = np.zeros((1, 2, 6))
         self._angles = np.zeros((1, len(EFFECTORS)))
+        self._ahead, self._rate_step, self._ahead_odometry = empty_state(1), np.full(1, RATE_STEP), np.zeros((1, 3))
+        self._ahead_feet = np.zeros((1, 2, 3)), np.zeros((1, 2)), np.zeros((1, 2, 3)), np.zeros((1, 2, 3, 3))
+        self._ahead_legs = np.zeros((1, 2, 6))
         warm_up()
 
     @property
@@ -266,7 +344,14 @@ class OmniWalker:
         state, (offsets, _, sole, rotation) = self._state, self._feet
         feet_into(state.phase, state.swing, state.walking, state.start, state.end, genes, *self._feet)
         ik_into(LEFT_RIGHT, sole[0], rotation[0], self._legs[0])
-        targets_into(self._legs, self._gyro, self._tilt, genes, offsets, low, high, self._angles)
+        # the plan one cycle on, under the same command: the targets' rate
+        advance_into(*state, self._rate_step, self._clipped, genes, *self._ahead, self._ahead_odometry)
+        ahead, (ahead_offsets, _, ahead_sole, ahead_rotation) = self._ahead, self._ahead_feet
+        feet_into(ahead.phase, ahead.swing, ahead.walking, ahead.start, ahead.end, genes, *self._ahead_feet)
+        ik_into(LEFT_RIGHT, ahead_sole[0], ahead_rotation[0], self._ahead_legs[0])
+        targets_into(
+            self._legs, offsets, self._ahead_legs, ahead_offsets, self._gyro, self._tilt, genes, low, high, self._angles
+        )
         return dict(zip(EFFECTORS, self._angles[0].tolist()))
 
     def _integrate(self, forward: float, left: float, turn: float) -> None:
@@ -292,7 +377,7 @@ def warm_up() -> None:
     walker.sense((1.0, 2.0, 3.0), (0.0, 0.0, 9.81), {})
     walker.joint_targets(0.0, limits)
     walker.joint_targets(0.02, limits)
-    joint_angles(walker._state, walker.params, walker._gyro, walker._tilt)
+    joint_angles(walker._state, walker._clipped, walker.params, walker._gyro, walker._tilt)
 
 
 def _check(genes: tuple[float, ...]) -> None:
@@ -311,7 +396,7 @@ def _walker(genes: tuple[float, ...]) -> OmniWalker:
 
 OMNI = GaitFamily(
     name="omni",
-    about="an omnidirectional walk engine: steps from a command, analytic leg IK, gyro and tilt feedback (19 genes)",
+    about="an omnidirectional walk engine: steps from a command, analytic leg IK, gyro and tilt feedback (20 genes)",
     gene_names=GENE_NAMES,
     gene_units=GENE_UNITS,
     boxes={"robot": BOUNDS},

@@ -64,6 +64,7 @@ class OmniParams(NamedTuple):
     arm: Gene  # deg of shoulder pitch per m of the other foot ahead
     tilt_pitch: Gene  # deg of hip pitch per deg the torso pitches beyond ``lean`` (accelerometer)
     tilt_roll: Gene  # deg of hip roll per deg the torso rolls (accelerometer)
+    lag_comp: Gene  # s: targets led by this times their rate, against the joint controller's lag
 
 
 class StepState(NamedTuple):
@@ -90,7 +91,7 @@ def empty_state(n: int, make: Callable[..., np.ndarray] = np.empty) -> StepState
 
 
 def param_rows(p: OmniParams) -> np.ndarray:
-    """The genes as the kernels take them: one row per robot (m, 19), m = 1 when every gene is
+    """The genes as the kernels take them: one row per robot (m, 20), m = 1 when every gene is
     one float (all robots alike)."""
     try:
         genes = np.array(p, dtype=float)

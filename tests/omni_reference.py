@@ -6,6 +6,9 @@ cycles), gyro and accelerometer readings (some missing).
 The record was written by the numpy implementation of commit 7d68050 (``python -m
 tests.omni_reference``) before the per-cycle math was compiled; ``tests/test_omni_reference.py``
 checks that the walker still reproduces it. Writing it again records the code as it is now.
+
+The record has the 19 genes of its time; ``lag_comp``, added since, is walked at 0 (``walked``),
+which leaves the walk as it was.
 """
 
 from __future__ import annotations
@@ -22,13 +25,20 @@ from protocol.nao import JOINTS
 PATH = Path(__file__).resolve().parent / "data" / "omni_reference.npz"
 LIMITS = {j.effector: (j.min_deg, j.max_deg) for j in JOINTS}
 GENES, CYCLES, EVERY = 30, 300, 5  # all targets every EVERY-th cycle, a weighted sum every cycle
+#: The genes recorded: the omni family's first 19 (``lag_comp`` came after).
+RECORDED = 19
+
+
+def walked(genes: np.ndarray) -> np.ndarray:
+    """The recorded genes (GENES, 19) as walked now: ``lag_comp`` 0 appended."""
+    return np.concatenate([genes, np.zeros((len(genes), 1))], axis=1)
 
 
 def inputs(seed: int = 2026) -> dict[str, Any]:
-    """The genes (GENES, 19) and, per gene and cycle, the time, command, gyro and accelerometer
+    """The genes (GENES, RECORDED) and, per gene and cycle, the time, command, gyro and accelerometer
     reading (NaN rows: nothing sensed)."""
     rng = np.random.default_rng(seed)
-    low, high = OMNI.bounds[:, 0], OMNI.bounds[:, 1]
+    low, high = OMNI.bounds[:RECORDED, 0], OMNI.bounds[:RECORDED, 1]
     genes = low + rng.random((GENES, len(low))) * (high - low)
     steps = rng.choice([0.02, 0.0, 0.04, -0.01, 0.6], p=[0.85, 0.04, 0.06, 0.02, 0.03], size=(GENES, CYCLES))
     times = 0.04 + np.cumsum(steps, axis=1)
@@ -67,7 +77,7 @@ def run(data: dict[str, Any]) -> dict[str, np.ndarray]:
     """Each gene's walker through its inputs: the targets (EFFECTORS order) of every EVERY-th
     cycle, a weighted sum of every cycle's, the odometry collected every EVERY-th cycle and
     whether it stood."""
-    genes = data["genes"]
+    genes = walked(data["genes"])
     targets = np.empty((GENES, CYCLES // EVERY, len(EFFECTORS)))
     sums = np.empty((GENES, CYCLES))
     moved = np.empty((GENES, CYCLES // EVERY, 3))

@@ -1,10 +1,12 @@
 """The omni walk engine: its targets stay inside the joint limits for any genes and commands, its
 leg IK reaches what it is asked, it stands at the start and after a stop, it clips commands onto
-its top speeds, its odometry is the commanded speed in steady state, its start gait walks on the
-stand-in, and its gaits round-trip through gait files."""
+its top speeds, its odometry is the commanded speed in steady state, ``lag_comp`` leads the planned
+targets by their rate, its start gait walks on the stand-in, and its gaits round-trip through gait
+files (those of 19 genes, from before ``lag_comp``, load with it 0)."""
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -13,10 +15,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gait import DEFAULT_FAMILY, FAMILIES, OMNI, Command, Steerable, load_gait, save_gait
+from gait import DEFAULT_FAMILY, FAMILIES, OMNI, Command, GaitFileError, Steerable, load_gait, save_gait
 from gait.leg_ik import LEG_LENGTH, leg_fk, leg_ik, rot_x, rot_y, rot_z
 from gait.nao_legs import LIMIT_MARGIN_DEG
-from gait.omni import EFFECTORS, OmniWalker, joint_angles, tilt
+from gait.omni import EFFECTORS, RATE_STEP, OmniWalker, feedback_angles, joint_angles, planned_angles, tilt
 from gait.omni_steps import OmniParams, advance, clip_command, standing
 from optimizer.episode import EpisodeConfig, EpisodeRunner
 from protocol.nao import JOINT_BY_EFFECTOR, JOINTS
@@ -176,6 +178,22 @@ def test_omni_gaits_round_trip_through_gait_files(g, tmp_path_factory) -> None:
     assert load_gait(path) == gait
 
 
+def test_a_gait_file_of_19_omni_genes_loads_as_the_same_walk_with_lag_comp_0(tmp_path: Path) -> None:
+    """Files written before ``lag_comp`` (19 genes, their units) load with it 0, which walks as
+    they walked."""
+    gait = load_gait(START)
+    document = json.loads(START.read_text())
+    for key in ("units", "params"):
+        del document[key]["lag_comp"]
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps(document))
+    assert load_gait(old) == gait and gait.params["lag_comp"] == 0.0
+    del document["params"]["tilt_roll"]  # only the gene added since may be missing
+    old.write_text(json.dumps(document))
+    with pytest.raises(GaitFileError, match="tilt_roll"):
+        load_gait(old)
+
+
 def test_the_family_is_registered_after_the_default_and_its_box_holds_the_robot() -> None:
     assert FAMILIES["omni"] is OMNI and DEFAULT_FAMILY == "tfs" and list(FAMILIES)[-1] == "omni"
     box = dict(zip(OMNI.gene_names, OMNI.bounds))
@@ -202,13 +220,39 @@ def test_many_robots_step_at_once_as_each_alone() -> None:
     alone = [standing(1) for _ in range(3)]
     for _ in range(60):
         together, odometry = advance(together, CYCLE, clip_command(commands, params), params)
-        angles = joint_angles(together, params, gyros, tilts)
+        angles = joint_angles(together, clip_command(commands, params), params, gyros, tilts)
         for k in range(3):
             p = OmniParams(*genes[k])
             alone[k], own = advance(alone[k], CYCLE, clip_command(commands[k : k + 1], p), p)
             assert np.allclose(own[0], odometry[k]) and np.allclose(
-                joint_angles(alone[k], p, gyros[k : k + 1], tilts[k : k + 1])[0], angles[k]
+                joint_angles(alone[k], clip_command(commands[k : k + 1], p), p, gyros[k : k + 1], tilts[k : k + 1])[0],
+                angles[k],
             )
+
+
+def test_lag_comp_leads_the_planned_targets_by_their_rate() -> None:
+    """Three robots walking mixed commands: with ``lag_comp`` 0 the targets are the planned ones
+    plus the feedback; with it > 0 they lead the planned ones by ``lag_comp`` times their change
+    over the next cycle under the same command, per second (a finite difference of two
+    ``planned_angles``)."""
+    rng = np.random.default_rng(7)
+    low, high = OMNI.bounds[:, 0], OMNI.bounds[:, 1]
+    genes = low + rng.random((3, len(low))) * (high - low)
+    lag_comp = np.array([0.0, 0.067, 0.1])
+    genes[:, -1] = lag_comp
+    p = OmniParams(*genes.T)
+    command = clip_command(np.array([[0.3, 0.1, 20.0], [-0.2, -0.1, -30.0], [0.0, 0.2, 0.0]]), p)
+    gyros, tilts = rng.normal(0.0, 30.0, (3, 3)), rng.normal(0.0, 10.0, (3, 2))
+    state, led = standing(3), 0.0
+    for _ in range(40):
+        state, _ = advance(state, CYCLE, command, p)
+        planned = planned_angles(state, p)
+        rate = (planned_angles(advance(state, RATE_STEP, command, p)[0], p) - planned) / RATE_STEP
+        angles, feedback = joint_angles(state, command, p, gyros, tilts), feedback_angles(p, gyros, tilts)
+        assert np.allclose(angles[0], planned[0] + feedback[0], rtol=0.0, atol=1e-12)
+        assert np.allclose(angles, planned + lag_comp[:, None] * rate + feedback, rtol=0.0, atol=1e-9)
+        led = max(led, float(np.abs(lag_comp[1:, None] * rate[1:]).max()))
+    assert led > 1.0  # the lead moved the targets by degrees
 
 
 def test_the_tilt_is_read_from_gravity_in_the_accelerometer() -> None:
