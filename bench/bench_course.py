@@ -14,8 +14,8 @@ PATH; the sync profile, which sends ``mypos``):
   in metres and degrees.
 - **Speeds by command.** A grid of commands (forward, backwards, sideways, turning, mixes), each
   walked ``--map-seconds`` (default 5) from a standing start at (-5, 0, 0): the velocity achieved
-  over the whole walk (displacement in the start's frame over the time; turn rate from the heading
-  change), and falls. ``--target-runs N`` walks the four target commands N times each.
+  in the torso's own frame (forward, left, turning) over the whole walk and over its second half
+  (the command held after the start), and falls. ``--target-runs N`` walks the four target commands N times each.
 
     python -m bench.bench_course --gait gait/walks/omni.json [--runs 10] [--target-runs 10]
         [--skip-real] [--skip-map] [--skip-course] [--out FILE.json]
@@ -150,17 +150,21 @@ def course_runs(gait: Gait, course: Course, server: str, true_pose: bool, runs: 
     return summary
 
 
-def achieved(trace: Sequence[TracePoint], start_heading: float) -> tuple[float, float, float]:
-    """Forward and leftward speed (m/s, the start's frame) and turn rate (deg/s) over the trace."""
-    if len(trace) < 2:
+def achieved(trace: Sequence[TracePoint], since: float = 0.0) -> tuple[float, float, float]:
+    """Forward and leftward speed (m/s) in the torso's own frame as it turned, and the turn rate
+    (deg/s), over the part of the trace from game time ``since`` on: each step between two of the
+    judge's states is taken in the heading the torso had then."""
+    kept = [p for p in trace if p.game_time >= since - 1e-9]
+    if len(kept) < 2:
         return 0.0, 0.0, 0.0
-    first, last = trace[0], trace[-1]
-    seconds = last.game_time - first.game_time
-    h = math.radians(start_heading)
-    dx, dy = last.x - first.x, last.y - first.y
-    forward, left = dx * math.cos(h) + dy * math.sin(h), -dx * math.sin(h) + dy * math.cos(h)
-    turned = math.degrees(float(np.unwrap(np.radians([first.heading, last.heading]))[-1] - math.radians(first.heading)))
-    return forward / seconds, left / seconds, turned / seconds
+    headings = np.unwrap(np.radians([p.heading for p in kept]))
+    forward = left = 0.0
+    for a, b, h in zip(kept, kept[1:], headings):
+        dx, dy = b.x - a.x, b.y - a.y
+        forward += dx * math.cos(h) + dy * math.sin(h)
+        left += -dx * math.sin(h) + dy * math.cos(h)
+    seconds = kept[-1].game_time - kept[0].game_time
+    return forward / seconds, left / seconds, math.degrees(float(headings[-1] - headings[0])) / seconds
 
 
 def command_walks(
@@ -171,15 +175,25 @@ def command_walks(
     with runner_on(server, base) as runner:
         for command in commands:
             runner.config = replace(base, command=command)
-            speeds, falls = [], 0
+            whole, settled, falls = [], [], 0
             for seed in range(runs):
                 result = runner.evaluate(gait, seed=seed)
                 falls += result.fell
-                if runner.last_trace:
-                    speeds.append(achieved(runner.last_trace, MAP_START[2]))
-            mean = [round(statistics.fmean(s[k] for s in speeds), 3) for k in range(3)] if speeds else None
-            rows.append({"server": server, "command": list(command), "achieved": mean, "runs": runs, "falls": falls})
-            print(f"  {server} command {command}: achieved {mean} (fwd m/s, left m/s, deg/s), {falls}/{runs} fell")
+                if runner.last_trace and not result.fell:
+                    whole.append(achieved(runner.last_trace))
+                    settled.append(achieved(runner.last_trace, seconds / 2))
+            means = [
+                [round(statistics.fmean(s[k] for s in speeds), 3) for k in range(3)] if speeds else None
+                for speeds in (whole, settled)
+            ]
+            rows.append(
+                {"server": server, "command": list(command), "achieved": means[0], "second_half": means[1]}
+                | {"runs": runs, "falls": falls}
+            )
+            print(
+                f"  {server} command {command}: achieved {means[0]} over the walk, {means[1]} over its second "
+                f"half (fwd m/s, left m/s, deg/s; walks that stood), {falls}/{runs} fell"
+            )
     return rows
 
 
