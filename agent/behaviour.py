@@ -75,7 +75,7 @@ class Action:
         return (self.effectors, self.speeds.tolist(), self.text) == (other.effectors, other.speeds.tolist(), other.text)
 
 
-def own_pose_sources(config: AgentConfig) -> PoseSource:
+def pose_source_for(config: AgentConfig) -> PoseSource:
     """Where a walk to poses takes its pose from: the server's where sent (unless
     ``config.true_pose`` is off), else the robot's own estimate, both from the beam pose on."""
     own = VisionPose(config.beam)
@@ -85,19 +85,20 @@ def own_pose_sources(config: AgentConfig) -> PoseSource:
 class WalkBehaviour:
     def __init__(self, config: AgentConfig, gait: Walker, pose: PoseSource | None = None) -> None:
         """``pose``: where a walk to ``config.goals`` takes its pose from (default
-        ``own_pose_sources``)."""
+        ``pose_source_for``)."""
         self.config = config
         self.gait = gait
-        #: a steerable walker feels the robot each cycle before it is asked for targets
-        self._sense = gait.sense if isinstance(gait, Steerable) else None
+        #: the walker as one that takes commands and feels the robot (each cycle, before it is
+        #: asked for targets), if it is one: checked once, not per cycle
+        self._steerable = gait if isinstance(gait, Steerable) else None
         #: the walk to poses, and where it takes its pose from (none without goals)
         self.goto: GoTo | None = None
         self.pose: PoseSource | None = None
-        if (config.goals or config.walk_command is not None) and not isinstance(gait, Steerable):
+        if (config.goals or config.walk_command is not None) and self._steerable is None:
             raise ValueError("walking to poses or by a command needs a steerable gait (the omni family)")
         if config.goals:
             self.goto = GoTo(config.goals, config.goto)
-            self.pose = pose if pose is not None else own_pose_sources(config)
+            self.pose = pose if pose is not None else pose_source_for(config)
         self._fixed = None if config.walk_command is None else Command(*config.walk_command)
         #: what the walk to poses believed at each vision cycle of the walk: (game time, x, y,
         #: heading), for measuring its pose estimate against the truth (``bench.bench_course``)
@@ -148,13 +149,13 @@ class WalkBehaviour:
 
     def _velocities(self, perception: Perception, gait_time: float) -> np.ndarray:
         """The controller's commands; a joint missing from the perception gets 0 ("hold")."""
-        if self._sense is not None:
-            self._sense(perception.gyro, perception.acc, perception.joints)
-        if self.pose is not None:
-            self._steer(perception)
-        elif self._fixed is not None:
-            assert isinstance(self.gait, Steerable)
-            self.gait.command = self._fixed if self.phase is Phase.WALKING else Command()
+        steerable = self._steerable
+        if steerable is not None:
+            steerable.sense(perception.gyro, perception.acc, perception.joints)
+            if self.pose is not None:
+                self._steer(perception, steerable)
+            elif self._fixed is not None:
+                steerable.command = self._fixed if self.phase is Phase.WALKING else Command()
         lookahead = gait_time + self.config.lookahead_cycles * CYCLE
         joints = perception.joints
         try:
@@ -168,11 +169,10 @@ class WalkBehaviour:
             velocities[unseen] = 0.0
         return velocities
 
-    def _steer(self, perception: Perception) -> None:
+    def _steer(self, perception: Perception, gait: Steerable) -> None:
         """Where the robot is, then what it walks: towards the next pose while walking, standing
         before (the gait's command is the walk to poses' from the walk's start on)."""
-        assert self.pose is not None and self.goto is not None and isinstance(self.gait, Steerable)
-        gait = self.gait
+        assert self.pose is not None and self.goto is not None
         self.pose.update(perception, gait.moved())
         if self.phase is Phase.WALKING:
             pose = self.pose.pose
