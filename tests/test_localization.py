@@ -14,32 +14,11 @@ from agent import field_model
 from agent.behaviour import Phase, WalkBehaviour
 from agent.config import AgentConfig
 from agent.localization import LocalizationConfig, TruePose, VisionPose, neck, torso_rotation
+from bench.bench_localization import COURSE, Pose, error, stand_in_course, stand_in_robot, torso_pose, warn
 from gait import Command, load_gait
 from protocol.perception import GameState, Perception, Polar, Vision, parse_perception
 from server_stub import field
-from server_stub.config import ServerConfig
 from server_stub.sensors.vision import VisionSensor
-from server_stub.simulation import Simulation
-
-Pose = tuple[float, float, float]
-#: The course a robot walks (x, y, heading): beam, forward, sideways, turn, forward, along -y
-#: turning, sideways, sideways back, backwards.
-COURSE: list[Pose] = [
-    (-12, 0, 0),
-    (-6, 0, 0),
-    (-6, 3, 0),
-    (-6, 3, 180),
-    (-10, 3, 180),
-    (-10, -2, 90),
-    (-7, -2, 90),
-    (-9, -2, 90),
-    (-9, -5, 90),
-]
-
-
-def _error(estimate: Pose, truth: Pose) -> tuple[float, float]:
-    """(position error m, heading error deg)."""
-    return math.hypot(estimate[0] - truth[0], estimate[1] - truth[1]), abs((estimate[2] - truth[2] + 180) % 360 - 180)
 
 
 def _perception(vision: Vision | None, acc=(0.0, 0.0, 9.81), joints=None, team: str | None = None) -> Perception:
@@ -92,7 +71,7 @@ def test_a_noiseless_view_gives_the_pose_back(x, y, heading, he1, he2, pitch, ro
     assume(sum(name in field_model.LANDMARKS for name in vision.objects) >= 2)
     estimator = VisionPose((x + off[0], y + off[1], heading + off[2]))
     estimator.update(_perception(vision, acc, joints), Command())
-    position, angle = _error(estimator.pose, (x, y, heading))
+    position, angle = error(estimator.pose, (x, y, heading))
     assert position < 0.01 and angle < 0.2, (estimator.pose, estimator.rejected)
 
 
@@ -104,7 +83,7 @@ def test_lines_alone_place_a_robot_that_sees_at_most_one_flag(pose: Pose) -> Non
     assert sum(name in field_model.LANDMARKS for name in vision.objects) <= 1
     estimator = VisionPose((pose[0] + 0.04, pose[1] - 0.04, pose[2] + 5.0))
     estimator.update(_perception(vision, acc, joints), Command())
-    position, angle = _error(estimator.pose, pose)
+    position, angle = error(estimator.pose, pose)
     assert position < 0.01 and angle < 0.2
 
 
@@ -128,7 +107,7 @@ def test_noisy_views_stay_within_the_targets(pose: Pose) -> None:
         for _ in range(3):
             vision, acc, joints = _synthetic_view(pose, noise_seed=seed)
             estimator.update(_perception(vision, acc, joints), Command())
-        found.append(_error(estimator.pose, pose))
+        found.append(error(estimator.pose, pose))
     errors = np.array(found)
     assert np.median(errors[:, 0]) < 0.02 and errors[:, 0].max() < 0.05 and errors[:, 1].max() < 1.0
 
@@ -187,7 +166,7 @@ def test_the_right_team_sees_the_field_turned_half_round() -> None:
     estimator = VisionPose((-8.96, -2.04, 93.0))
     estimator.update(_perception(vision, acc, joints, team="right"), Command())
     assert estimator.side == "right"
-    position, angle = _error(estimator.pose, (-9.0, -2.0, 90.0))
+    position, angle = error(estimator.pose, (-9.0, -2.0, 90.0))
     assert position < 0.01 and angle < 0.2
 
 
@@ -213,7 +192,7 @@ def test_true_pose_is_mypos_moved_from_the_head_to_the_torso(x, y, heading, he1,
     for _ in range(600):  # the tilt filter settles on the accelerometer's reading
         estimator.update(_perception(None, acc, joints), Command())
     estimator.update(_perception(vision, acc, joints), Command())
-    position, angle = _error(estimator.pose, (x, y, heading))
+    position, angle = error(estimator.pose, (x, y, heading))
     assert position < 1e-4 and angle < 1e-3
 
 
@@ -221,30 +200,11 @@ def test_true_pose_is_mypos_moved_from_the_head_to_the_torso(x, y, heading, he1,
 # The stand-in: the server's own perception text, the true torso from its physics.
 
 
-def _warn(problem: str, key: str) -> None:
-    raise AssertionError(problem)
-
-
-def _stand_in(seed: int, beam_noise: bool = False) -> tuple[Simulation, object]:
-    sim = Simulation(ServerConfig(sync=True, realtime=False, beam_noise=beam_noise, sense_mypos=True, seed=seed))
-    state = sim.join()
-    sim.apply_frame(state, b"(scene rsg/agent/nao/nao.rsg)", _warn)
-    sim.step()
-    sim.apply_frame(state, b"(init (unum 1)(teamname Loc))", _warn)
-    sim.step()
-    return sim, state
-
-
-def _truth(state) -> Pose:
-    (x, y, _), rot = state.robot.torso_position(), state.robot.torso_rotation()
-    return x, y, math.degrees(math.atan2(rot[1, 1], rot[0, 1]))
-
-
 @pytest.mark.parametrize("pose", COURSE + [(-3.0, 5.0, 45.0), (-14.0, -8.0, -90.0)])
 def test_standing_on_the_stand_in(pose: Pose) -> None:
-    sim, state = _stand_in(seed=11)
+    sim, state = stand_in_robot(seed=11)
     try:
-        sim.apply_frame(state, f"(beam {pose[0]} {pose[1]} {pose[2]})".encode(), _warn)
+        sim.apply_frame(state, f"(beam {pose[0]} {pose[1]} {pose[2]})".encode(), warn)
         vision_pose, true_pose = VisionPose(pose), TruePose(pose)
         errors = []
         for _ in range(30):
@@ -253,9 +213,9 @@ def test_standing_on_the_stand_in(pose: Pose) -> None:
             vision_pose.update(perception, Command())
             true_pose.update(perception, Command())
             if perception.vision is not None:
-                truth = _truth(state)
-                errors.append(_error(vision_pose.pose, truth))
-                assert _error(true_pose.pose, truth)[0] < 0.01
+                truth = torso_pose(state)
+                errors.append(error(vision_pose.pose, truth))
+                assert error(true_pose.pose, truth)[0] < 0.01
         e = np.array(errors)
         assert np.median(e[:, 0]) < 0.02 and e[:, 0].max() < 0.05 and e[:, 1].max() < 1.0, e
     finally:
@@ -265,7 +225,7 @@ def test_standing_on_the_stand_in(pose: Pose) -> None:
 def test_walking_the_fastest_gait_on_the_stand_in() -> None:
     """A straight walk (about 1 m/s) from (-9, -2, 90) with the beam's noise: the start is up to
     0.05 m and 10 deg off; the odometry a rough forward speed."""
-    sim, state = _stand_in(seed=5, beam_noise=True)
+    sim, state = stand_in_robot(seed=5, beam_noise=True)
     try:
         pose = (-9.0, -2.0, 90.0)
         behaviour = WalkBehaviour(
@@ -277,7 +237,7 @@ def test_walking_the_fastest_gait_on_the_stand_in() -> None:
         errors = []
         for _ in range(240):
             if reply:
-                sim.apply_frame(state, reply, _warn)
+                sim.apply_frame(state, reply, warn)
             sim.step()
             perception = parse_perception(sim.perception(state, sim.vision_due))
             reply = behaviour.reply(perception).encode()
@@ -289,64 +249,22 @@ def test_walking_the_fastest_gait_on_the_stand_in() -> None:
             walking = behaviour.phase is Phase.WALKING
             estimator.update(perception, Command(0.02 if walking else 0.0, 0.0, 0.0))
             if perception.vision is not None:
-                errors.append(_error(estimator.pose, _truth(state)))
+                errors.append(error(estimator.pose, torso_pose(state)))
         e = np.array(errors[2:])
-        assert _truth(state)[1] > 0.0  # it walked
+        assert torso_pose(state)[1] > 0.0  # it walked
         assert np.median(e[:, 0]) < 0.03 and e[:, 0].max() < 0.06 and e[:, 1].max() < 1.0, e
     finally:
         sim.close()
 
 
-def _course_poses(speed: float = 0.5, sideways: float = 0.3, turning: float = 60.0) -> list[Pose]:
-    """The course, one pose per cycle: straight segments at constant speed, turning as they go."""
-    out: list[Pose] = []
-    for (x0, y0, h0), (x1, y1, h1) in zip(COURSE, COURSE[1:]):
-        turn = 180.0 if h1 - h0 == 180 else (h1 - h0 + 180) % 360 - 180
-        length = math.hypot(x1 - x0, y1 - y0)
-        cycles = max(1, math.ceil(max(length / min(speed, sideways), abs(turn) / turning) / 0.02))
-        out += [
-            (x0 + k / cycles * (x1 - x0), y0 + k / cycles * (y1 - y0), h0 + k / cycles * turn)
-            for k in range(1, cycles + 1)
-        ]
-    return out
-
-
-def test_the_course_on_the_stand_in() -> None:
-    """The robot carried along the course (placed each cycle: the stand-in has no walk that
-    turns or steps sideways), odometry the true motion with 10 % errors; the gyro reads nothing
-    of a placed robot, so the odometry turns it."""
-    sim, state = _stand_in(seed=3)
-    rng = np.random.default_rng(3)
-    try:
-        sim.apply_frame(state, b"(beam -12 0 0)", _warn)
-        for _ in range(10):
-            sim.step()
-        previous = _truth(state)
-        estimator = VisionPose(previous, LocalizationConfig(use_gyro=False))
-        errors = []
-        for x, y, heading in _course_poses():
-            state.robot.place(x, y, 0.384, heading)
-            sim.step()
-            now = _truth(state)
-            h = math.radians(previous[2])
-            dx, dy = now[0] - previous[0], now[1] - previous[1]
-            scale = 1.0 + 0.1 * rng.standard_normal(3)
-            moved = Command(
-                (math.cos(h) * dx + math.sin(h) * dy) * scale[0],
-                (-math.sin(h) * dx + math.cos(h) * dy) * scale[1],
-                ((now[2] - previous[2] + 180) % 360 - 180) * scale[2],
-            )
-            previous = now
-            perception = parse_perception(sim.perception(state, sim.vision_due))
-            estimator.update(perception, moved)
-            if perception.vision is not None:
-                errors.append(_error(estimator.pose, now))
-        e = np.array(errors)
-        assert estimator.rejected == 0
-        assert np.median(e[:, 0]) < 0.02 and e[:, 0].max() < 0.05
-        assert np.median(e[:, 1]) < 0.5 and e[:, 1].max() < 2.0
-    finally:
-        sim.close()
+def test_the_course_on_thestand_in_robot() -> None:
+    """The bench's course scene (``bench.bench_localization.stand_in_course``): every vision
+    cycle's error within the targets, no view rejected."""
+    errors, estimator = stand_in_course(3)
+    e = np.array(errors)
+    assert estimator.rejected == 0
+    assert np.median(e[:, 0]) < 0.02 and e[:, 0].max() < 0.05
+    assert np.median(e[:, 1]) < 0.5 and e[:, 1].max() < 2.0
 
 
 # ---------------------------------------------------------------------------------------------
@@ -370,7 +288,7 @@ def test_the_real_servers_walks(fixtures_dir, run: int) -> None:
         vision_pose.update(perception, Command())
         true_pose.update(perception, Command())
         if perception.vision is not None and k > 30:
-            errors.append(_error(vision_pose.pose, true_pose.pose))
+            errors.append(error(vision_pose.pose, true_pose.pose))
             seen_at = round(perception.game.time, 2)
             if seen_at in monitor and seen_at > 0.6:
                 offsets.append(math.dist(true_pose.pose[:2], monitor[seen_at]))
