@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from optimizer.episode.config import EpisodeConfig, EpisodeResult
-from optimizer.episode.scoring import TracePoint, find_robot, thinned_track
+from optimizer.episode.scoring import TracePoint, fallen, heading_of, judged_robot, thinned_track
 from protocol.monitor import MonitorState
 
 #: The format name a course file must carry.
@@ -173,19 +173,17 @@ class CourseJudge:
         self.trace: list[TracePoint] | None = [] if trace else None
 
     def feed(self, state: MonitorState) -> None:
-        if self.result is not None or state.play_mode != "PlayOn":
-            return
-        robot = find_robot(state, "left", self.config.unum)
+        robot = None if self.result is not None else judged_robot(state, self.config.unum)
         if robot is None:
             return
-        x, y, z = robot.position
-        heading = math.degrees(math.atan2(robot.forward[1], robot.forward[0]))
+        x, y, _ = robot.position
+        heading = heading_of(robot)
         if self.trace is not None:
-            self.trace.append(TracePoint(state.game_time, x, y, z, robot.up[2], heading))
+            self.trace.append(TracePoint.of(state.game_time, robot))
         course, now = self.course, state.game_time
         while len(self.legs) < len(course.poses) and course.reached((x, y, heading), len(self.legs)):
             self.legs.append(now)
-        fell = robot.up[2] < self.config.fall_up_z or z < self.config.fall_height
+        fell = fallen(robot, self.config)
         finished = len(self.legs) == len(course.poses)
         if finished or fell or now >= course.time_limit - 1e-6:
             t = min(now, course.time_limit)

@@ -33,6 +33,12 @@ class TracePoint:
     up_z: float
     heading: float
 
+    @classmethod
+    def of(cls, game_time: float, robot: RobotPose) -> TracePoint:
+        """The torso of ``robot`` as the judge sees it at ``game_time``."""
+        x, y, z = robot.position
+        return cls(game_time, x, y, z, robot.up[2], heading_of(robot))
+
     def rounded(self) -> tuple[float, ...]:
         """The point as ``TRACK_FIELDS``, to 4 decimals (0.1 mm, 1e-4 deg): a log's size, not a loss."""
         return tuple(round(v, 4) for v in (self.game_time, self.x, self.y, self.z, self.up_z, self.heading))
@@ -74,6 +80,21 @@ TRACK_EVERY = 5
 TRACK_FIELDS = ("game_time", "x", "y", "z", "up_z", "heading")
 
 
+def heading_of(robot: RobotPose) -> float:
+    """The azimuth of the torso's forward axis (deg): the robot's heading while it is upright."""
+    return math.degrees(math.atan2(robot.forward[1], robot.forward[0]))
+
+
+def fallen(robot: RobotPose, config: EpisodeConfig) -> bool:
+    """The community's run-benchmark fall rule: torso up-vector z or torso height too low."""
+    return robot.up[2] < config.fall_up_z or robot.position[2] < config.fall_height
+
+
+def judged_robot(state: MonitorState, unum: int) -> RobotPose | None:
+    """The left team's robot ``unum`` in a state a judge counts (PlayOn), else None."""
+    return find_robot(state, "left", unum) if state.play_mode == "PlayOn" else None
+
+
 def find_robot(state: MonitorState, side: str, unum: int) -> RobotPose | None:
     for robot in state.robots:
         if robot.team == side and robot.unum == unum:
@@ -101,18 +122,15 @@ class Judge:
         self.trace: list[TracePoint] | None = [] if trace else None
 
     def feed(self, state: MonitorState) -> None:
-        if self.result is not None or state.play_mode != "PlayOn":
-            return
-        robot = find_robot(state, "left", self.config.unum)
+        robot = None if self.result is not None else judged_robot(state, self.config.unum)
         if robot is None:
             return
-        x, y, z = robot.position
+        x, y, _ = robot.position
         if self._origin is None:
             self._origin = (x, y)
         if self.trace is not None:
-            fx, fy = robot.forward[0], robot.forward[1]
-            self.trace.append(TracePoint(state.game_time, x, y, z, robot.up[2], math.degrees(math.atan2(fy, fx))))
-        fell = robot.up[2] < self.config.fall_up_z or z < self.config.fall_height
+            self.trace.append(TracePoint.of(state.game_time, robot))
+        fell = fallen(robot, self.config)
         if fell or state.game_time >= self.config.walk_time - 1e-6:
             sx, sy = self._origin
             distance = (x - sx) * math.cos(self._heading) + (y - sy) * math.sin(self._heading)
