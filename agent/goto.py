@@ -28,11 +28,14 @@ class GotoConfig:
     #: The agent counts a pose reached within these metres and degrees of it (by its own estimate).
     reach: tuple[float, float] = (0.12, 7.0)
     #: Speed (m/s) per metre left, and turn rate (deg/s) per degree of heading error: the
-    #: approach's stiffness.
-    gain: float = 1.6
-    turn_gain: float = 2.5
+    #: approach's stiffness, in speeds walked (a calibrated walk walks what it is commanded,
+    #: ``gait.omni``). Set for the shipped walk on the stand-in's courses (the issue's and a short
+    #: one of three tight legs, 80 and 600 dithered walks): stiffer, it overshoots a pose and falls
+    #: turning back to it more often.
+    gain: float = 0.9
+    turn_gain: float = 1.85
     #: The speed (m/s) at which the walk passes a pose that is not the last one.
-    pass_speed: float = 0.3
+    pass_speed: float = 0.23
     #: A leg is walked facing its way only when that saves this share of the time, and only
     #: farther than ``face_beyond`` metres from the pose; the last metres are walked in the pose's
     #: heading.

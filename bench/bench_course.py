@@ -15,7 +15,9 @@ PATH; the sync profile, which sends ``mypos``):
 - **Speeds by command.** A grid of commands (forward, backwards, sideways, turning, mixes), each
   walked ``--map-seconds`` (default 5) from a standing start at (-5, 0, 0): the velocity achieved
   in the torso's own frame (forward, left, turning) over the whole walk and over its second half
-  (the command held after the start), and falls. ``--target-runs N`` walks the four target commands N times each.
+  (the command held after the start), and falls (``optimizer.episode.command_map``).
+  ``--target-runs N`` walks the four target commands N times each, and each way at the walk's top
+  speed as many times.
 
     python -m bench.bench_course --gait gait/walks/omni.json [--runs 10] [--target-runs 10]
         [--skip-real] [--skip-map] [--skip-course] [--out FILE.json]
@@ -36,8 +38,9 @@ from typing import Any
 
 import numpy as np
 
-from gait import Gait, GaitFileError, load_gait
+from gait import Gait, GaitFileError, Steerable, load_gait
 from optimizer.episode import CALIBRATED_COMMAND_NOISE, EpisodeConfig, EpisodeRunner
+from optimizer.episode.command_map import walk_commands
 from optimizer.episode.course import Course, leg_durations
 from optimizer.episode.real_server import RealServerError, RealServerProcess, find_rcssserver3d
 from optimizer.episode.runner import quiet_agent_logs
@@ -74,7 +77,6 @@ MAP_COMMANDS: tuple[tuple[float, float, float], ...] = (
     (-0.4, 0.3, 0.0),
     (0.3, -0.3, -30.0),
 )
-MAP_START = (-5.0, 0.0, 0.0)
 
 
 @contextmanager
@@ -150,51 +152,28 @@ def course_runs(gait: Gait, course: Course, server: str, true_pose: bool, runs: 
     return summary
 
 
-def achieved(trace: Sequence[TracePoint], since: float = 0.0) -> tuple[float, float, float]:
-    """Forward and leftward speed (m/s) in the torso's own frame as it turned, and the turn rate
-    (deg/s), over the part of the trace from game time ``since`` on: each step between two of the
-    judge's states is taken in the heading the torso had then."""
-    kept = [p for p in trace if p.game_time >= since - 1e-9]
-    if len(kept) < 2:
-        return 0.0, 0.0, 0.0
-    headings = np.unwrap(np.radians([p.heading for p in kept]))
-    forward = left = 0.0
-    for a, b, h in zip(kept, kept[1:], headings):
-        dx, dy = b.x - a.x, b.y - a.y
-        forward += dx * math.cos(h) + dy * math.sin(h)
-        left += -dx * math.sin(h) + dy * math.cos(h)
-    seconds = kept[-1].game_time - kept[0].game_time
-    return forward / seconds, left / seconds, math.degrees(float(headings[-1] - headings[0])) / seconds
-
-
 def command_walks(
     gait: Gait, server: str, commands: Sequence[tuple[float, float, float]], runs: int, seconds: float
 ) -> list[dict[str, Any]]:
-    base = EpisodeConfig(command_noise=CALIBRATED_COMMAND_NOISE, walk_time=seconds).starting_at(MAP_START)
+    with runner_on(server, EpisodeConfig()) as runner:
+        walks = walk_commands(runner, gait, commands, runs, seconds)
     rows = []
-    with runner_on(server, base) as runner:
-        for command in commands:
-            runner.config = replace(base, command=command)
-            whole, settled, falls = [], [], 0
-            for seed in range(runs):
-                result = runner.evaluate(gait, seed=seed)
-                falls += result.fell
-                if runner.last_trace and not result.fell:
-                    whole.append(achieved(runner.last_trace))
-                    settled.append(achieved(runner.last_trace, seconds / 2))
-            means = [
-                [round(statistics.fmean(s[k] for s in speeds), 3) for k in range(3)] if speeds else None
-                for speeds in (whole, settled)
-            ]
-            rows.append(
-                {"server": server, "command": list(command), "achieved": means[0], "second_half": means[1]}
-                | {"runs": runs, "falls": falls}
-            )
-            print(
-                f"  {server} command {command}: achieved {means[0]} over the walk, {means[1]} over its second "
-                f"half (fwd m/s, left m/s, deg/s; walks that stood), {falls}/{runs} fell"
-            )
+    for walk in walks:
+        rows.append({"server": server} | walk.to_dict())
+        print(
+            f"  {server} command {tuple(round(c, 3) for c in walk.command)}: achieved {rows[-1]['achieved']} over "
+            f"the walk, {rows[-1]['second_half']} over its second half (fwd m/s, left m/s, deg/s; walks that "
+            f"stood), {walk.falls}/{walk.runs} fell"
+        )
     return rows
+
+
+def top_commands(gait: Gait) -> list[tuple[float, float, float]]:
+    """Each way at the walk's top speed (``Steerable.max_command``, ``max_backward``)."""
+    walker = gait.walker()
+    assert isinstance(walker, Steerable)
+    top = walker.max_command
+    return [(top.forward, 0.0, 0.0), (-walker.max_backward, 0.0, 0.0), (0.0, top.left, 0.0), (0.0, 0.0, top.turn)]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -240,6 +219,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not args.skip_map:
             print(f"targets on {server} ({args.target_runs} walks each, {args.map_seconds:g} s):")
             report["map"] += command_walks(gait, server, TARGET_COMMANDS, args.target_runs, args.map_seconds)
+            print(f"top speeds on {server} ({args.target_runs} walks each, {args.map_seconds:g} s):")
+            report["map"] += command_walks(gait, server, top_commands(gait), args.target_runs, args.map_seconds)
             print(f"map on {server} (1 walk each):")
             report["map"] += command_walks(gait, server, MAP_COMMANDS, 1, args.map_seconds)
     print(json.dumps({k: report[k] for k in ("course_runs", "straight_runs")}, indent=1))

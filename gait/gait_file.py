@@ -12,7 +12,8 @@ read them (``python -m agent --gait FILE``). Format::
 Files of the first format, ``"format": "tfs-gait/1"`` with no family, hold the paper's TFS gait and
 still load. A family that gained a gene after files of it were written reads those files with the
 gene at the value that walks as before (``ADDED_GENES``): an ``omni`` file of 19 genes, from before
-``lag_comp``, loads as the same walk with ``lag_comp`` 0.
+``lag_comp``, loads as the same walk with ``lag_comp`` 0, and one from before the calibration with
+gains of 1 and no ``side_turn``.
 """
 
 from __future__ import annotations
@@ -34,7 +35,16 @@ TFS_FORMAT_1 = "tfs-gait/1"
 DEFAULT_GAIT_PATH: Path = Path(__file__).with_name("default_gait.json")
 #: Per family, the genes it gained after files of it were written, each at the value that leaves
 #: its walk as it was: a file without them loads with these (and without their units).
-ADDED_GENES: dict[str, dict[str, float]] = {"omni": {"lag_comp": 0.0}}
+ADDED_GENES: dict[str, dict[str, float]] = {
+    "omni": {
+        "lag_comp": 0.0,
+        "gain_forward": 1.0,
+        "gain_backward": 1.0,
+        "gain_left": 1.0,
+        "gain_turn": 1.0,
+        "side_turn": 0.0,
+    }
+}
 
 
 class GaitFileError(ValueError):

@@ -18,6 +18,15 @@ rate is the planned targets' change over the next cycle (the step state advanced
 the same command: the joint targets planned for the next cycle), into arrays of the walker's own.
 With ``lag_comp`` 0 the lead adds exactly 0: the walk is the one before the gene.
 
+Calibration (the last five genes): a robot walks less than its steps plan (its feet slip, its
+joints lag), some 70-85% of it, and stepping sideways turns it. So the command, in the speeds the
+robot is to walk, is planned as ``gain_*`` times itself (forward or backward, sideways, turning)
+plus ``side_turn`` times its sideways speed as turning, and the odometry and the top speeds are
+taken back through the same map: a command of 0.5 m/s walks about 0.5 m/s. The top speeds
+(``max_*``) cap the planned speeds, so the calibration moves no step of a walk at its top speed.
+They are measured, not searched (``python -m optimizer.calibrate``; ``OMNI.held``: a refinement
+keeps them), and gains of 1 and no ``side_turn`` plan the command as it is: the walk before them.
+
 Speed: the per-cycle math is numba kernels over robot rows (here ``tilt_into``,
 ``targets_into``, ``planned_into``, ``feedback_into``; the steps' and the legs' in their modules,
 each kernel calling only kernels of its own file, as numba's disk cache checks a kernel against
@@ -78,6 +87,11 @@ GENE_UNITS: dict[str, str] = {
     "tilt_pitch": "deg/deg",
     "tilt_roll": "deg/deg",
     "lag_comp": "s",
+    "gain_forward": "1",
+    "gain_backward": "1",
+    "gain_left": "1",
+    "gain_turn": "1",
+    "side_turn": "deg/m",
 }
 
 #: The arms hang at -90 deg of shoulder pitch (docs/robot_and_server.md section 1).
@@ -117,6 +131,11 @@ BOUNDS: np.ndarray = np.array(
         [-1.0, 1.0],  # tilt_pitch
         [-1.0, 1.0],  # tilt_roll
         [0.0, _LAG_COMP_MAX],  # lag_comp
+        [0.5, 2.5],  # gain_forward
+        [0.5, 2.5],  # gain_backward
+        [0.5, 2.5],  # gain_left
+        [0.5, 2.5],  # gain_turn
+        [-200.0, 200.0],  # side_turn
     ]
 )
 
@@ -178,6 +197,8 @@ def joint_angles(
     return out
 
 
+#: The calibration's genes: measured by ``optimizer.calibrate``, kept by a search (``held``).
+_CALIBRATION = ("gain_forward", "gain_backward", "gain_left", "gain_turn", "side_turn")
 _NO_LOW, _NO_HIGH = np.full(len(EFFECTORS), -np.inf), np.full(len(EFFECTORS), np.inf)
 _DEG = 180.0 / math.pi
 #: the genes' columns in ``param_rows`` (literal: a compiled kernel keeps the values it was compiled with)
@@ -276,7 +297,7 @@ class OmniWalker:
 
     def __init__(self, genes: tuple[float, ...]) -> None:
         self.params = OmniParams(*genes)
-        self.command = Command(float(self.params.max_forward), 0.0, 0.0)
+        self.command = Command(self.max_command.forward, 0.0, 0.0)
         self._genes = param_rows(self.params)
         self._state, self._next = standing(1), empty_state(1)
         self._time: float | None = None
@@ -304,12 +325,24 @@ class OmniWalker:
 
     @property
     def max_command(self) -> Command:
+        """The top speeds it walks (the planned ones, ``max_*``, taken back through the calibration)."""
         p = self.params
-        return Command(float(p.max_forward), float(p.max_left), float(p.max_turn))
+        return Command(
+            float(p.max_forward) / float(p.gain_forward),
+            float(p.max_left) / float(p.gain_left),
+            float(p.max_turn) / float(p.gain_turn),
+        )
 
     @property
     def max_backward(self) -> float:
-        return float(self.params.max_backward)
+        return float(self.params.max_backward) / float(self.params.gain_backward)
+
+    def planned(self, command: Command) -> tuple[float, float, float]:
+        """The speeds to plan steps for so that the robot walks ``command``: the calibration."""
+        p = self.params
+        forward, left, turn = command
+        gain = p.gain_forward if forward >= 0.0 else p.gain_backward
+        return forward * float(gain), left * float(p.gain_left), turn * float(p.gain_turn) + float(p.side_turn) * left
 
     @property
     def standing(self) -> bool:
@@ -332,7 +365,7 @@ class OmniWalker:
         genes = self._genes
         dt = 0.0 if self._time is None else min(max(t - self._time, 0.0), 0.99 * float(self.params.period))
         self._time = t if self._time is None else max(t, self._time)
-        self._command[0] = self.command
+        self._command[0] = self.planned(self.command)
         clip_into(self._command, genes, self._clipped)
         self._dt[0] = dt
         advance_into(*self._state, self._dt, self._clipped, genes, *self._next, self._odometry)
@@ -355,7 +388,12 @@ class OmniWalker:
         return dict(zip(EFFECTORS, self._angles[0].tolist()))
 
     def _integrate(self, forward: float, left: float, turn: float) -> None:
-        """Adds one cycle's odometry (forward, left in the torso's frame then; turn deg)."""
+        """Adds one cycle's odometry (the planned steps' forward, left in the torso's frame then;
+        turn deg), taken back through the calibration to what the robot walked."""
+        p = self.params
+        forward /= float(p.gain_forward if forward >= 0.0 else p.gain_backward)
+        left /= float(p.gain_left)
+        turn = (turn - float(p.side_turn) * left) / float(p.gain_turn)
         x, y, heading = self._pose
         c, s = math.cos(heading), math.sin(heading)
         self._pose = (x + c * forward - s * left, y + s * forward + c * left, heading + math.radians(turn))
@@ -396,11 +434,15 @@ def _walker(genes: tuple[float, ...]) -> OmniWalker:
 
 OMNI = GaitFamily(
     name="omni",
-    about="an omnidirectional walk engine: steps from a command, analytic leg IK, gyro and tilt feedback (20 genes)",
+    about=(
+        "an omnidirectional walk engine: steps from a command, analytic leg IK, gyro and tilt feedback, "
+        "calibrated commands (25 genes)"
+    ),
     gene_names=GENE_NAMES,
     gene_units=GENE_UNITS,
     boxes={"robot": BOUNDS},
     check=_check,
     repair=_repair,
     walker=_walker,
+    held=tuple(GENE_NAMES.index(name) for name in _CALIBRATION),
 )

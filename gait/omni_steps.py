@@ -65,6 +65,11 @@ class OmniParams(NamedTuple):
     tilt_pitch: Gene  # deg of hip pitch per deg the torso pitches beyond ``lean`` (accelerometer)
     tilt_roll: Gene  # deg of hip roll per deg the torso rolls (accelerometer)
     lag_comp: Gene  # s: targets led by this times their rate, against the joint controller's lag
+    gain_forward: Gene  # planned forward speed per commanded (the walk's calibration, ``gait.omni``)
+    gain_backward: Gene  # planned backward speed per commanded
+    gain_left: Gene  # planned sideways speed per commanded
+    gain_turn: Gene  # planned turn rate per commanded
+    side_turn: Gene  # deg/s of planned turn per m/s of commanded sideways speed
 
 
 class StepState(NamedTuple):
@@ -91,7 +96,7 @@ def empty_state(n: int, make: Callable[..., np.ndarray] = np.empty) -> StepState
 
 
 def param_rows(p: OmniParams) -> np.ndarray:
-    """The genes as the kernels take them: one row per robot (m, 20), m = 1 when every gene is
+    """The genes as the kernels take them: one row per robot (m, 25), m = 1 when every gene is
     one float (all robots alike)."""
     try:
         genes = np.array(p, dtype=float)

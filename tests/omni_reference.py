@@ -7,8 +7,9 @@ The record was written by the numpy implementation of commit 7d68050 (``python -
 tests.omni_reference``) before the per-cycle math was compiled; ``tests/test_omni_reference.py``
 checks that the walker still reproduces it. Writing it again records the code as it is now.
 
-The record has the 19 genes of its time; ``lag_comp``, added since, is walked at 0 (``walked``),
-which leaves the walk as it was.
+The record has the 19 genes of its time; those added since (``lag_comp``, the calibration) are
+walked at the values a gait file of that time loads with (``gait.gait_file.ADDED_GENES``:
+``walked``), which leave the walk as it was.
 """
 
 from __future__ import annotations
@@ -19,19 +20,22 @@ from typing import Any
 import numpy as np
 
 from gait import OMNI, Command
+from gait.gait_file import ADDED_GENES
 from gait.omni import EFFECTORS, OmniWalker
 from protocol.nao import JOINTS
 
 PATH = Path(__file__).resolve().parent / "data" / "omni_reference.npz"
 LIMITS = {j.effector: (j.min_deg, j.max_deg) for j in JOINTS}
 GENES, CYCLES, EVERY = 30, 300, 5  # all targets every EVERY-th cycle, a weighted sum every cycle
-#: The genes recorded: the omni family's first 19 (``lag_comp`` came after).
+#: The genes recorded: the omni family's first 19 (``lag_comp`` and the calibration came after).
 RECORDED = 19
 
 
 def walked(genes: np.ndarray) -> np.ndarray:
-    """The recorded genes (GENES, 19) as walked now: ``lag_comp`` 0 appended."""
-    return np.concatenate([genes, np.zeros((len(genes), 1))], axis=1)
+    """The recorded genes (GENES, 19) as walked now: the genes added since appended, each at
+    the value an old file loads with."""
+    added = [ADDED_GENES[OMNI.name][name] for name in OMNI.gene_names[RECORDED:]]
+    return np.concatenate([genes, np.tile(added, (len(genes), 1))], axis=1)
 
 
 def inputs(seed: int = 2026) -> dict[str, Any]:

@@ -60,7 +60,7 @@ def test_poses_are_taken_in_order_and_the_walk_stands_at_the_last():
 
 
 def test_the_approach_slows_to_a_stand_at_the_last_pose_only():
-    far, near = (0.0, 0.0, 0.0), (0.9, 0.0, 0.0)
+    far, near = (-4.0, 0.0, 0.0), (0.9, 0.0, 0.0)  # 5 m left: beyond where the approach slows
     last = GoTo([(1.0, 0.0, 0.0)])
     assert last.command(far, TOP, BACK).forward == pytest.approx(TOP.forward)
     assert last.command(near, TOP, BACK).forward < 0.2

@@ -2,7 +2,9 @@
 leg IK reaches what it is asked, it stands at the start and after a stop, it clips commands onto
 its top speeds, its odometry is the commanded speed in steady state, ``lag_comp`` leads the planned
 targets by their rate, its start gait walks on the stand-in, and its gaits round-trip through gait
-files (those of 19 genes, from before ``lag_comp``, load with it 0)."""
+files (those of 19 genes, from before ``lag_comp`` and the calibration, load as the walk they
+were); a calibrated walker plans its map of the command, and its odometry and top speeds are in
+the commanded speeds."""
 
 from __future__ import annotations
 
@@ -15,7 +17,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gait import DEFAULT_FAMILY, FAMILIES, OMNI, Command, GaitFileError, Steerable, load_gait, save_gait
+from gait import DEFAULT_FAMILY, FAMILIES, OMNI, Command, Gait, GaitFileError, Steerable, load_gait, save_gait
 from gait.leg_ik import LEG_LENGTH, leg_fk, leg_ik, rot_x, rot_y, rot_z
 from gait.nao_legs import LIMIT_MARGIN_DEG
 from gait.omni import EFFECTORS, RATE_STEP, OmniWalker, feedback_angles, joint_angles, planned_angles, tilt
@@ -135,15 +137,28 @@ def test_commands_are_clipped_onto_the_top_speeds_direction_kept(g, command: Com
         assert np.allclose(clipped * math.sqrt(inside), command)
 
 
+#: A calibration far from none: every gain and the sideways turn at work.
+CALIBRATION = {"gain_forward": 1.3, "gain_backward": 0.8, "gain_left": 1.2, "gain_turn": 1.4, "side_turn": -45.0}
+#: No calibration: the command planned as it is.
+UNCALIBRATED = {"gain_forward": 1.0, "gain_backward": 1.0, "gain_left": 1.0, "gain_turn": 1.0, "side_turn": 0.0}
+
+
+def calibrated(gait: Gait, calibration: dict[str, float] = CALIBRATION) -> Gait:
+    return OMNI.gait([calibration.get(name, value) for name, value in gait.params.items()])
+
+
+@pytest.mark.parametrize("calibrate", [False, True], ids=["uncalibrated", "calibrated"])
 @pytest.mark.parametrize(
     "share", [(1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, 1.0)]
 )
-def test_odometry_is_the_commanded_speed_in_steady_state(share) -> None:
-    gait = load_gait(START)
+def test_odometry_is_the_commanded_speed_in_steady_state(share, calibrate: bool) -> None:
+    """The odometry is in the commanded speeds whatever the calibration plans for them (it is
+    taken back through the same map)."""
+    gait = calibrated(load_gait(START)) if calibrate else load_gait(START)
     walker = gait.walker()
     assert isinstance(walker, OmniWalker)
     p = gait.params
-    tops = np.array([p["max_forward"] if share[0] >= 0 else p["max_backward"], p["max_left"], p["max_turn"]])
+    tops = np.array([walker.max_command.forward if share[0] >= 0 else walker.max_backward, *walker.max_command[1:]])
     command = Command(*(0.5 * tops * share))
     t, _ = walk(walker, command, 3.0)  # past the ramp
     walker.moved()
@@ -158,6 +173,45 @@ def test_odometry_is_the_commanded_speed_in_steady_state(share) -> None:
     # a turn bends the forward and sideways odometry into the turned frame; straight, it is exact
     assert np.allclose(total, expected, atol=1e-9 + 0.02 * abs(expected).max())
     assert np.allclose(total[np.array(share) == 0], 0.0, atol=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(g=genes(), command=commands, cycles=st.integers(1, 60))
+def test_the_calibration_plans_its_map_of_the_command_and_takes_odometry_and_tops_back(
+    g, command: Command, cycles: int
+) -> None:
+    """A calibrated walker walking a command is the uncalibrated walker walking the calibration's
+    map of it (forward or backward gain, sideways gain, turn gain plus ``side_turn`` per m/s
+    sideways): the same targets to the last digit. Its odometry is the uncalibrated one taken
+    back through the map, and its top speeds are the genes' divided by the gains."""
+    plain, gains = OMNI.gait(g), CALIBRATION
+    own, bare = calibrated(plain).walker(), calibrated(plain, UNCALIBRATED).walker()
+    assert isinstance(own, OmniWalker) and isinstance(bare, OmniWalker)
+    forward_gain = gains["gain_forward"] if command.forward >= 0 else gains["gain_backward"]
+    own.command = command
+    bare.command = Command(
+        command.forward * forward_gain,
+        command.left * gains["gain_left"],
+        command.turn * gains["gain_turn"] + gains["side_turn"] * command.left,
+    )
+    for k in range(cycles):
+        assert own.joint_targets(0.04 + k * CYCLE, LIMITS) == bare.joint_targets(0.04 + k * CYCLE, LIMITS)
+        moved, planned = own.moved(), bare.moved()  # one cycle's: in the frame it began in
+        gain = gains["gain_forward"] if planned.forward >= 0 else gains["gain_backward"]
+        assert moved.forward == pytest.approx(planned.forward / gain, rel=1e-12, abs=1e-15)
+        assert moved.left == pytest.approx(planned.left / gains["gain_left"], rel=1e-12, abs=1e-15)
+        assert moved.turn == pytest.approx(
+            (planned.turn - gains["side_turn"] * moved.left) / gains["gain_turn"], rel=1e-9, abs=1e-12
+        )
+    p = plain.params
+    assert own.max_command == pytest.approx(
+        (
+            p["max_forward"] / gains["gain_forward"],
+            p["max_left"] / gains["gain_left"],
+            p["max_turn"] / gains["gain_turn"],
+        )
+    )
+    assert own.max_backward == pytest.approx(p["max_backward"] / gains["gain_backward"])
 
 
 def test_the_start_gait_walks_forward_on_the_stand_in_without_falling() -> None:
@@ -178,16 +232,18 @@ def test_omni_gaits_round_trip_through_gait_files(g, tmp_path_factory) -> None:
     assert load_gait(path) == gait
 
 
-def test_a_gait_file_of_19_omni_genes_loads_as_the_same_walk_with_lag_comp_0(tmp_path: Path) -> None:
-    """Files written before ``lag_comp`` (19 genes, their units) load with it 0, which walks as
-    they walked."""
+def test_a_gait_file_of_19_omni_genes_loads_as_the_same_walk(tmp_path: Path) -> None:
+    """Files written before ``lag_comp`` (19 genes, their units) load with it 0 and with no
+    calibration (gains 1, ``side_turn`` 0), which walks as they walked; so do those of 20 genes."""
     gait = load_gait(START)
+    assert gait.params["lag_comp"] == 0.0 and all(gait.params[k] == v for k, v in UNCALIBRATED.items())
     document = json.loads(START.read_text())
-    for key in ("units", "params"):
-        del document[key]["lag_comp"]
     old = tmp_path / "old.json"
-    old.write_text(json.dumps(document))
-    assert load_gait(old) == gait and gait.params["lag_comp"] == 0.0
+    for name in reversed(OMNI.gene_names[19:]):
+        for key in ("units", "params"):
+            document[key].pop(name, None)
+        old.write_text(json.dumps(document))
+        assert load_gait(old) == gait
     del document["params"]["tilt_roll"]  # only the gene added since may be missing
     old.write_text(json.dumps(document))
     with pytest.raises(GaitFileError, match="tilt_roll"):
@@ -239,7 +295,7 @@ def test_lag_comp_leads_the_planned_targets_by_their_rate() -> None:
     low, high = OMNI.bounds[:, 0], OMNI.bounds[:, 1]
     genes = low + rng.random((3, len(low))) * (high - low)
     lag_comp = np.array([0.0, 0.067, 0.1])
-    genes[:, -1] = lag_comp
+    genes[:, OMNI.gene_names.index("lag_comp")] = lag_comp
     p = OmniParams(*genes.T)
     command = clip_command(np.array([[0.3, 0.1, 20.0], [-0.2, -0.1, -30.0], [0.0, 0.2, 0.0]]), p)
     gyros, tilts = rng.normal(0.0, 30.0, (3, 3)), rng.normal(0.0, 10.0, (3, 2))

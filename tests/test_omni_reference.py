@@ -1,7 +1,7 @@
 """The omni walker reproduces its frozen record (``tests/omni_reference.py``): the numpy
 implementation's targets, odometry and standing, for 30 genes x 300 cycles of changing commands,
-clocks and sensors, to 1e-9 deg (and m); its 19 genes walked with ``lag_comp`` 0 appended, which
-must leave the walk as it was."""
+clocks and sensors, to 1e-9 deg (and m); its 19 genes walked with the genes added since at the
+values old files load with, which must leave the walk as it was."""
 
 from __future__ import annotations
 

@@ -7,8 +7,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+from collections.abc import Sequence
 
 from optimizer import settings
+from optimizer.episode.real_server import RealServerProcess
+from optimizer.episode.servers import ManagedServer, ServerAddress
+from optimizer.run.session import check_start_for_real_server, real_server_command
 
 
 def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
@@ -28,3 +32,20 @@ def add_server_arguments(parser: argparse.ArgumentParser, *, repeatable: bool = 
         server = dataclasses.replace(server, action=None, help=help_one)
     real.add_to(where)
     server.add_to(where)
+
+
+def one_server(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, start: Sequence[float], what: str
+) -> ServerAddress | ManagedServer | None:
+    """The one server a command that walks one episode at a time was given (``add_server_arguments``
+    not ``repeatable``): ``--server``'s, a real server to start for ``--real 1``, or None for the
+    embedded stub. Refuses ``--real`` other than 1, and a ``start`` a real server would not allow
+    (the parser's error: ``what`` says which command walks one at a time)."""
+    server: ServerAddress | ManagedServer | None = args.server
+    if args.real is not None:
+        if args.real != 1:
+            parser.error(f"--real {args.real}: {what} walks one episode at a time on one server; use --real 1")
+        server = RealServerProcess(real_server_command(parser))
+    if server is not None:
+        check_start_for_real_server(parser, start, "--real" if args.real else "--server")
+    return server

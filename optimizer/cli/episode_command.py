@@ -34,7 +34,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 from gait import DEFAULT_GAIT_PATH, Gait, GaitFileError, Steerable, load_gait
-from optimizer.cli.arguments import add_episode_arguments, add_server_arguments
+from optimizer.cli.arguments import add_episode_arguments, add_server_arguments, one_server
 from optimizer.episode import EpisodeConfig, EpisodeResult, Start
 from optimizer.episode.course import Course, CourseError
 from optimizer.episode.real_server import RealServerError, RealServerProcess
@@ -42,7 +42,6 @@ from optimizer.episode.servers import ManagedServer, ServerAddress
 from optimizer.run.repeats import describe, summary, walk_from
 from optimizer.run.robust import jittered_starts
 from optimizer.run.run_settings import episode_config
-from optimizer.run.session import check_start_for_real_server, real_server_command
 from optimizer.settings import Settings
 from protocol.cli_values import non_negative, number, positive_int
 from protocol.nao import ROBOT_TYPES
@@ -147,13 +146,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.course is not None and (args.start or args.walk_time):
         parser.error("--course sets the start and the time limit: leave out --start and --walk-time")
     start = list(args.course.start) if args.course is not None else args.start or list(EPISODE.start)
-    server: ServerAddress | ManagedServer | None = args.server
-    if args.real is not None:
-        if args.real != 1:
-            parser.error(f"--real {args.real}: this command walks one episode at a time on one server; use --real 1")
-        server = RealServerProcess(real_server_command(parser))
-    if server is not None:
-        check_start_for_real_server(parser, start, "--real" if args.real else "--server")
+    server = one_server(parser, args, start, "this command")
     base = episode_config(args.walk_time or EPISODE.walk_time, start, args.agent_mode or EPISODE.agent_mode)
     base = replace(
         base,
