@@ -108,8 +108,24 @@ def test_the_command_calibrates_a_walk_on_the_stand_in(tmp_path: Path, capsys: p
     assert [r["round"] for r in recorded] == [1, 2] and len(recorded[0]["walks"]) == 12
 
 
-def test_a_gait_that_takes_no_command_is_refused(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    "args, said",
+    [
+        ([str(WALKS.parent / "default_gait.json")], "takes no command"),
+        ([str(START), "--runs", "0"], "--runs"),
+        ([str(START), "--real", "2"], "use --real 1"),
+    ],
+)
+def test_a_wrong_value_is_refused_before_any_walk(
+    args: list[str], said: str, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
     with pytest.raises(SystemExit) as exit_:
-        main([str(WALKS.parent / "default_gait.json"), "--out", str(tmp_path / "x.json")])
-    assert exit_.value.code == 2 and "takes no command" in capsys.readouterr().err
+        main([*args, "--out", str(tmp_path / "x.json")])
+    assert exit_.value.code == 2 and said in capsys.readouterr().err
     assert not (tmp_path / "x.json").exists()
+
+
+def test_an_out_file_in_no_folder_is_refused(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        main([str(START), "--out", str(tmp_path / "nowhere" / "x.json")])
+    assert exit_.value.code == 2 and "folder does not exist" in capsys.readouterr().err

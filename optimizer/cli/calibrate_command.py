@@ -79,6 +79,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     gait = _steerable_gait(parser, args.gait)
+    if not Path(args.out).resolve().parent.is_dir():
+        parser.error(f"--out {args.out}: its folder does not exist")
     server = one_server(parser, args, MAP_START, "calibration")
     rounds = []
     try:
