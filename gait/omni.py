@@ -198,7 +198,7 @@ def joint_angles(
 
 
 #: The calibration's genes: measured by ``optimizer.calibrate``, kept by a search (``held``).
-_CALIBRATION = ("gain_forward", "gain_backward", "gain_left", "gain_turn", "side_turn")
+CALIBRATION_GENES = ("gain_forward", "gain_backward", "gain_left", "gain_turn", "side_turn")
 _NO_LOW, _NO_HIGH = np.full(len(EFFECTORS), -np.inf), np.full(len(EFFECTORS), np.inf)
 _DEG = 180.0 / math.pi
 #: the genes' columns in ``param_rows`` (literal: a compiled kernel keeps the values it was compiled with)
@@ -297,6 +297,9 @@ class OmniWalker:
 
     def __init__(self, genes: tuple[float, ...]) -> None:
         self.params = OmniParams(*genes)
+        p = self.params
+        #: the calibration, read once: forward, backward, sideways and turn gains, side_turn
+        self._gains = tuple(float(g) for g in (p.gain_forward, p.gain_backward, p.gain_left, p.gain_turn, p.side_turn))
         self.command = Command(self.max_command.forward, 0.0, 0.0)
         self._genes = param_rows(self.params)
         self._state, self._next = standing(1), empty_state(1)
@@ -326,23 +329,18 @@ class OmniWalker:
     @property
     def max_command(self) -> Command:
         """The top speeds it walks (the planned ones, ``max_*``, taken back through the calibration)."""
-        p = self.params
-        return Command(
-            float(p.max_forward) / float(p.gain_forward),
-            float(p.max_left) / float(p.gain_left),
-            float(p.max_turn) / float(p.gain_turn),
-        )
+        p, (ahead, _, left, turn, _) = self.params, self._gains
+        return Command(float(p.max_forward) / ahead, float(p.max_left) / left, float(p.max_turn) / turn)
 
     @property
     def max_backward(self) -> float:
-        return float(self.params.max_backward) / float(self.params.gain_backward)
+        return float(self.params.max_backward) / self._gains[1]
 
     def planned(self, command: Command) -> tuple[float, float, float]:
         """The speeds to plan steps for so that the robot walks ``command``: the calibration."""
-        p = self.params
+        ahead, back, sideways, turning, side_turn = self._gains
         forward, left, turn = command
-        gain = p.gain_forward if forward >= 0.0 else p.gain_backward
-        return forward * float(gain), left * float(p.gain_left), turn * float(p.gain_turn) + float(p.side_turn) * left
+        return forward * (ahead if forward >= 0.0 else back), left * sideways, turn * turning + side_turn * left
 
     @property
     def standing(self) -> bool:
@@ -390,10 +388,10 @@ class OmniWalker:
     def _integrate(self, forward: float, left: float, turn: float) -> None:
         """Adds one cycle's odometry (the planned steps' forward, left in the torso's frame then;
         turn deg), taken back through the calibration to what the robot walked."""
-        p = self.params
-        forward /= float(p.gain_forward if forward >= 0.0 else p.gain_backward)
-        left /= float(p.gain_left)
-        turn = (turn - float(p.side_turn) * left) / float(p.gain_turn)
+        ahead, back, sideways, turning, side_turn = self._gains
+        forward /= ahead if forward >= 0.0 else back
+        left /= sideways
+        turn = (turn - side_turn * left) / turning
         x, y, heading = self._pose
         c, s = math.cos(heading), math.sin(heading)
         self._pose = (x + c * forward - s * left, y + s * forward + c * left, heading + math.radians(turn))
@@ -444,5 +442,5 @@ OMNI = GaitFamily(
     check=_check,
     repair=_repair,
     walker=_walker,
-    held=tuple(GENE_NAMES.index(name) for name in _CALIBRATION),
+    held=tuple(GENE_NAMES.index(name) for name in CALIBRATION_GENES),
 )

@@ -16,8 +16,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gait import OMNI, load_gait
+from gait.omni import CALIBRATION_GENES
 from optimizer.cli.calibrate_command import main
-from optimizer.episode.command_map import CALIBRATION_GENES, CommandWalks, achieved, calibrated, command_error
+from optimizer.episode.command_map import CommandWalks, achieved, calibrated, command_error
 from optimizer.episode.scoring import TracePoint
 
 WALKS = Path(__file__).resolve().parent.parent / "gait" / "walks"

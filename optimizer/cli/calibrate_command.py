@@ -27,9 +27,9 @@ from pathlib import Path
 
 from gait import Gait, Steerable, load_gait, save_gait
 from gait.gait_file import GaitFileError
+from gait.omni import CALIBRATION_GENES
 from optimizer.cli.arguments import add_server_arguments, one_server
 from optimizer.episode.command_map import (
-    CALIBRATION_GENES,
     MAP_START,
     CommandWalks,
     calibrated,

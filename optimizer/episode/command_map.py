@@ -18,6 +18,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from gait import Gait, Steerable
+from gait.omni import CALIBRATION_GENES
 from optimizer.episode.config import CALIBRATED_COMMAND_NOISE, EpisodeConfig
 from optimizer.episode.runner import EpisodeRunner
 from optimizer.episode.scoring import TracePoint
@@ -26,8 +27,6 @@ from optimizer.episode.scoring import TracePoint
 MAP_START = (-5.0, 0.0, 0.0)
 #: The shares of the top speed each calibration command asks for, each way of each axis.
 CALIBRATION_SHARES = (0.5, 0.9)
-#: The calibration's genes (``gait.omni``), in the order ``calibrated`` returns them.
-CALIBRATION_GENES = ("gain_forward", "gain_backward", "gain_left", "gain_turn", "side_turn")
 
 
 def achieved(trace: Sequence[TracePoint], since: float = 0.0) -> tuple[float, float, float]:
