@@ -28,12 +28,12 @@ from server_stub.physics import (
     gauss_seidel,
     integrate,
     island_step,
+    lanes,
     motors,
     robot_step,
     rotations,
     rows,
     solver,
-    tree_step,
 )
 from server_stub.sensors import number_text, vision
 
@@ -117,7 +117,7 @@ SERVER: tuple[str, ...] = tuple(name for name in PARTS if name != "shared")
 _HERE: tuple[str, ...] = ("robot", "motors", "field")
 #: One kernel of each part: a part whose kernel numba's cache holds is taken as compiled.
 _PROBES: dict[str, Callable[[], Any]] = {
-    "robot": lambda: tree_step.step_tree,
+    "robot": lambda: lanes.step_lanes,
     "island": lambda: solver.schur_of_rows,
     "motors": lambda: motors.motor_step,
     "large_islands": lambda: gauss_seidel.block_gauss_seidel,

@@ -25,7 +25,9 @@ from server_stub.physics.bundles import (
     State,
 )
 from server_stub.physics.integrate import gyroscopic_torque
+from server_stub.physics.lanes import LaneGroup
 from server_stub.physics.solver import BLOCK_PIVOT_PASSES, block_pivot, box_qp
+from server_stub.physics.tree_step import step_tree
 from server_stub.physics.world import World
 from tests.dense_step import dense_step
 
@@ -358,35 +360,110 @@ def _bundled(args: tuple) -> tuple:
     return tuple(kind(*fields) for kind, fields in zip(kinds, args))
 
 
-def test_the_tree_solve_equals_the_dense_solve(monkeypatch):
-    """``tree_step.step_tree`` (Baraff's tree elimination, the bounded rows on a Schur
-    complement) gives ``tests.dense_step``'s velocities and contact forces (one dense LCP) on a flailing
-    robot: stops hit, feet and hands on the ground, motors at their torque limit; to rounding."""
-    tree = robot_step.step_tree
-    worst = [0.0, 0.0]
-    limits = [0]
+def _lane_args(group: LaneGroup, row: int, gravity, config, params: tuple) -> tuple:
+    """The ``step_tree`` arguments a lane's step (``lanes.step_lanes``) makes of its rows, copied:
+    its motor rows, its ground contacts, its drag, its bodies."""
+    m = group.model
+    lo, hi, push = rows.motor_rows(
+        group.angles[row], m.upper, group.force[row], group.sticky[row], config.motor_torque, rows.FUDGE_FACTOR
+    )
+    ground = collision.ground_contacts(
+        m.shape_body, m.shape_kind, m.shape_size, group.pos[row], group.quat[row], config.ode_box_points
+    )
+    beamed = group.beamed[row]
+    drag_vel = group.drag_vel[row] if beamed else group.vel[row]
+    drag_spin = group.drag_spin[row] if beamed else group.spin[row]
+    return (
+        (m.masses, m.principal, m.parents, m.joint_of, m.local_axes, group.anchor_child[row], group.anchor_parent[row]),
+        (group.pos[row].copy(), group.quat[row].copy(), group.vel[row].copy(), group.spin[row].copy()),
+        (gravity, config.linear_damping, config.angular_damping, drag_vel.copy(), drag_spin.copy()),
+        ground,
+        (group.target[row].copy(), lo, hi, push, group.motor_state[row].copy()),
+        params,
+    )
 
-    def both(*args):
-        model, state, forces, ground, motors, params = _bundled(args)
-        dense = dense_step(model, state, forces, ground, motors._replace(state=motors.state.copy()), params)
-        out = tree(*args)
-        worst[0] = max(worst[0], np.abs(out[2] - dense[2]).max(), np.abs(out[3] - dense[3]).max())
-        if out[4].size:
-            worst[1] = max(worst[1], np.abs(out[4] - dense[4]).max())
-        limits[0] += int(np.sum(np.abs(out[6]) >= 9.999))
-        return out
 
-    monkeypatch.setattr(robot_step, "step_tree", both)
-    rng = np.random.default_rng(4)
+def _lane_steps(monkeypatch, reference) -> list[tuple]:
+    """Spy on every lane step: before it, ``reference`` is given each lane's ``step_tree``
+    arguments (``_lane_args``); after it, (what ``reference`` returned, the lane's new (position,
+    quaternion, velocity, spin, contact forces, torques, motor rows' state)) is added to the list
+    returned."""
+    seen: list[tuple] = []
+    original = LaneGroup.step
+
+    def spied(self, lanes, gravity, config, params):
+        expected = [(row, reference(_lane_args(self, row, gravity, config, params))) for row in lanes]
+        original(self, lanes, gravity, config, params)
+        for row, out in expected:
+            n = self.contact_count[row]
+            rows_now = (self.pos, self.quat, self.vel, self.spin)
+            after = tuple(a[row].copy() for a in rows_now)
+            seen.append(
+                (
+                    out,
+                    (
+                        *after,
+                        self.contact_force[row, :n].copy(),
+                        self.torques[row].copy(),
+                        self.motor_state[row].copy(),
+                    ),
+                )
+            )
+
+    monkeypatch.setattr(LaneGroup, "step", spied)
+    return seen
+
+
+def _flail(steps: int, spread: float, seed: int = 4) -> None:
+    """One robot beamed, its hinges driven at random speeds, new every 0.2 s."""
+    rng = np.random.default_rng(seed)
     with World(MAX) as world:
         robot = world.add_robot()
         robot.beam(-3.0, 2.0, 0.0)
-        for step in range(150):
+        for step in range(steps):
             if step % 10 == 0:
-                for joint, speed in zip(JOINTS, rng.normal(size=22) * 5.0):
+                for joint, speed in zip(JOINTS, rng.normal(size=22) * spread):
                     robot.command(joint.effector, float(speed))
             world.step()
-    assert limits[0] > 0
+
+
+def test_a_lane_steps_as_the_tree_step_of_its_robot_alone(monkeypatch):
+    """A lane of ``lanes.step_lanes`` gives, to the last bit, what ``tree_step.step_tree`` gives on
+    the arguments its rows make (motor rows, ground contacts, drag after a beam): the lanes are the
+    robot's own step, only called from one kernel."""
+
+    def alone(args):
+        out = step_tree(*args)
+        return (*out[:4], out[4], out[6], args[4][4])
+
+    seen = _lane_steps(monkeypatch, alone)
+    _flail(120, 5.0)
+    assert len(seen) == 120
+    for expected, lane in seen:
+        for a, b in zip(expected, lane):
+            assert a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+def test_the_tree_solve_equals_the_dense_solve(monkeypatch):
+    """A robot's step (``tree_step.step_tree``, Baraff's tree elimination, the bounded rows on a
+    Schur complement, run in its lane) gives ``tests.dense_step``'s velocities and contact forces
+    (one dense LCP) on a flailing robot: stops hit, feet and hands on the ground, motors at their
+    torque limit; to rounding."""
+
+    def dense(args):
+        model, state, forces, ground, motors, params = _bundled(args)
+        return dense_step(model, state, forces, ground, motors, params)
+
+    seen = _lane_steps(monkeypatch, dense)
+    _flail(150, 5.0)
+    worst = [0.0, 0.0]
+    limits = 0
+    for expected, lane in seen:
+        worst[0] = max(worst[0], np.abs(lane[2] - expected[2]).max(), np.abs(lane[3] - expected[3]).max())
+        if lane[4].size:
+            worst[1] = max(worst[1], np.abs(lane[4] - expected[4]).max())
+        limits += int(np.sum(np.abs(lane[5]) >= 9.999))
+    assert limits > 0
     assert worst[0] < 1e-6  # m/s, rad/s (measured 5e-8: the stops' CFM 1e-8 makes it stiff)
     assert worst[1] < 1e-4  # N
 
@@ -452,11 +529,9 @@ def test_after_a_beam_the_torso_feels_the_drag_of_its_velocity_before_it():
 
 def test_the_island_solve_equals_the_tree_solve_for_one_robot(monkeypatch):
     """``island_step.step_island`` (a forest, per-contact normals and surfaces) on one flailing
-    robot's bodies and ground contacts gives ``step_tree``'s velocities and forces, to rounding."""
-    tree = robot_step.step_tree
-    worst = [0.0, 0.0]
+    robot's bodies and ground contacts gives its lane's step's velocities and forces, to rounding."""
 
-    def both(*args):
+    def island(args):
         model, state, forces, ground, motors, params = _bundled(args)
         nb, nc = model.masses.shape[0], ground.body.shape[0]
         roots = model.parents.copy()
@@ -464,11 +539,11 @@ def test_the_island_solve_equals_the_tree_solve_for_one_robot(monkeypatch):
         gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
         surface = [params.contact_erp, params.contact_cfm, params.slip, 0.0, np.inf]
         none = np.zeros(0, dtype=np.int64)
-        island = island_step.step_island(
+        return island_step.step_island(
             model._replace(parents=roots),
             state,
             Forces(gravity, np.full(nb, drag_linear), np.full(nb, drag_angular), drag_vel, drag_spin),
-            motors._replace(state=motors.state.copy()),
+            motors,
             Contacts(
                 ground.body, ground.point, np.tile([0.0, 0.0, 1.0], (nc, 1)), ground.depth, np.tile(surface, (nc, 1))
             ),
@@ -476,22 +551,14 @@ def test_the_island_solve_equals_the_tree_solve_for_one_robot(monkeypatch):
             params,
             IslandSolve(10**6, 1, 0.0),
         )
-        out = tree(*args)
-        worst[0] = max(worst[0], np.abs(out[2] - island[2]).max(), np.abs(out[3] - island[3]).max())
-        if out[4].size:
-            worst[1] = max(worst[1], np.abs(out[4] - island[4]).max())
-        return out
 
-    monkeypatch.setattr(robot_step, "step_tree", both)
-    rng = np.random.default_rng(4)
-    with World(MAX) as world:
-        robot = world.add_robot()
-        robot.beam(-3.0, 2.0, 0.0)
-        for step in range(100):
-            if step % 10 == 0:
-                for joint, speed in zip(JOINTS, rng.normal(size=22) * 5.0):
-                    robot.command(joint.effector, float(speed))
-            world.step()
+    seen = _lane_steps(monkeypatch, island)
+    _flail(100, 5.0)
+    worst = [0.0, 0.0]
+    for expected, lane in seen:
+        worst[0] = max(worst[0], np.abs(lane[2] - expected[2]).max(), np.abs(lane[3] - expected[3]).max())
+        if lane[4].size:
+            worst[1] = max(worst[1], np.abs(lane[4] - expected[4]).max())
     assert worst[0] < 1e-6  # measured 4e-8
     assert worst[1] < 1e-4
 

@@ -9,13 +9,14 @@ ODE's joint rows with the world ERP 0.2 and CFM 1e-5, so their anchor copies dri
 millimetres as on the real server.
 
 Kept per robot (``RobotPhysics``, owned by ``stepper.Stepper``): what never changes (``RobotModel``:
-the kernels' ``Model`` of its bodies, its shapes and joint limits), and its bodies' ``State``
-(placed from pybullet's exact joints before the first step, moved rigidly by a beam or a
-trainer's move): as MuJoCo's model and data, one type each, the kernels' own bundles. Each cycle
-``prepare`` makes the motor rows, and a robot touching nothing but the ground is stepped by
-``solve_prepared``; robots touching each other, the ball or the field's boxes are solved as one
-island (``stepper``, ``island_step``). ``ground_tuples`` gives a robot's contacts in pybullet's
-tuple layout, with their solved forces, for the foot sensors.
+the kernels' ``Model`` of its bodies, its shapes and joint limits), and its lane (``lanes``): its
+row of its type's ``LaneGroup``, which holds its bodies' ``State`` (placed from pybullet's exact
+joints before the first step, moved rigidly by a beam or a trainer's move), as MuJoCo's model and
+data. Each cycle ``place`` makes its bodies ready; the robots touching nothing but the ground are
+stepped in one call per type (``load_commands``, ``LaneGroup.step``, ``finish_lane``); robots
+touching each other, the ball or the field's boxes are solved as one island (``prepared`` makes
+their motor rows; ``stepper``, ``island_step``). ``ground_tuples`` gives a robot's contacts in
+pybullet's tuple layout, with their solved forces, for the foot sensors.
 
 Every body has SimSpark's drag (docs/robot_and_server.md section 2): a force -0.01 v at its centre
 and a torque -0.01 w, added before the step as its DragController does.
@@ -30,12 +31,13 @@ from typing import NamedTuple
 import numpy as np
 import pybullet as pb
 
+from server_stub.config import PhysicsConfig
 from server_stub.physics import bodies as kinematics
 from server_stub.physics import contact, nao_model
-from server_stub.physics.bundles import Forces, GroundContacts, Model, Motors, Params, State
+from server_stub.physics.bundles import Forces, Model, Motors, Params, State
 from server_stub.physics.collision import BOX, CAPSULE, SPHERE, ground_contacts
+from server_stub.physics.lanes import LaneGroup, LaneModel
 from server_stub.physics.rows import FUDGE_FACTOR, MOTOR_CFM, motor_rows
-from server_stub.physics.tree_step import step_tree
 
 #: Most contact points per shape and the ground in ``warm_up``.
 MAX_POINTS = 4
@@ -73,13 +75,25 @@ class RobotModel:
             chains[k, j] = True
         self.chains = chains
         #: the bodies as the kernels take them; the hinges' anchors are read from pybullet's exact
-        #: joints where the bodies are first placed (``prepare``), none before
+        #: joints where the bodies are first placed (``place``), none before
         no_anchors = np.zeros((0, 3))
         self.model = Model(masses, principal, parents, joint_of, local_axes, no_anchors, no_anchors)
         shapes = [d for k in range(-1, n) for d in pb.getCollisionShapeData(body, k, physicsClientId=client)]
         self.shape_body = np.array([d[1] + 1 for d in shapes], dtype=np.int64)
         self.shape_kind = np.array([d[2] for d in shapes], dtype=np.int64)
         self.shape_size = np.array([d[3] for d in shapes], dtype=float)
+        #: what the type's lanes share (``lanes.LaneModel``)
+        self.lane_model = LaneModel(
+            masses,
+            principal,
+            parents,
+            joint_of,
+            local_axes,
+            np.asarray(self.upper, dtype=float),
+            self.shape_body,
+            self.shape_kind,
+            self.shape_size,
+        )
         if any(abs(x) > 1e-12 for d in shapes for x in d[5]) or set(self.shape_kind) - {BOX, SPHERE, CAPSULE}:
             raise ValueError("shapes must be boxes, spheres or capsules at their body's centre")
         # the stub finds the robot's ground contacts itself: Bullet need not
@@ -109,23 +123,52 @@ class Solved(NamedTuple):
 
 
 class RobotPhysics:
-    """All the step keeps of one robot: its model, its bodies' state (None until its first step)
-    and the reduced state (torso pose and motion, hinge angles and rates) last measured from it
-    (``written``), which row each hinge's motor held in the last step, and whether a beam or a
-    trainer's move has put it elsewhere since (``moved``). The bodies' state is kept between
-    steps: pybullet's exact joints cannot hold the joints' drift."""
+    """All the step keeps of one robot: its model (read at its first step), its lane (``lanes``:
+    its row of its type's ``LaneGroup``, which holds its bodies' state, what the last step measured
+    of it and which row each hinge's motor held), whether its bodies have been placed, and whether
+    a beam or a trainer's move has put it elsewhere since its last step (``moved``). The bodies'
+    state is kept between steps: pybullet's exact joints cannot hold the joints' drift."""
 
     def __init__(self) -> None:
         self.model: RobotModel | None = None
-        self.state: State | None = None
-        self.written: np.ndarray | None = None
-        self.motor_state: np.ndarray | None = None
+        self.group: LaneGroup | None = None
+        self.row = -1
+        self.placed = False
         self.moved = False
+
+    @property
+    def state(self) -> State | None:
+        """Its bodies' state (views of its lane's rows), None before its first step."""
+        if not self.placed:
+            return None
+        assert self.group is not None  # given a lane before its bodies are placed
+        return self.group.state(self.row)
+
+    @property
+    def written(self) -> np.ndarray | None:
+        """What its last step measured of the torso and the hinges (``bodies.measured_state``)."""
+        return None if self.group is None else self.group.written[self.row]
+
+    def positions(self) -> np.ndarray:
+        """Its bodies' centres (a view of its lane's row)."""
+        assert self.group is not None
+        return self.group.pos[self.row]
+
+    def keep(self, pos: np.ndarray, quat: np.ndarray, vel: np.ndarray, spin: np.ndarray) -> None:
+        """Its bodies' new state, into its lane's rows."""
+        group = self.group
+        assert group is not None
+        row = self.row
+        group.pos[row] = pos
+        group.quat[row] = quat
+        group.vel[row] = vel
+        group.spin[row] = spin
+        self.placed = True
 
 
 class Prepared(NamedTuple):
-    """A robot ready for its step: its bodies' state, the forces before the step (its drag one
-    value for all its bodies), its motor rows."""
+    """A robot ready for its step in an island: its bodies' state, the forces before the step (its
+    drag one value for all its bodies), its motor rows."""
 
     state: State
     forces: Forces
@@ -147,19 +190,6 @@ def params_of(config) -> Params:
     )
 
 
-def solve_prepared(robot, physics: RobotPhysics, prep: Prepared, ground: int, config, params: Params) -> Solved:
-    """The maximal step of a prepared robot against the ground alone (``params``: ``params_of(config)``)."""
-    static = physics.model
-    assert static is not None  # read before ``prepare``
-    contacts = static.ground_contacts(prep.state, config.ode_box_points)  # a plain tuple already
-    pos, quat, vel, spin, forces, tangents, torques, iterations = step_tree(
-        tuple(static.model), tuple(prep.state), tuple(prep.forces), contacts, tuple(prep.motors), tuple(params)
-    )
-    parts, points, depths = contacts
-    solved = partial(ground_tuples, robot.body_id, ground, parts, points, depths, forces, tangents)
-    return finish_maximal(robot, physics, pos, quat, vel, spin, solved, torques, iterations)
-
-
 def ground_tuples(body: int, ground: int, parts, points, depths, forces, tangents) -> tuple:
     """A robot's ground contacts in pybullet's tuple layout (``contact.point``), with their solved
     forces."""
@@ -169,15 +199,19 @@ def ground_tuples(body: int, ground: int, parts, points, depths, forces, tangent
     )
 
 
-def prepare(robot, physics: RobotPhysics, model: RobotModel, config, gravity: np.ndarray) -> Prepared:
-    """Make ``robot``'s bodies ready for this step and its motor rows: placed from pybullet before
-    its first step, moved rigidly with the torso after a beam or a trainer's move (``moved``).
-    ``gravity``: the world's, one array for every robot and step (the kernels only read it)."""
+def place(robot, physics: RobotPhysics) -> None:
+    """Make ``robot``'s bodies ready for this step: placed from pybullet before its first step,
+    moved rigidly with the torso after a beam or a trainer's move (``moved``); else they go on
+    from their own state. Its lane's ``beamed`` says whether its drag acts on the velocities
+    before a beam (its ``drag_vel`` / ``drag_spin`` rows) this step."""
+    group = physics.group
+    assert group is not None  # given a lane with its model, at its first step
+    row = physics.row
+    group.beamed[row] = False
     state = physics.state
     moved, physics.moved = physics.moved, False
     if state is not None and not moved:
-        # nothing but the step has moved the robot: the bodies go on from their own state
-        return _prepared(robot, physics, model, state, state.vel, state.spin, robot.joint_state()[0], config, gravity)
+        return
     robot.sync()
     angles, rates = robot.joint_state()
     position, orientation = robot.stored_pose()
@@ -192,14 +226,17 @@ def prepare(robot, physics: RobotPhysics, model: RobotModel, config, gravity: np
         kinematics.move_rigidly(
             state.pos, state.quat, written[0:3], written[3:7], np.array(position), np.array(orientation)
         )
-        drag_vel = np.zeros_like(state.vel)
-        drag_spin = np.zeros_like(state.spin)
-        drag_vel[0] = state.vel[0]
-        drag_spin[0] = state.spin[0]
+        group.drag_vel[row] = 0.0
+        group.drag_spin[row] = 0.0
+        group.drag_vel[row, 0] = state.vel[0]
+        group.drag_spin[row, 0] = state.spin[0]
+        group.beamed[row] = True
         state.vel[:] = 0.0
         state.spin[:] = 0.0
-        return _prepared(robot, physics, model, state, drag_vel, drag_spin, angles, config, gravity)
+        return
     # every body where pybullet's exact joints put it
+    model = physics.model
+    assert model is not None
     links = robot.link_frames()
     coms = np.array([position] + [link[0] for link in links], dtype=float)
     quats = np.array([orientation] + [link[1] for link in links], dtype=float)
@@ -220,50 +257,92 @@ def prepare(robot, physics: RobotPhysics, model: RobotModel, config, gravity: np
     # the first placement: the hinges' anchors in their bodies, for good
     child, parent = kinematics.local_anchors(tree.parents, tree.joint_of, coms, quats, anchors)
     model.model = tree._replace(anchor_child=child, anchor_parent=parent)
-    state = physics.state = State(coms, quats, vel, spin)
-    return _prepared(robot, physics, model, state, state.vel, state.spin, angles, config, gravity)
+    group.anchor_child[row] = child
+    group.anchor_parent[row] = parent
+    physics.keep(coms, quats, vel, spin)
 
 
-def _prepared(
-    robot,
-    physics: RobotPhysics,
-    model: RobotModel,
-    state: State,
-    drag_vel: np.ndarray,
-    drag_spin: np.ndarray,
-    angles: np.ndarray,
-    config,
-    gravity: np.ndarray,
-) -> Prepared:
-    """A robot's prepared step: its bodies' state, the forces (its drag acting on ``drag_vel``
-    and ``drag_spin``), its motor rows."""
+def _commands(robot, config, nj: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """This step's motor targets and forces and the sticky target speeds (``Robot.motor_commands``);
+    before the robot's first step, targets 0 at the full torque."""
     target, force, sticky = robot.motor_commands()
-    nj = angles.shape[0]
     if target.shape[0] != nj:
-        target = np.zeros(nj)
-        force = np.full(nj, config.motor_torque)
-    if physics.motor_state is None:
-        physics.motor_state = np.zeros(nj, dtype=np.int64)
+        return np.zeros(nj), np.full(nj, config.motor_torque), sticky
+    return target, force, sticky
+
+
+def load_commands(robot, physics: RobotPhysics, config) -> None:
+    """A placed robot's hinge angles and motor commands into its lane, for ``LaneGroup.step``."""
+    group = physics.group
+    assert group is not None
+    row = physics.row
+    angles = robot.joint_state()[0]
+    target, force, sticky = _commands(robot, config, angles.shape[0])
+    group.angles[row] = angles
+    group.target[row] = target
+    group.force[row] = force
+    group.sticky[row] = sticky
+
+
+def prepared(robot, physics: RobotPhysics, config, gravity: np.ndarray) -> Prepared:
+    """A placed robot's step as an island takes it: its bodies' state, the forces (its drag acting
+    on its bodies' velocities, or on those before a beam), its motor rows (``gravity``: the
+    world's, one array for every robot and step; the kernels only read it)."""
+    group, state, model = physics.group, physics.state, physics.model
+    assert group is not None and state is not None and model is not None
+    row = physics.row
+    if group.beamed[row]:
+        drag_vel, drag_spin = group.drag_vel[row], group.drag_spin[row]
+    else:
+        drag_vel, drag_spin = state.vel, state.spin
+    angles = robot.joint_state()[0]
+    target, force, sticky = _commands(robot, config, angles.shape[0])
     lo, hi, push = motor_rows(
         angles, model.upper, np.asarray(force, dtype=float), sticky, config.motor_torque, FUDGE_FACTOR
     )
     return Prepared(
         state,
         Forces(gravity, config.linear_damping, config.angular_damping, drag_vel, drag_spin),
-        Motors(np.asarray(target, dtype=float), lo, hi, push, physics.motor_state),
+        Motors(np.asarray(target, dtype=float), lo, hi, push, group.motor_state[row]),
     )
 
 
+def finish_lane(robot, physics: RobotPhysics, ground: int) -> Solved:
+    """A lone robot's step (``LaneGroup.step``) as the robot takes it: what the step measured, and
+    its ground contacts with their solved forces (made from its lane's rows when a sensor asks,
+    before its next step)."""
+    group = physics.group
+    assert group is not None
+    row = physics.row
+    n = int(group.contact_count[row])
+    contacts = partial(
+        ground_tuples,
+        robot.body_id,
+        ground,
+        group.contact_body[row, :n],
+        group.contact_point[row, :n],
+        group.contact_depth[row, :n],
+        group.contact_force[row, :n],
+        group.contact_tangent[row, :n],
+    )
+    return _solved(group.written[row].copy(), contacts, group.torques[row].copy(), int(group.iterations[row]))
+
+
 def finish_maximal(robot, physics: RobotPhysics, pos, quat, vel, spin, contacts, torques, iterations) -> Solved:
-    """Keep a robot's solved bodies and measure what pybullet gets: torso state, hinge angles and
-    rates as the real server reads them."""
-    physics.state = State(pos, quat, vel, spin)
-    static = physics.model
-    assert static is not None  # read before its first step
+    """Keep a robot's solved bodies (an island's) and measure what pybullet gets: torso state, hinge
+    angles and rates as the real server reads them."""
+    physics.keep(pos, quat, vel, spin)
+    static, group = physics.model, physics.group
+    assert static is not None and group is not None  # read before its first step
     tree = static.model
     written = kinematics.measured_state(pos, quat, vel, spin, tree.parents, tree.joint_of, tree.local_axes)
-    physics.written = written
-    nj = tree.local_axes.shape[0]
+    group.written[physics.row] = written
+    return _solved(written, contacts, torques, iterations)
+
+
+def _solved(written: np.ndarray, contacts, torques: np.ndarray, iterations: int) -> Solved:
+    """A step's ``Solved`` from what it measured (``bodies.measured_state``'s layout)."""
+    nj = (written.shape[0] - 13) // 2
     torso = written[:13].tolist()  # one conversion, not four: the same floats
     return Solved(
         torso[0:3],
@@ -307,18 +386,28 @@ def warm_up() -> None:
     vel, spin = kinematics.body_velocities(*two, axes, centres, quats, anchors, np.zeros(3), np.zeros(3), np.ones(1))
     child, parent = kinematics.local_anchors(*two, centres, quats, anchors)
     # the step before the kernels it does not call: on a cold cache it meets the solver's kernels
-    # sooner, while a helper compiles them from the other end (``server_stub.kernels``)
-    bundles = (
-        Model(np.ones(2), np.full((2, 3), 0.01), *two, axes, child, parent),
-        State(centres, quats, vel, spin),
-        Forces(np.array([0.0, 0.0, -9.81]), 0.01, 0.01, vel, spin),
-        GroundContacts(np.array([1], dtype=np.int64), np.array([[0.0, 0.0, 0.0]]), np.array([0.002])),
-        Motors(np.zeros(1), np.full(1, -10.0), np.full(1, 10.0), np.zeros(1), np.zeros(1, dtype=np.int64)),
-        Params(0.02, 0.2, 1e-5, MOTOR_CFM, 0.001, True, 0.4, 1e-4, 0.005),
+    # sooner, while a helper compiles them from the other end (``server_stub.kernels``); a lane of
+    # two bodies, a ball under the second touching the ground
+    model = LaneModel(
+        np.ones(2),
+        np.full((2, 3), 0.01),
+        *two,
+        axes,
+        np.ones(1),
+        np.array([1], dtype=np.int64),
+        np.array([SPHERE], dtype=np.int64),
+        np.full((1, 3), 0.1),
     )
-    step_tree(*(tuple(bundle) for bundle in bundles))
+    group = LaneGroup(model, MAX_POINTS)
+    row = group.add()
+    group.pos[row], group.quat[row], group.vel[row], group.spin[row] = centres, quats, vel, spin
+    group.anchor_child[row], group.anchor_parent[row] = child, parent
+    group.force[row] = 10.0
+    params = Params(0.02, 0.2, 1e-5, MOTOR_CFM, 0.001, True, 0.4, 1e-4, 0.005)
+    config = PhysicsConfig(ode_box_points=MAX_POINTS)
+    group.step(np.array([row], dtype=np.int64), np.array([0.0, 0.0, -9.81]), config, tuple(params))
     written = kinematics.measured_state(centres, quats, vel, spin, *two, axes)
-    # a beam's rigid move (``prepare``), with the argument types it is given there: compiled at a
+    # a beam's rigid move (``place``), with the argument types it is given there: compiled at a
     # game's first beam it would stall that cycle by seconds on a fresh clone
     kinematics.move_rigidly(
         centres.copy(), quats.copy(), written[0:3], written[3:7], np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0])

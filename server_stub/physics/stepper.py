@@ -43,6 +43,7 @@ import pybullet as pb
 from server_stub import field
 from server_stub.physics import collision, contact, island_step, robot_step
 from server_stub.physics.bundles import Contacts, Forces, IslandSolve, Model, Motors, PairContacts, State
+from server_stub.physics.lanes import LaneGroup
 from server_stub.physics.robot import Robot
 from server_stub.physics.rows import Surfaces
 
@@ -210,18 +211,23 @@ class Stepper:
         self._static_hi = np.array([np.add(centre, half) for half, centre in boxes])
         #: what the step keeps of each robot on the field
         self._robots: dict[Robot, robot_step.RobotPhysics] = {}
+        #: each robot type's lanes: its robots' bodies as rows (``lanes``)
+        self._lanes: dict[int, LaneGroup] = {}
+        self._param_tuple = tuple(self.params)
         #: ``_far_apart``'s owners of a lone robot's bodies (all 0), made once (never written)
         self._one_owner = np.zeros(0, dtype=np.int64)
         #: a lone ball's step by the exact bits of its state before (``_step_lone_ball``)
         self._lone_ball_steps: dict[bytes, tuple[np.ndarray, ...]] = {}
 
     def add(self, robot: Robot) -> None:
-        """A new robot on the field (its model is read at its first step)."""
+        """A new robot on the field (its model is read, and its lane given, at its first step)."""
         self._robots[robot] = robot_step.RobotPhysics()
 
     def forget(self, robot: Robot) -> None:
-        """``robot`` has left the field."""
-        del self._robots[robot]
+        """``robot`` has left the field: its lane is free."""
+        physics = self._robots.pop(robot)
+        if physics.group is not None:
+            physics.group.remove(physics.row)
 
     def moved(self, robot: Robot) -> None:
         """A beam or a trainer's move has put ``robot`` elsewhere (``Robot.on_move``): its bodies
@@ -237,7 +243,14 @@ class Stepper:
         robot's ground filter in Bullet, whose later contacts depend on when that happens."""
         physics = self._robots[robot]
         if physics.model is None:
-            physics.model = robot_step.RobotModel(self.client, robot.body_id, self.ground, robot.robot_type)
+            model = physics.model = robot_step.RobotModel(self.client, robot.body_id, self.ground, robot.robot_type)
+            group = self._lanes.get(robot.robot_type)
+            if group is None:
+                group = self._lanes[robot.robot_type] = LaneGroup(model.lane_model, self.config.ode_box_points)
+            elif not group.matches(model.lane_model):
+                raise ValueError(f"a robot of type {robot.robot_type} unlike the type's others")
+            physics.group = group
+            physics.row = group.add()
         return physics.model
 
     def step(self, robots) -> None:
@@ -245,12 +258,10 @@ class Stepper:
         each robot's when pybullet is next asked about it (``Robot.keep_unwritten``)."""
         cfg = self.config
         c = self.client
-        ground = self.ground
         statics = [self._model(robot) for robot in robots]
-        preps = [
-            robot_step.prepare(robot, self._robots[robot], model, cfg, self.gravity)
-            for robot, model in zip(robots, statics)
-        ]
+        physics = [self._robots[robot] for robot in robots]
+        for robot, kept in zip(robots, physics):
+            robot_step.place(robot, kept)
         # each robot's and the ball's contacts with the field's boxes (pybullet's tuples)
         on_boxes: list[list] = [[] for _ in range(len(robots) + 1)]
         by_body = {robot.body_id: i for i, robot in enumerate(robots)}
@@ -261,7 +272,7 @@ class Stepper:
         ball_now = self.ball_now()
         self._ball_moved = False
         touching = []
-        if not self._far_apart([prep.state.pos for prep in preps], ball_now[0]):
+        if not self._far_apart([kept.positions() for kept in physics], ball_now[0]):
             for robot in robots:
                 robot.sync()
             pb.performCollisionDetection(physicsClientId=c)
@@ -273,21 +284,41 @@ class Stepper:
         if placed:
             self._wake_ball()
         ball_index = len(robots)
+        lone: list[int] = []
+        islands: list[list[int]] = []
         for group in groups:
             if group == [ball_index] and self._ball_asleep:
                 continue  # ODE's auto-disable: a resting ball is not stepped until touched or moved
             if ball_index in group and self._ball_asleep:
                 self._wake_ball()  # touched by an enabled body
             if len(group) == 1 and not on_boxes[group[0]]:
-                i = group[0]
-                if i == ball_index:
+                if group[0] == ball_index:
                     self._step_lone_ball(ball_now)
-                    continue
-                robot = robots[i]
-                solved = robot_step.solve_prepared(robot, self._robots[robot], preps[i], ground, cfg, self.params)
-                robot_step.apply(robot, solved)
+                else:
+                    lone.append(group[0])
                 continue
+            islands.append(group)
+        self._step_lanes([robots[i] for i in lone], [physics[i] for i in lone])
+        preps: list[robot_step.Prepared | None] = [None] * len(robots)
+        for group in islands:
+            for i in group:
+                if i < ball_index:
+                    preps[i] = robot_step.prepared(robots[i], physics[i], cfg, self.gravity)
             self._solve_island(group, robots, statics, preps, on_boxes, pairs, ball_now, by_body)
+
+    def _step_lanes(self, robots: list[Robot], physics: list[robot_step.RobotPhysics]) -> None:
+        """The robots touching nothing but the ground, each type's in one call (``lanes``)."""
+        cfg = self.config
+        by_group: dict[LaneGroup, list[int]] = {}
+        for index, (robot, kept) in enumerate(zip(robots, physics)):
+            robot_step.load_commands(robot, kept, cfg)
+            assert kept.group is not None  # given at its first step
+            by_group.setdefault(kept.group, []).append(index)
+        for group, members in by_group.items():
+            rows = np.array([physics[i].row for i in members], dtype=np.int64)
+            group.step(rows, self.gravity, cfg, self._param_tuple)
+            for i in members:
+                robot_step.apply(robots[i], robot_step.finish_lane(robots[i], physics[i], self.ground))
 
     def _far_apart(self, robot_bodies: list[np.ndarray], ball: tuple) -> bool:
         """Whether no two of the robots, the ball and the goals and walls can touch: their boxes

@@ -51,7 +51,7 @@ from server_stub.physics.solver import (
 )
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def step_tree(model, state, forces, contacts, motors, params):
     """``step`` solved in O(bodies) (Baraff 1996, "Linear-time dynamics using Lagrange
     multipliers"): the unbounded rows (5 per hinge, 2 friction rows per contact) and the bodies form
@@ -62,7 +62,9 @@ def step_tree(model, state, forces, contacts, motors, params):
     dense LCP (``tests/dense_step.py``, to rounding). Requires every parent index below its child's.
 
     The arguments are the bundles ``Model``, ``State``, ``Forces``, ``GroundContacts``, ``Motors``
-    and ``Params``, each as a plain tuple (``bundles``)."""
+    and ``Params``, each as a plain tuple (``bundles``). Inlined where it is called
+    (``lanes.step_lanes``, for every lone robot): a cold start compiles it once, not once alone
+    and again inside its caller."""
     masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
     pos, quat, vel, spin = state
     gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
