@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from agent.config import AgentConfig
-from agent.controller import velocities_towards
+from agent.controller import velocities_into
 from agent.fall import FallDetector
 from agent.goto import GoTo, ServerPoseWhereSent
 from agent.localization import PoseSource, TruePose, VisionPose, readable_vision
@@ -120,6 +120,8 @@ class WalkBehaviour:
             if effector not in self._slot:
                 raise ValueError(f"posture names {effector!r}, not a joint of robot type {config.robot_type}")
             self._posture[self._slot[effector]] = degrees
+        #: the controller's gain as its kernel takes it (a row per robot: this one)
+        self._gains = np.array([config.gain])
         self._dither = np.random.default_rng(config.noise_seed) if config.command_noise > 0 else None
         # the dither's draws, a block of cycles at a time (the very numbers of one draw a cycle)
         self._noise = np.zeros((0, len(joints)))
@@ -164,7 +166,9 @@ class WalkBehaviour:
         except KeyError:
             unseen = [i for i, perceptor in enumerate(self._perceptors) if perceptor not in joints]
             angles = np.array([joints.get(perceptor, 0.0) for perceptor in self._perceptors], dtype=float)
-        velocities = velocities_towards(self._target_array(lookahead), angles, self.config.gain)
+        out = np.empty((1, len(angles)))
+        velocities_into(self._target_array(lookahead)[None], angles[None], self._gains, out)
+        velocities = out[0]
         if unseen:
             velocities[unseen] = 0.0
         return velocities
