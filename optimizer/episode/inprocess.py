@@ -36,7 +36,7 @@ from optimizer.episode import rounding
 from optimizer.episode.config import EpisodeConfig, parked_ball
 from optimizer.episode.monitor_link import EpisodeFailure
 from optimizer.episode.objectives import Judging
-from optimizer.episode.rounding import rounded, rounded_array
+from optimizer.episode.rounding import perception_numbers, rounded, rounded_array
 from protocol import commands
 from protocol.monitor import MonitorState, RobotPose
 from protocol.nao import JOINTS
@@ -112,13 +112,9 @@ def _perception(sim: Simulation, state: AgentState) -> Perception:
     identity = state.announce_identity and state.side is not None
     state.announce_identity = state.announce_identity and not identity
     # the two clocks, the gyro, the accelerometer and the joints' degrees, rounded in one pass
-    numbers = np.empty(8 + len(robot.perceptors))
-    numbers[0] = game.time
-    numbers[1] = sim.world.time
-    numbers[2:5] = robot.gyro()
-    numbers[5:8] = robot.accelerometer()
-    np.degrees(robot.joint_state()[0], out=numbers[8:])
-    game_time, now, gx, gy, gz, ax, ay, az, *degrees = rounded_array(numbers, 2).tolist()
+    sensed = np.array((game.time, sim.world.time, *robot.gyro(), *robot.accelerometer()))
+    numbers = perception_numbers(sensed[None], robot.joint_state()[0][None])
+    game_time, now, gx, gy, gz, ax, ay, az, *degrees = numbers[0].tolist()
     gs = GameState(
         state.unum if identity else None,
         state.side if identity else None,
