@@ -18,6 +18,7 @@ from __future__ import annotations
 import enum
 import logging
 from dataclasses import dataclass, field
+from operator import itemgetter
 
 import numpy as np
 
@@ -113,6 +114,8 @@ class WalkBehaviour:
         #: the robot type's joints (the toes of type 4 too), the order of every array of joints here
         self._effectors = tuple(j.effector for j in joints)
         self._perceptors = tuple(j.perceptor for j in joints)
+        #: a perception's joint angles in that order, in one call (KeyError if one is missing)
+        self._angles_of = itemgetter(*self._perceptors)
         self._slot = {effector: i for i, effector in enumerate(self._effectors)}
         # every joint held at 0 unless the posture says otherwise
         self._posture = np.zeros(len(joints))
@@ -161,7 +164,7 @@ class WalkBehaviour:
         lookahead = gait_time + self.config.lookahead_cycles * CYCLE
         joints = perception.joints
         try:
-            angles = np.fromiter(map(joints.__getitem__, self._perceptors), float, len(self._perceptors))
+            angles = np.fromiter(self._angles_of(joints), float, len(self._perceptors))
             unseen = []
         except KeyError:
             unseen = [i for i, perceptor in enumerate(self._perceptors) if perceptor not in joints]
