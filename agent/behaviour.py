@@ -27,7 +27,7 @@ from agent.controller import velocities_into
 from agent.fall import FallDetector
 from agent.goto import GoTo, ServerPoseWhereSent
 from agent.localization import PoseSource, TruePose, VisionPose, readable_vision
-from gait import Command, Steerable, Walker
+from gait import ArrayWalker, Command, Steerable, Walker
 from protocol import commands
 from protocol.nao import BEAM_PLAY_MODES, CYCLE, JOINT_BY_EFFECTOR, joints_of
 from protocol.perception import Perception
@@ -117,6 +117,11 @@ class WalkBehaviour:
         #: a perception's joint angles in that order, in one call (KeyError if one is missing)
         self._angles_of = itemgetter(*self._perceptors)
         self._slot = {effector: i for i, effector in enumerate(self._effectors)}
+        #: a walker that gives its targets as an array, and where its numbers go in ours
+        self._array_gait = gait if isinstance(gait, ArrayWalker) else None
+        self._target_slots = (
+            None if self._array_gait is None else np.array([self._slot[e] for e in self._array_gait.target_effectors])
+        )
         # every joint held at 0 unless the posture says otherwise
         self._posture = np.zeros(len(joints))
         for effector, degrees in config.posture.items():
@@ -147,6 +152,9 @@ class WalkBehaviour:
 
     def _target_array(self, gait_time: float) -> np.ndarray:
         out = self._posture.copy()
+        if self._array_gait is not None:
+            out[self._target_slots] = self._array_gait.joint_target_array(gait_time, _LIMITS)
+            return out
         slot = self._slot
         for effector, degrees in self.gait.joint_targets(gait_time, _LIMITS).items():
             out[slot[effector]] = degrees
