@@ -18,15 +18,16 @@ from __future__ import annotations
 import enum
 import logging
 from dataclasses import dataclass, field
+from operator import itemgetter
 
 import numpy as np
 
 from agent.config import AgentConfig
-from agent.controller import velocities_towards
+from agent.controller import velocities_into
 from agent.fall import FallDetector
 from agent.goto import GoTo, ServerPoseWhereSent
 from agent.localization import PoseSource, TruePose, VisionPose, readable_vision
-from gait import Command, Steerable, Walker
+from gait import ArrayWalker, Command, Steerable, Walker
 from protocol import commands
 from protocol.nao import BEAM_PLAY_MODES, CYCLE, JOINT_BY_EFFECTOR, joints_of
 from protocol.perception import Perception
@@ -113,13 +114,22 @@ class WalkBehaviour:
         #: the robot type's joints (the toes of type 4 too), the order of every array of joints here
         self._effectors = tuple(j.effector for j in joints)
         self._perceptors = tuple(j.perceptor for j in joints)
+        #: a perception's joint angles in that order, in one call (KeyError if one is missing)
+        self._angles_of = itemgetter(*self._perceptors)
         self._slot = {effector: i for i, effector in enumerate(self._effectors)}
+        #: a walker that gives its targets as an array, and where its numbers go in ours
+        self._array_gait = gait if isinstance(gait, ArrayWalker) else None
+        self._target_slots = (
+            None if self._array_gait is None else np.array([self._slot[e] for e in self._array_gait.target_effectors])
+        )
         # every joint held at 0 unless the posture says otherwise
         self._posture = np.zeros(len(joints))
         for effector, degrees in config.posture.items():
             if effector not in self._slot:
                 raise ValueError(f"posture names {effector!r}, not a joint of robot type {config.robot_type}")
             self._posture[self._slot[effector]] = degrees
+        #: the controller's gain as its kernel takes it (a row per robot: this one)
+        self._gains = np.array([config.gain])
         self._dither = np.random.default_rng(config.noise_seed) if config.command_noise > 0 else None
         # the dither's draws, a block of cycles at a time (the very numbers of one draw a cycle)
         self._noise = np.zeros((0, len(joints)))
@@ -142,6 +152,9 @@ class WalkBehaviour:
 
     def _target_array(self, gait_time: float) -> np.ndarray:
         out = self._posture.copy()
+        if self._array_gait is not None:
+            out[self._target_slots] = self._array_gait.joint_target_array(gait_time, _LIMITS)
+            return out
         slot = self._slot
         for effector, degrees in self.gait.joint_targets(gait_time, _LIMITS).items():
             out[slot[effector]] = degrees
@@ -159,12 +172,14 @@ class WalkBehaviour:
         lookahead = gait_time + self.config.lookahead_cycles * CYCLE
         joints = perception.joints
         try:
-            angles = np.fromiter(map(joints.__getitem__, self._perceptors), float, len(self._perceptors))
+            angles = np.fromiter(self._angles_of(joints), float, len(self._perceptors))
             unseen = []
         except KeyError:
             unseen = [i for i, perceptor in enumerate(self._perceptors) if perceptor not in joints]
             angles = np.array([joints.get(perceptor, 0.0) for perceptor in self._perceptors], dtype=float)
-        velocities = velocities_towards(self._target_array(lookahead), angles, self.config.gain)
+        out = np.empty((1, len(angles)))
+        velocities_into(self._target_array(lookahead)[None], angles[None], self._gains, out)
+        velocities = out[0]
         if unseen:
             velocities[unseen] = 0.0
         return velocities

@@ -5,7 +5,7 @@ so the agent, the optimizer and the tests all compute the same trajectories.
 """
 
 from gait.families import DEFAULT_FAMILY, FAMILIES, family_named
-from gait.family import Command, Gait, GaitFamily, Steerable, Walker
+from gait.family import ArrayWalker, Command, Gait, GaitFamily, Steerable, Walker
 from gait.gait_file import DEFAULT_GAIT_PATH, GaitFileError, load_gait, save_gait
 from gait.nao_legs import LEG_EFFECTORS, leg_joint_targets
 from gait.omni import OMNI, OmniWalker
@@ -27,6 +27,7 @@ __all__ = [
     "Gait",
     "GaitFamily",
     "Walker",
+    "ArrayWalker",
     "Command",
     "Steerable",
     "BOUNDS_BY_NAME",

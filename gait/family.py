@@ -41,6 +41,19 @@ class Command(NamedTuple):
     turn: float = 0.0
 
 
+@runtime_checkable
+class ArrayWalker(Walker, Protocol):
+    """A walker that also gives its targets as an array, in ``target_effectors`` order: the
+    agent's path each cycle, which would otherwise read ``joint_targets``' dict into an array."""
+
+    #: the joints of ``joint_target_array``, in its order
+    target_effectors: tuple[str, ...]
+
+    def joint_target_array(self, t: float, limits: Limits) -> np.ndarray:
+        """``joint_targets``' values, in ``target_effectors`` order (a new array)."""
+        ...
+
+
 #: A vector of three numbers as a perceptor gives it (gyro deg/s, accelerometer m/s^2).
 Vec3 = tuple[float, float, float]
 

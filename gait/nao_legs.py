@@ -5,11 +5,17 @@ forward (= hip flexion), ``*le4 < 0`` bends the knee (so knee flexion enters neg
 lifts the toes. The ankle is not a gene: ``le5 = -(le3 + le4)`` cancels the thigh and shank pitch
 so the sole stays parallel to the torso's ground plane; checked on the real server, where the
 opposite sign tips the robot over within 0.7 s.
+
+``leg_joint_targets`` maps one set of angles; ``leg_targets_into`` is the same arithmetic as a
+numba kernel over robot rows, what a TFS walker evaluates every cycle (``gait.tfs_family``).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+
+import numpy as np
+from numba import njit
 
 from gait.tfs import LegAngles
 
@@ -29,6 +35,38 @@ def clamped(value: float, low: float, high: float) -> float:
     cycle."""
     value = low if low > value else value
     return high if high < value else value
+
+
+def leg_limits(
+    limits: Mapping[str, tuple[float, float]], margin: float = LIMIT_MARGIN_DEG
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ranges (low, high; degrees, ``LEG_EFFECTORS`` order) ``leg_targets_into`` clamps into:
+    ``margin`` inside ``limits``, which maps effector name -> (min_deg, max_deg)."""
+    low = np.array([limits[name][0] for name in LEG_EFFECTORS]) + margin
+    high = np.array([limits[name][1] for name in LEG_EFFECTORS]) - margin
+    return low, high
+
+
+@njit(cache=True)
+def _clamped(value: float, low: float, high: float) -> float:
+    """``clamped`` in a kernel."""
+    value = low if low > value else value
+    return high if high < value else value
+
+
+@njit(cache=True)
+def leg_targets_into(angles: np.ndarray, low: np.ndarray, high: np.ndarray, out: np.ndarray) -> None:
+    """``out[r]``: the targets (``LEG_EFFECTORS`` order) of the ``LegAngles`` in ``angles[r]``,
+    each clamped into [``low``, ``high``] (``leg_limits``); the ankle flattens the foot against
+    the pitch and knee as they will really be, i.e. after clamping."""
+    for r in range(angles.shape[0]):
+        for leg in range(2):
+            k = 3 * leg
+            pitch = _clamped(angles[r, 2 * leg], low[k], high[k])
+            knee = _clamped(-angles[r, 2 * leg + 1], low[k + 1], high[k + 1])
+            out[r, k] = pitch
+            out[r, k + 1] = knee
+            out[r, k + 2] = _clamped(-(pitch + knee), low[k + 2], high[k + 2])
 
 
 def leg_joint_targets(

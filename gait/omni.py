@@ -31,7 +31,8 @@ Speed: the per-cycle math is numba kernels over robot rows (here ``tilt_into``,
 ``targets_into``, ``planned_into``, ``feedback_into``; the steps' and the legs' in their modules,
 each kernel calling only kernels of its own file, as numba's disk cache checks a kernel against
 its own file only). The walker keeps the arrays they write, so a cycle (``sense``,
-``joint_targets``, ``moved``) makes none and costs some 40 us (``bench.bench_omni_cycle``; of
+``joint_target_array``, ``moved``) makes none but the targets it returns, which the agent takes
+as they are (``gait.family.ArrayWalker``), and costs some 40 us (``bench.bench_omni_cycle``; of
 them some 10 plan the next cycle, for ``lag_comp``'s rate); the first walker of a process loads
 the kernels (``warm_up``).
 
@@ -295,6 +296,9 @@ class OmniWalker:
     the gyro it last felt and the odometry not yet collected. Each cycle runs the kernels on
     arrays of its own (a row each), made once: no array is made per cycle."""
 
+    #: the joints of ``joint_target_array``, in its order
+    target_effectors: tuple[str, ...] = EFFECTORS
+
     def __init__(self, genes: tuple[float, ...]) -> None:
         self.params = OmniParams(*genes)
         p = self.params
@@ -360,6 +364,10 @@ class OmniWalker:
         return Command(x, y, math.degrees(heading))
 
     def joint_targets(self, t: float, limits: Limits) -> dict[str, float]:
+        return dict(zip(EFFECTORS, self.joint_target_array(t, limits).tolist()))
+
+    def joint_target_array(self, t: float, limits: Limits) -> np.ndarray:
+        """``joint_targets``' values, in ``target_effectors`` order (``gait.family.ArrayWalker``)."""
         genes = self._genes
         dt = 0.0 if self._time is None else min(max(t - self._time, 0.0), 0.99 * float(self.params.period))
         self._time = t if self._time is None else max(t, self._time)
@@ -383,7 +391,7 @@ class OmniWalker:
         targets_into(
             self._legs, offsets, self._ahead_legs, ahead_offsets, self._gyro, self._tilt, genes, low, high, self._angles
         )
-        return dict(zip(EFFECTORS, self._angles[0].tolist()))
+        return self._angles[0].copy()
 
     def _integrate(self, forward: float, left: float, turn: float) -> None:
         """Adds one cycle's odometry (the planned steps' forward, left in the torso's frame then;

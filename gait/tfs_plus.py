@@ -30,10 +30,9 @@ import math
 import numpy as np
 
 from gait.family import GaitFamily, Limits
-from gait.nao_legs import LIMIT_MARGIN_DEG, clamped, leg_joint_targets
+from gait.nao_legs import LIMIT_MARGIN_DEG, clamped
 from gait.params import GENE_BOUNDS, GENE_NAMES, GENE_UNITS, TFSParams, repair_genes
-from gait.tfs import TFSGait
-from gait.tfs_family import TFS
+from gait.tfs_family import TFS, TFSWalker
 
 #: The additions' genes, after the TFS's 7.
 EXTRA_NAMES: tuple[str, ...] = ("c_a", "P", "phi_a", "S", "phi_s", "R")
@@ -77,11 +76,11 @@ class TFSPlusWalker:
 
     def __init__(self, genes: tuple[float, ...]) -> None:
         self.tfs = TFSParams.from_array(genes[: len(GENE_NAMES)])
-        self._legs = TFSGait(self.tfs)
+        self._legs = TFSWalker(self.tfs)
         self.c_a, self.P, self.phi_a, self.S, self.phi_s, self.R = genes[len(GENE_NAMES) :]
 
     def joint_targets(self, t: float, limits: Limits) -> dict[str, float]:
-        targets = leg_joint_targets(self._legs.angles(t), limits)
+        targets = self._legs.joint_targets(t, limits)
         w, half = self.tfs.w, self.tfs.period / 2
         for side, shift in (("l", 0.0), ("r", half)):
             push = self.P * math.sin(w * (t + shift) + self.phi_a)

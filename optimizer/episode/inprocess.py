@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import logging
 import math
+from operator import sub
 
 import numpy as np
 
@@ -36,9 +37,9 @@ from optimizer.episode import rounding
 from optimizer.episode.config import EpisodeConfig, parked_ball
 from optimizer.episode.monitor_link import EpisodeFailure
 from optimizer.episode.objectives import Judging
-from optimizer.episode.rounding import rounded, rounded_array
+from optimizer.episode.rounding import perception_numbers, rounded, rounded_array
 from protocol import commands
-from protocol.monitor import MonitorState, RobotPose
+from protocol.monitor import MonitorState, RobotPose, Vec3
 from protocol.nao import JOINTS
 from protocol.perception import GameState, Perception, parse_perception
 from server_stub import kernels
@@ -63,11 +64,15 @@ def _printed(values: list[float]) -> list[float]:
 class _TorsoView:
     """What a monitor reader knows of each robot's torso, without the stream: a full scene when
     robots came or went (or one's team or number changed), else the torso's pose only when it
-    moved past the delta threshold since it was last sent (``server_stub.sensors.monitor_scene``)."""
+    moved past the delta threshold since it was last sent (``server_stub.sensors.monitor_scene``).
+    The pose last sent is kept as it was read, so a torso that did not move past the threshold
+    costs no printing."""
 
     def __init__(self) -> None:
         self._keys: list[tuple] = []
-        self._sent: list[list[float]] = []
+        #: each robot's torso as last sent: the 12 numbers of its SLT that move, and the position,
+        #: up and forward axes a reader parsed from them (None: nothing sent since the full scene)
+        self._sent: list[tuple[tuple[float, ...], tuple[Vec3, Vec3, Vec3]] | None] = []
 
     def state(self, sim: Simulation) -> MonitorState:
         playing = [s for s in sim.agents if s.robot is not None]
@@ -76,23 +81,30 @@ class _TorsoView:
         sim.scene_changed = False
         if full:
             self._keys = keys
-            self._sent = [[] for _ in playing]
-        robots = []
+            self._sent = [None] * len(playing)
+        game = sim.game
+        numbers = [game.time]  # what is printed now: the time and each torso sent now
+        fresh = []
         for index, state in enumerate(playing):
             robot = state.robot
             assert robot is not None
             (px, py, pz), r = robot.torso_position(), robot.torso_rotation().ravel().tolist()
-            # the torso's SLT: its 4x4 world pose, column-major
-            pose = [r[0], r[3], r[6], 0.0, r[1], r[4], r[7], 0.0, r[2], r[5], r[8], 0.0, px, py, pz, 1.0]
+            # the torso's SLT (its 4x4 world pose, column-major) but its 4 constant numbers, in order
+            pose = (r[0], r[3], r[6], r[1], r[4], r[7], r[2], r[5], r[8], px, py, pz)
             sent = self._sent[index]
-            if not sent or max(abs(a - b) for a, b in zip(pose, sent)) > _SLT_THRESHOLD:
-                self._sent[index] = sent = pose
-            # the torso's position, up and forward axes
-            x, y, z, ux, uy, uz, fx, fy, fz = _printed(sent[12:15] + sent[8:11] + sent[4:7])
-            robots.append(RobotPose(state.side, state.unum, state.robot_type, (x, y, z), (ux, uy, uz), (fx, fy, fz)))
-        game = sim.game
+            if sent is None or max(map(abs, map(sub, pose, sent[0]))) > _SLT_THRESHOLD:
+                fresh.append((index, pose))
+                numbers += (px, py, pz, r[2], r[5], r[8], r[1], r[4], r[7])  # position, up and forward axes
+        printed = _printed(numbers)
+        for i, (index, pose) in enumerate(fresh):
+            x, y, z, ux, uy, uz, fx, fy, fz = printed[1 + 9 * i : 10 + 9 * i]
+            self._sent[index] = (pose, ((x, y, z), (ux, uy, uz), (fx, fy, fz)))
+        robots = []
+        for state, sent in zip(playing, self._sent):
+            assert sent is not None
+            robots.append(RobotPose(state.side, state.unum, state.robot_type, *sent[1]))
         return MonitorState(
-            _printed([game.time])[0],
+            printed[0],
             game.play_mode,
             game.half,
             game.score_left,
@@ -112,13 +124,9 @@ def _perception(sim: Simulation, state: AgentState) -> Perception:
     identity = state.announce_identity and state.side is not None
     state.announce_identity = state.announce_identity and not identity
     # the two clocks, the gyro, the accelerometer and the joints' degrees, rounded in one pass
-    numbers = np.empty(8 + len(robot.perceptors))
-    numbers[0] = game.time
-    numbers[1] = sim.world.time
-    numbers[2:5] = robot.gyro()
-    numbers[5:8] = robot.accelerometer()
-    np.degrees(robot.joint_state()[0], out=numbers[8:])
-    game_time, now, gx, gy, gz, ax, ay, az, *degrees = rounded_array(numbers, 2).tolist()
+    sensed = np.array((game.time, sim.world.time, *robot.gyro(), *robot.accelerometer()))
+    numbers = perception_numbers(sensed[None], robot.joint_state()[0][None])
+    game_time, now, gx, gy, gz, ax, ay, az, *degrees = numbers[0].tolist()
     gs = GameState(
         state.unum if identity else None,
         state.side if identity else None,
