@@ -6,6 +6,11 @@
   are solved on their Schur complement (``schur_complement``) as a boxed LCP: exactly, by the
   active-set ``box_qp``; in large islands block principal pivoting (``block_pivot``) first.
 - ``contact_forces``: the solved contact rows as forces.
+- ``factor_hinged``, ``unbounded_rhs_hinged``, ``tree_solve_hinged``, ``schur_hinged``: the same
+  for a robot's step (``tree_step``), the structural zeros of the hinges' Jacobian blocks skipped
+  (``linalg.hinge_mv_sub``) and, in S, the terms of bodies and hinges two rows' paths do not share:
+  the same bits whenever every value a zero is skipped against is finite, which each reports (when
+  one is not, the step is redone by the functions above).
 """
 
 from __future__ import annotations
@@ -13,7 +18,21 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from server_stub.physics.linalg import cho_solve, cholesky, inverse_definite, mdmt, mtdm_sub, mtv_sub, mv, mv_sub
+from server_stub.physics.linalg import (
+    cho_solve,
+    cholesky,
+    finite,
+    hinge_mdmt,
+    hinge_mtdm_sub,
+    hinge_mtv_sub,
+    hinge_mv_sub,
+    inverse_definite,
+    mdmt,
+    mtdm_sub,
+    mtv_sub,
+    mv,
+    mv_sub,
+)
 
 
 @njit(cache=True)
@@ -387,3 +406,169 @@ def contact_forces(lam_b, first, bf):
         forces[i, 1] = -bf[i, 0]
         forces[i, 2] = -bf[i, 1]
     return forces
+
+
+@njit(cache=True)
+def factor_hinged(parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, slip, joint_cfm):
+    """``factor``, the hinge blocks' structural zeros skipped (``linalg.hinge_mdmt``). Returns
+    (dinv_body, dinv_joint, dinv_contact, whether the skipped terms were all +-0)."""
+    nb = dbody.shape[0]
+    nj = jc.shape[0]
+    dinv_body = np.empty((nb, 6, 6))
+    dinv_joint = np.empty((nj, 5, 5))
+    dinv_contact = np.zeros((jf.shape[0], 2, 2))
+    dj = np.empty((5, 5))
+    tmp = np.empty((6, 6))
+    ok = True
+    for k in range(nb - 1, -1, -1):
+        c = contact_first[k]
+        while c >= 0:
+            dinv_contact[c, 0, 0] = -1.0 / slip[c]
+            dinv_contact[c, 1, 1] = -1.0 / slip[c]
+            mtdm_sub(jf[c], dinv_contact[c], dbody[k], tmp)
+            c = contact_next[c]
+        inverse_definite(dbody[k], 1.0, dinv_body[k], tmp)
+        p = parents[k]
+        if p < 0:
+            continue
+        j = joint_of[k]
+        dj[:, :] = 0.0
+        for a in range(5):
+            dj[a, a] = -joint_cfm
+        ok &= hinge_mdmt(jc[j], dinv_body[k], dj, tmp)
+        inverse_definite(dj, -1.0, dinv_joint[j], tmp)
+        ok &= hinge_mtdm_sub(jp[j], dinv_joint[j], dbody[p], tmp)
+    return dinv_body, dinv_joint, dinv_contact, ok
+
+
+@njit(cache=True)
+def unbounded_rhs_hinged(parents, joint_of, c_body, jc, jp, jf, cj, free):
+    """``unbounded_rhs``, the hinge blocks' structural zeros skipped. Returns (bj, bf, whether the
+    skipped terms were all +-0)."""
+    bj = cj.copy()
+    ok = True
+    for k in range(parents.shape[0]):
+        if parents[k] >= 0:
+            j = joint_of[k]
+            ok &= hinge_mv_sub(jc[j], free[k], bj[j])
+            ok &= hinge_mv_sub(jp[j], free[parents[k]], bj[j])
+    bf = np.zeros((jf.shape[0], 2))
+    for i in range(jf.shape[0]):
+        mv_sub(jf[i], free[c_body[i]], bf[i])
+    return bj, bf, ok
+
+
+@njit(cache=True)
+def tree_solve_hinged(first, end, tree, rb, rj, rf):
+    """``tree_solve``, the hinge blocks' structural zeros skipped. Returns whether the skipped
+    terms were all +-0."""
+    parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact = tree
+    t6 = np.empty(6)
+    t5 = np.empty(5)
+    t2 = np.empty(2)
+    ok = True
+    for k in range(end - 1, first - 1, -1):
+        c = contact_first[k]
+        while c >= 0:
+            mv(dinv_contact[c], rf[c], t2)
+            mtv_sub(jf[c], t2, rb[k])
+            c = contact_next[c]
+        p = parents[k]
+        if p < 0:
+            continue
+        j = joint_of[k]
+        mv(dinv_body[k], rb[k], t6)
+        ok &= hinge_mv_sub(jc[j], t6, rj[j])
+        mv(dinv_joint[j], rj[j], t5)
+        ok &= hinge_mtv_sub(jp[j], t5, rb[p])
+    for k in range(first, end):
+        p = parents[k]
+        if p >= 0:
+            j = joint_of[k]
+            ok &= hinge_mv_sub(jp[j], rb[p], rj[j])
+            mv(dinv_joint[j], rj[j], t5)
+            for a in range(5):
+                rj[j, a] = t5[a]
+            ok &= hinge_mtv_sub(jc[j], rj[j], rb[k])
+        mv(dinv_body[k], rb[k], t6)
+        for a in range(6):
+            rb[k, a] = t6[a]
+        c = contact_first[k]
+        while c >= 0:
+            mv_sub(jf[c], rb[k], rf[c])
+            mv(dinv_contact[c], rf[c], t2)
+            for a in range(2):
+                rf[c, a] = t2[a]
+            c = contact_next[c]
+    return ok
+
+
+@njit(cache=True)
+def schur_hinged(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b):
+    """``schur_complement``, the hinge blocks' structural zeros skipped in the forward passes, and
+    of S[r, s] only the terms on bodies and hinges both rows' paths hold: row s's z is exactly +0
+    off its path, so the others add 0 w, +-0 when w is finite (two rows in different limbs share
+    the torso alone). Each entry's terms are summed in ``schur_complement``'s order (row r's path
+    bodies, then its hinges), into the entry itself from +0. Returns (S, whether every skipped
+    term was +-0)."""
+    nbd = zb.shape[0]
+    nb = zb.shape[1]
+    nj = jc.shape[0]
+    path_j = np.empty((nbd, nb), dtype=np.int64)
+    len_j = np.zeros(nbd, dtype=np.int64)
+    zj = np.zeros((nbd, nj, 5))
+    wb = np.empty((nbd, nb, 6))
+    wj = np.empty((nbd, nj, 5))
+    # the rows whose paths hold each body and hinge, in increasing order
+    rows_b = np.empty((nb, nbd), dtype=np.int64)
+    count_b = np.zeros(nb, dtype=np.int64)
+    rows_j = np.empty((nj, nbd), dtype=np.int64)
+    count_j = np.zeros(nj, dtype=np.int64)
+    ok = True
+    for r in range(nbd):
+        for m in range(len_b[r]):
+            k = path_b[r, m]
+            rows_b[k, count_b[k]] = r
+            count_b[k] += 1
+            mv(dinv_body[k], zb[r, k], wb[r, k])
+            p = parents[k]
+            if p < 0:
+                continue
+            j = joint_of[k]
+            ok &= hinge_mv_sub(jc[j], wb[r, k], zj[r, j])
+            mv(dinv_joint[j], zj[r, j], wj[r, j])
+            ok &= hinge_mtv_sub(jp[j], wj[r, j], zb[r, p])
+            rows_j[j, count_j[j]] = r
+            count_j[j] += 1
+            path_j[r, len_j[r]] = j
+            len_j[r] += 1
+    schur = np.zeros((nbd, nbd))
+    for r in range(nbd):
+        for m in range(len_b[r]):
+            k = path_b[r, m]
+            for a in range(6):
+                ok &= finite(wb[r, k, a])
+            for q in range(count_b[k]):
+                s = rows_b[k, q]
+                if s < r:
+                    continue
+                v = schur[r, s]
+                for a in range(6):
+                    v += zb[s, k, a] * wb[r, k, a]
+                schur[r, s] = v
+        for m in range(len_j[r]):
+            j = path_j[r, m]
+            for a in range(5):
+                ok &= finite(wj[r, j, a])
+            for q in range(count_j[j]):
+                s = rows_j[j, q]
+                if s < r:
+                    continue
+                v = schur[r, s]
+                for a in range(5):
+                    v += zj[s, j, a] * wj[r, j, a]
+                schur[r, s] = v
+        for s in range(r + 1, nbd):
+            schur[s, r] = schur[r, s]
+        schur[r, r] += cfm_b[r]
+    return schur, ok

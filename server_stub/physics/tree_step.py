@@ -45,9 +45,13 @@ from server_stub.physics.solver import (
     box_qp,
     contact_forces,
     factor,
+    factor_hinged,
     schur_complement,
+    schur_hinged,
     tree_solve,
+    tree_solve_hinged,
     unbounded_rhs,
+    unbounded_rhs_hinged,
 )
 
 
@@ -62,7 +66,25 @@ def step_tree(model, state, forces, contacts, motors, params):
     dense LCP (``tests/dense_step.py``, to rounding). Requires every parent index below its child's.
 
     The arguments are the bundles ``Model``, ``State``, ``Forces``, ``GroundContacts``, ``Motors``
-    and ``Params``, each as a plain tuple (``bundles``)."""
+    and ``Params``, each as a plain tuple (``bundles``).
+
+    The solve skips the hinge Jacobians' structural zeros and the Schur complement's terms off the
+    rows' common paths (``solver.factor_hinged`` and the others), which gives the same bits as the
+    dense solve whenever every value a zero is skipped against is finite; when one is not (a
+    robot whose state has blown up), the step is redone densely, from the motors' states given."""
+    motor_state = motors[4]
+    saved = motor_state.copy()
+    out = _step(model, state, forces, contacts, motors, params, True)
+    if not out[8]:
+        motor_state[:] = saved
+        out = _step(model, state, forces, contacts, motors, params, False)
+    return out[0], out[1], out[2], out[3], out[4], out[5], out[6], out[7]
+
+
+@njit(cache=True)
+def _step(model, state, forces, contacts, motors, params, hinged):
+    """``step_tree``'s step, with the ``*_hinged`` solver functions or the dense ones; also returns
+    whether the hinged ones' skipped terms were all +-0 (always True when dense)."""
     masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
     pos, quat, vel, spin = state
     gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
@@ -90,11 +112,21 @@ def step_tree(model, state, forces, contacts, motors, params):
         cn[i] = contact_c(contact_erp, contact_depth[i], surface_layer, h, 0.0, np.inf, 0.0)
     free = free_velocities(vel, spin, force, masses, inv_inertia, h)
     # factor H from the leaves to the torso
-    dinv_body, dinv_joint, dinv_contact = factor(
-        roots, joint_of, contact_first, contact_next, jc, jp, jf, dbody, np.full(nc, slip), joint_cfm
-    )
+    if hinged:
+        dinv_body, dinv_joint, dinv_contact, ok = factor_hinged(
+            roots, joint_of, contact_first, contact_next, jc, jp, jf, dbody, np.full(nc, slip), joint_cfm
+        )
+    else:
+        dinv_body, dinv_joint, dinv_contact = factor(
+            roots, joint_of, contact_first, contact_next, jc, jp, jf, dbody, np.full(nc, slip), joint_cfm
+        )
+        ok = True
     # right-hand sides b = c - J free, unbounded and bounded
-    bj, bf = unbounded_rhs(roots, joint_of, contact_body, jc, jp, jf, cj, free)
+    if hinged:
+        bj, bf, fine = unbounded_rhs_hinged(roots, joint_of, contact_body, jc, jp, jf, cj, free)
+        ok &= fine
+    else:
+        bj, bf = unbounded_rhs(roots, joint_of, contact_body, jc, jp, jf, cj, free)
     nbd = nj + nc
     bb, lo, hi, cfm_b = bounded_rows(nbd, motor_target, motor_lo, motor_hi, motor_cfm)
     for j in range(nj):
@@ -117,7 +149,10 @@ def step_tree(model, state, forces, contacts, motors, params):
     yj = bj.copy()
     yf = bf.copy()
     tree = (roots, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact)
-    tree_solve(FIRST_BODY, nb, tree, yb, yj, yf)
+    if hinged:
+        ok &= tree_solve_hinged(FIRST_BODY, nb, tree, yb, yj, yf)
+    else:
+        tree_solve(FIRST_BODY, nb, tree, yb, yj, yf)
     # the bounded rows' Jacobians on their bodies and their paths to the torso
     path_b = np.empty((nbd, nb), dtype=np.int64)
     len_b = np.zeros(nbd, dtype=np.int64)
@@ -137,7 +172,11 @@ def step_tree(model, state, forces, contacts, motors, params):
             path_b[r, len_b[r]] = k
             len_b[r] += 1
             k = roots[k]
-    schur = schur_complement(roots, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b)
+    if hinged:
+        schur, fine = schur_hinged(roots, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b)
+        ok &= fine
+    else:
+        schur = schur_complement(roots, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b)
     # the bounded rows' right-hand side: b_B - J_B y0
     for j in range(nj):
         k = child_of[j]
@@ -164,8 +203,11 @@ def step_tree(model, state, forces, contacts, motors, params):
     for i in range(nc):
         for a in range(6):
             rb[contact_body[i], a] += jn[i, a] * lam_b[nj + i]
-    tree_solve(FIRST_BODY, nb, tree, rb, bj, bf)
+    if hinged:
+        ok &= tree_solve_hinged(FIRST_BODY, nb, tree, rb, bj, bf)
+    else:
+        tree_solve(FIRST_BODY, nb, tree, rb, bj, bf)
     out_pos, out_quat, out_vel, out_spin = advance(pos, quat, free + rb, h)
     forces = contact_forces(lam_b, nj, bf)
     torques = lam_b[:nj].copy()
-    return out_pos, out_quat, out_vel, out_spin, forces, tangents, torques, iterations
+    return out_pos, out_quat, out_vel, out_spin, forces, tangents, torques, iterations, ok
