@@ -52,6 +52,33 @@ def cholesky(a):
 
 
 @njit(cache=True)
+def cholesky_rows(a, index, n, lower, first):
+    """``cholesky`` of a's rows and columns index[:n] into ``lower`` (n x n or more), from row
+    ``first`` on: a factor's rows before ``first`` depend on the leading first x first block alone,
+    so when only later rows and columns have changed (``solver.box_qp``'s free set, one row more
+    or less) they are kept. Every entry is ``cholesky``'s to the bit, summed in its order. Returns
+    False when a is not positive definite (rows from the failing one on are then not set)."""
+    for j in range(n):
+        if j >= first:
+            d = a[index[j], index[j]]
+            for k in range(j):
+                d -= lower[j, k] * lower[j, k]
+            if d <= 0.0:
+                return False
+            d = np.sqrt(d)
+            lower[j, j] = d
+        else:
+            d = lower[j, j]
+        aj = index[j]
+        for i in range(max(j + 1, first), n):
+            t = a[index[i], aj]
+            for k in range(j):
+                t -= lower[i, k] * lower[j, k]
+            lower[i, j] = t / d
+    return True
+
+
+@njit(cache=True)
 def cho_solve(lower, b):
     n = b.shape[0]
     x = b.copy()

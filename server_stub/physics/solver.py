@@ -20,7 +20,7 @@ from numba import njit
 
 from server_stub.physics.linalg import (
     cho_solve,
-    cholesky,
+    cholesky_rows,
     finite,
     hinge_mdmt,
     hinge_mtdm_sub,
@@ -38,8 +38,8 @@ from server_stub.physics.linalg import (
 @njit(cache=True)
 def free_system(a, b, x, state, free):
     """The boxed LCP's rows ``free`` (``state`` 0) with every other row held where ``x`` has it:
-    A_FF x_F = b_F - A_FB x_B, as (A_FF, right side); the inner system of ``box_qp`` and of the
-    island solve's block pivoting."""
+    A_FF x_F = b_F - A_FB x_B, as (A_FF, right side); the inner system of the island solve's block
+    pivoting (``box_qp`` sums the same right side and factors A_FF in place)."""
     nf = free.size
     sub = np.empty((nf, nf))
     rhs = np.empty(nf)
@@ -73,18 +73,40 @@ def box_qp(a, b, lo, hi, state):
             x[i] = min(max(0.0, lo[i]), hi[i])
             if x[i] != 0.0:  # 0 outside the box: start at the nearer bound
                 state[i] = -1 if x[i] == lo[i] else 1
+    # the free rows' factor, kept from pass to pass: a pass changes one row's state, and the
+    # factor's rows before the first changed one stay (``linalg.cholesky_rows``)
+    lower = np.empty((n, n))
+    free = np.empty(n, dtype=np.int64)
+    rhs = np.empty(n)
+    target = np.empty(n)
+    nf = 0
     it = 0
     while it < 4 * n + 19:  # the count of passes is returned
         it += 1
-        free = np.nonzero(state == 0)[0]
-        nf = free.size
-        target = x.copy()
+        # the free rows, and how many of them lead the last pass's in the same places
+        kept = 0
+        count = 0
+        for i in range(n):
+            if state[i] == 0:
+                if kept == count and count < nf and free[count] == i:
+                    kept += 1
+                free[count] = i
+                count += 1
+        nf = count
+        for i in range(n):
+            target[i] = x[i]
         if nf > 0:
-            sub, rhs = free_system(a, b, x, state, free)
-            lower, ok = cholesky(sub)
-            if not ok:
+            # A_FF x_F = b_F - A_FB x_B (``free_system``)
+            for ii in range(nf):
+                i = free[ii]
+                t = b[i]
+                for k in range(n):
+                    if state[k] != 0:
+                        t -= a[i, k] * x[k]
+                rhs[ii] = t
+            if not cholesky_rows(a, free, nf, lower, kept):
                 break
-            sol = cho_solve(lower, rhs)
+            sol = cho_solve(lower, rhs[:nf])
             for ii in range(nf):
                 target[free[ii]] = sol[ii]
         # step towards target, stopping at the first bound crossed
