@@ -202,11 +202,13 @@ def invert3(m):
 
 
 @njit(cache=True)
-def inverse_definite(a, sign, out, low):
-    """``out`` = the inverse of a small symmetric matrix that is positive (sign 1) or negative
+def inverse_definite(a, sign, out, low, n):
+    """``out`` = the inverse of a small symmetric n x n matrix that is positive (sign 1) or negative
     (sign -1) definite: Cholesky factor of sign * a, inverted (``low``: scratch, n x n or more;
-    only its lower triangle is used, each entry written before it is read)."""
-    n = a.shape[0]
+    only its lower triangle is used, each entry written before it is read). ``n`` is given, as a
+    literal at each call, rather than read from ``a``'s shape: LLVM inlines this into its caller
+    and, knowing n, unrolls the loops (a body's 6 x 6 block is inverted in about half the time;
+    the same operations in the same order)."""
     for j in range(n):
         d = sign * a[j, j]
         for k in range(j):

@@ -296,7 +296,7 @@ def factor(parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, sl
             dinv_contact[c, 1, 1] = -1.0 / slip[c]
             mtdm_sub(jf[c], dinv_contact[c], dbody[k], tmp)
             c = contact_next[c]
-        inverse_definite(dbody[k], 1.0, dinv_body[k], tmp)
+        inverse_definite(dbody[k], 1.0, dinv_body[k], tmp, 6)
         p = parents[k]
         if p < 0:
             continue
@@ -305,7 +305,7 @@ def factor(parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, sl
         for a in range(5):
             dj[a, a] = -joint_cfm
         mdmt(jc[j], dinv_body[k], dj, tmp)
-        inverse_definite(dj, -1.0, dinv_joint[j], tmp)
+        inverse_definite(dj, -1.0, dinv_joint[j], tmp, 5)
         mtdm_sub(jp[j], dinv_joint[j], dbody[p], tmp)
     return dinv_body, dinv_joint, dinv_contact
 
@@ -449,7 +449,7 @@ def factor_hinged(parents, joint_of, contact_first, contact_next, jc, jp, jf, db
             dinv_contact[c, 1, 1] = -1.0 / slip[c]
             mtdm_sub(jf[c], dinv_contact[c], dbody[k], tmp)
             c = contact_next[c]
-        inverse_definite(dbody[k], 1.0, dinv_body[k], tmp)
+        inverse_definite(dbody[k], 1.0, dinv_body[k], tmp, 6)
         p = parents[k]
         if p < 0:
             continue
@@ -458,7 +458,7 @@ def factor_hinged(parents, joint_of, contact_first, contact_next, jc, jp, jf, db
         for a in range(5):
             dj[a, a] = -joint_cfm
         ok &= hinge_mdmt(jc[j], dinv_body[k], dj, tmp)
-        inverse_definite(dj, -1.0, dinv_joint[j], tmp)
+        inverse_definite(dj, -1.0, dinv_joint[j], tmp, 5)
         ok &= hinge_mtdm_sub(jp[j], dinv_joint[j], dbody[p], tmp)
     return dinv_body, dinv_joint, dinv_contact, ok
 
