@@ -527,11 +527,13 @@ def tree_solve_hinged(first, end, tree, rb, rj, rf):
 
 @njit(cache=True)
 def schur_hinged(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b):
-    """``schur_complement``, the hinge blocks' structural zeros skipped in the forward passes, and
-    of S[r, s] only the terms on bodies and hinges both rows' paths hold: row s's z is exactly +0
-    off its path, so the others add 0 w, +-0 when w is finite (two rows in different limbs share
-    the torso alone). Each entry's terms are summed in ``schur_complement``'s order (row r's path
-    bodies, then its hinges), into the entry itself from +0. Returns (S, whether every skipped
+    """``schur_complement`` for rows whose paths are chains, each one body's path to the root (a
+    robot's own rows, ``step_tree``), the hinge blocks' structural zeros skipped in the forward
+    passes. Two chains share their tail from their lowest common body to the root (rows in
+    different limbs the torso alone), and row s's z is exactly +0 off its path: so S[r, s]'s terms
+    before that tail of row r's path add 0 w, +-0 when w is finite, and are skipped. Four entries
+    at a time as ``schur_complement``, from the earliest of their four tails (the few terms of the
+    others' before theirs add +-0 again), each in its order. Returns (S, whether every skipped
     term was +-0)."""
     nbd = zb.shape[0]
     nb = zb.shape[1]
@@ -541,56 +543,58 @@ def schur_hinged(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b
     zj = np.zeros((nbd, nj, 5))
     wb = np.empty((nbd, nb, 6))
     wj = np.empty((nbd, nj, 5))
-    # the rows whose paths hold each body and hinge, in increasing order
-    rows_b = np.empty((nb, nbd), dtype=np.int64)
-    count_b = np.zeros(nb, dtype=np.int64)
-    rows_j = np.empty((nj, nbd), dtype=np.int64)
-    count_j = np.zeros(nj, dtype=np.int64)
+    on_b = np.zeros((nbd, nb), dtype=np.bool_)
     ok = True
     for r in range(nbd):
         for m in range(len_b[r]):
             k = path_b[r, m]
-            rows_b[k, count_b[k]] = r
-            count_b[k] += 1
+            on_b[r, k] = True
             mv(dinv_body[k], zb[r, k], wb[r, k])
+            for a in range(6):
+                ok &= finite(wb[r, k, a])
             p = parents[k]
             if p < 0:
                 continue
             j = joint_of[k]
             ok &= hinge_mv_sub(jc[j], wb[r, k], zj[r, j])
             mv(dinv_joint[j], zj[r, j], wj[r, j])
+            for a in range(5):
+                ok &= finite(wj[r, j, a])
             ok &= hinge_mtv_sub(jp[j], wj[r, j], zb[r, p])
-            rows_j[j, count_j[j]] = r
-            count_j[j] += 1
             path_j[r, len_j[r]] = j
             len_j[r] += 1
     schur = np.zeros((nbd, nbd))
     for r in range(nbd):
-        for m in range(len_b[r]):
-            k = path_b[r, m]
-            for a in range(6):
-                ok &= finite(wb[r, k, a])
-            for q in range(count_b[k]):
-                s = rows_b[k, q]
-                if s < r:
-                    continue
-                v = schur[r, s]
+        for s in range(r, nbd, 4):
+            s1, s2, s3 = min(s + 1, nbd - 1), min(s + 2, nbd - 1), min(s + 3, nbd - 1)
+            # where row r's path first meets any of the four rows' (path body m has hinge m)
+            first = 0
+            while first < len_b[r] and not (
+                on_b[s, path_b[r, first]]
+                or on_b[s1, path_b[r, first]]
+                or on_b[s2, path_b[r, first]]
+                or on_b[s3, path_b[r, first]]
+            ):
+                first += 1
+            v0 = v1 = v2 = v3 = 0.0
+            for m in range(first, len_b[r]):
+                k = path_b[r, m]
                 for a in range(6):
-                    v += zb[s, k, a] * wb[r, k, a]
-                schur[r, s] = v
-        for m in range(len_j[r]):
-            j = path_j[r, m]
-            for a in range(5):
-                ok &= finite(wj[r, j, a])
-            for q in range(count_j[j]):
-                s = rows_j[j, q]
-                if s < r:
-                    continue
-                v = schur[r, s]
+                    w = wb[r, k, a]
+                    v0 += zb[s, k, a] * w
+                    v1 += zb[s1, k, a] * w
+                    v2 += zb[s2, k, a] * w
+                    v3 += zb[s3, k, a] * w
+            for m in range(first, len_j[r]):
+                j = path_j[r, m]
                 for a in range(5):
-                    v += zj[s, j, a] * wj[r, j, a]
-                schur[r, s] = v
-        for s in range(r + 1, nbd):
-            schur[s, r] = schur[r, s]
+                    w = wj[r, j, a]
+                    v0 += zj[s, j, a] * w
+                    v1 += zj[s1, j, a] * w
+                    v2 += zj[s2, j, a] * w
+                    v3 += zj[s3, j, a] * w
+            for x, v in ((s3, v3), (s2, v2), (s1, v1), (s, v0)):  # past the end: the last entry again, same value
+                schur[r, x] = v
+                schur[x, r] = v
         schur[r, r] += cfm_b[r]
     return schur, ok
