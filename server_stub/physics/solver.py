@@ -550,16 +550,14 @@ def schur_hinged(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b
             k = path_b[r, m]
             on_b[r, k] = True
             mv(dinv_body[k], zb[r, k], wb[r, k])
-            for a in range(6):
-                ok &= finite(wb[r, k, a])
             p = parents[k]
             if p < 0:
+                for a in range(6):  # (below the root, the hinge helpers check w)
+                    ok &= finite(wb[r, k, a])
                 continue
             j = joint_of[k]
             ok &= hinge_mv_sub(jc[j], wb[r, k], zj[r, j])
             mv(dinv_joint[j], zj[r, j], wj[r, j])
-            for a in range(5):
-                ok &= finite(wj[r, j, a])
             ok &= hinge_mtv_sub(jp[j], wj[r, j], zb[r, p])
             path_j[r, len_j[r]] = j
             len_j[r] += 1
