@@ -1,6 +1,8 @@
 """Small linear algebra of the step, compiled, one copy of each for every stage: 3-vectors and
 3x3 products as tuples, quaternions (x, y, z, w), the fused multiply-add that makes a 3x3 product
-equal numba's ``@`` to the last bit, a Cholesky factor, and the block operations of the tree solve.
+equal numba's ``@`` to the last bit, a Cholesky factor (whole, or from a row on), and the block
+operations of the tree solve, dense and for a hinge's Jacobian blocks with their structural zeros
+skipped (``hinge_mv_sub`` and the others).
 
 The step's per-body and per-hinge loops work on tuples (``qmul4``, ``mv3``, ``cross3``) and on
 scratch arrays made once per call: a small array made, or a helper called with array views, in
