@@ -10,7 +10,7 @@
   for a robot's step (``tree_step``), the structural zeros of the hinges' Jacobian blocks skipped
   (``linalg.hinge_mv_sub``) and, in S, the terms of bodies and hinges two rows' paths do not share:
   the same bits whenever every value a zero is skipped against is finite, which each reports (when
-  one is not, the step is redone by the functions above).
+  one is not, the step is redone by them told not to skip: the dense functions' own operations).
 """
 
 from __future__ import annotations
@@ -431,9 +431,10 @@ def contact_forces(lam_b, first, bf):
 
 
 @njit(cache=True)
-def factor_hinged(parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, slip, joint_cfm):
-    """``factor``, the hinge blocks' structural zeros skipped (``linalg.hinge_mdmt``). Returns
-    (dinv_body, dinv_joint, dinv_contact, whether the skipped terms were all +-0)."""
+def factor_hinged(parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, slip, joint_cfm, hinged):
+    """``factor``, the hinge blocks' structural zeros skipped (``linalg.hinge_mdmt``); not
+    ``hinged``, ``factor``'s own operations (the dense redo). Returns (dinv_body, dinv_joint,
+    dinv_contact, whether the skipped terms were all +-0)."""
     nb = dbody.shape[0]
     nj = jc.shape[0]
     dinv_body = np.empty((nb, 6, 6))
@@ -457,23 +458,33 @@ def factor_hinged(parents, joint_of, contact_first, contact_next, jc, jp, jf, db
         dj[:, :] = 0.0
         for a in range(5):
             dj[a, a] = -joint_cfm
-        ok &= hinge_mdmt(jc[j], dinv_body[k], dj, tmp)
+        if hinged:
+            ok &= hinge_mdmt(jc[j], dinv_body[k], dj, tmp)
+        else:
+            mdmt(jc[j], dinv_body[k], dj, tmp)
         inverse_definite(dj, -1.0, dinv_joint[j], tmp, 5)
-        ok &= hinge_mtdm_sub(jp[j], dinv_joint[j], dbody[p], tmp)
+        if hinged:
+            ok &= hinge_mtdm_sub(jp[j], dinv_joint[j], dbody[p], tmp)
+        else:
+            mtdm_sub(jp[j], dinv_joint[j], dbody[p], tmp)
     return dinv_body, dinv_joint, dinv_contact, ok
 
 
 @njit(cache=True)
-def unbounded_rhs_hinged(parents, joint_of, c_body, jc, jp, jf, cj, free):
-    """``unbounded_rhs``, the hinge blocks' structural zeros skipped. Returns (bj, bf, whether the
-    skipped terms were all +-0)."""
+def unbounded_rhs_hinged(parents, joint_of, c_body, jc, jp, jf, cj, free, hinged):
+    """``unbounded_rhs``, the hinge blocks' structural zeros skipped (not ``hinged``: its own
+    operations). Returns (bj, bf, whether the skipped terms were all +-0)."""
     bj = cj.copy()
     ok = True
     for k in range(parents.shape[0]):
         if parents[k] >= 0:
             j = joint_of[k]
-            ok &= hinge_mv_sub(jc[j], free[k], bj[j])
-            ok &= hinge_mv_sub(jp[j], free[parents[k]], bj[j])
+            if hinged:
+                ok &= hinge_mv_sub(jc[j], free[k], bj[j])
+                ok &= hinge_mv_sub(jp[j], free[parents[k]], bj[j])
+            else:
+                mv_sub(jc[j], free[k], bj[j])
+                mv_sub(jp[j], free[parents[k]], bj[j])
     bf = np.zeros((jf.shape[0], 2))
     for i in range(jf.shape[0]):
         mv_sub(jf[i], free[c_body[i]], bf[i])
@@ -481,9 +492,9 @@ def unbounded_rhs_hinged(parents, joint_of, c_body, jc, jp, jf, cj, free):
 
 
 @njit(cache=True)
-def tree_solve_hinged(first, end, tree, rb, rj, rf):
-    """``tree_solve``, the hinge blocks' structural zeros skipped. Returns whether the skipped
-    terms were all +-0."""
+def tree_solve_hinged(first, end, tree, rb, rj, rf, hinged):
+    """``tree_solve``, the hinge blocks' structural zeros skipped (not ``hinged``: its own
+    operations). Returns whether the skipped terms were all +-0."""
     parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact = tree
     t6 = np.empty(6)
     t5 = np.empty(5)
@@ -500,18 +511,30 @@ def tree_solve_hinged(first, end, tree, rb, rj, rf):
             continue
         j = joint_of[k]
         mv(dinv_body[k], rb[k], t6)
-        ok &= hinge_mv_sub(jc[j], t6, rj[j])
+        if hinged:
+            ok &= hinge_mv_sub(jc[j], t6, rj[j])
+        else:
+            mv_sub(jc[j], t6, rj[j])
         mv(dinv_joint[j], rj[j], t5)
-        ok &= hinge_mtv_sub(jp[j], t5, rb[p])
+        if hinged:
+            ok &= hinge_mtv_sub(jp[j], t5, rb[p])
+        else:
+            mtv_sub(jp[j], t5, rb[p])
     for k in range(first, end):
         p = parents[k]
         if p >= 0:
             j = joint_of[k]
-            ok &= hinge_mv_sub(jp[j], rb[p], rj[j])
+            if hinged:
+                ok &= hinge_mv_sub(jp[j], rb[p], rj[j])
+            else:
+                mv_sub(jp[j], rb[p], rj[j])
             mv(dinv_joint[j], rj[j], t5)
             for a in range(5):
                 rj[j, a] = t5[a]
-            ok &= hinge_mtv_sub(jc[j], rj[j], rb[k])
+            if hinged:
+                ok &= hinge_mtv_sub(jc[j], rj[j], rb[k])
+            else:
+                mtv_sub(jc[j], rj[j], rb[k])
         mv(dinv_body[k], rb[k], t6)
         for a in range(6):
             rb[k, a] = t6[a]
@@ -526,15 +549,15 @@ def tree_solve_hinged(first, end, tree, rb, rj, rf):
 
 
 @njit(cache=True)
-def schur_hinged(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b):
+def schur_hinged(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b, hinged):
     """``schur_complement`` for rows whose paths are chains, each one body's path to the root (a
     robot's own rows, ``step_tree``), the hinge blocks' structural zeros skipped in the forward
     passes. Two chains share their tail from their lowest common body to the root (rows in
     different limbs the torso alone), and row s's z is exactly +0 off its path: so S[r, s]'s terms
     before that tail of row r's path add 0 w, +-0 when w is finite, and are skipped. Four entries
     at a time as ``schur_complement``, from the earliest of their four tails (the few terms of the
-    others' before theirs add +-0 again), each in its order. Returns (S, whether every skipped
-    term was +-0)."""
+    others' before theirs add +-0 again), each in its order. Not ``hinged``: nothing skipped,
+    ``schur_complement``'s own operations. Returns (S, whether every skipped term was +-0)."""
     nbd = zb.shape[0]
     nb = zb.shape[1]
     nj = jc.shape[0]
@@ -556,9 +579,15 @@ def schur_hinged(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b
                     ok &= finite(wb[r, k, a])
                 continue
             j = joint_of[k]
-            ok &= hinge_mv_sub(jc[j], wb[r, k], zj[r, j])
+            if hinged:
+                ok &= hinge_mv_sub(jc[j], wb[r, k], zj[r, j])
+            else:
+                mv_sub(jc[j], wb[r, k], zj[r, j])
             mv(dinv_joint[j], zj[r, j], wj[r, j])
-            ok &= hinge_mtv_sub(jp[j], wj[r, j], zb[r, p])
+            if hinged:
+                ok &= hinge_mtv_sub(jp[j], wj[r, j], zb[r, p])
+            else:
+                mtv_sub(jp[j], wj[r, j], zb[r, p])
             path_j[r, len_j[r]] = j
             len_j[r] += 1
     schur = np.zeros((nbd, nbd))
@@ -567,11 +596,15 @@ def schur_hinged(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b
             s1, s2, s3 = min(s + 1, nbd - 1), min(s + 2, nbd - 1), min(s + 3, nbd - 1)
             # where row r's path first meets any of the four rows' (path body m has hinge m)
             first = 0
-            while first < len_b[r] and not (
-                on_b[s, path_b[r, first]]
-                or on_b[s1, path_b[r, first]]
-                or on_b[s2, path_b[r, first]]
-                or on_b[s3, path_b[r, first]]
+            while (
+                hinged
+                and first < len_b[r]
+                and not (
+                    on_b[s, path_b[r, first]]
+                    or on_b[s1, path_b[r, first]]
+                    or on_b[s2, path_b[r, first]]
+                    or on_b[s3, path_b[r, first]]
+                )
             ):
                 first += 1
             v0 = v1 = v2 = v3 = 0.0
