@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from server_stub.physics.linalg import cross3, invert3, mat_mul3, mat_vec, mv3, qmul4
+from server_stub.physics.linalg import cross3, fused_multiply_add, mv3, qmul4
 from server_stub.physics.rotations import rotation_into
 
 
@@ -20,21 +20,56 @@ def gyroscopic_torque(inertia, w, h, implicit):
     if not implicit:
         x, y, z = cross3(w, big_l)
         return (-x, -y, -z)
-    tilde = inertia.copy()
-    # -[L]x scaled by h: row-major cross matrix of -L
-    tilde[0, 1] += h * big_l[2]
-    tilde[0, 2] -= h * big_l[1]
-    tilde[1, 0] -= h * big_l[2]
-    tilde[1, 2] += h * big_l[0]
-    tilde[2, 0] += h * big_l[1]
-    tilde[2, 1] -= h * big_l[0]
-    inv, ok = invert3(tilde)
-    if not ok:
+    # I~ = I - h [L]x (its entries as scalars: this runs for every body every step, and a 3 x 3
+    # array made here cost more than the arithmetic), its inverse as ``linalg.invert3`` computes
+    # it, I I~^-1 as ``linalg.mat_mul3`` (fused multiply-adds in k order), all to the bit
+    m00 = inertia[0, 0]
+    m01 = inertia[0, 1] + h * big_l[2]
+    m02 = inertia[0, 2] - h * big_l[1]
+    m10 = inertia[1, 0] - h * big_l[2]
+    m11 = inertia[1, 1]
+    m12 = inertia[1, 2] + h * big_l[0]
+    m20 = inertia[2, 0] + h * big_l[1]
+    m21 = inertia[2, 1] - h * big_l[0]
+    m22 = inertia[2, 2]
+    c00 = m11 * m22 - m12 * m21
+    c01 = m12 * m20 - m10 * m22
+    c02 = m10 * m21 - m11 * m20
+    det = m00 * c00 + m01 * c01 + m02 * c02
+    if det == 0.0:
         return (0.0, 0.0, 0.0)
-    prod = mat_mul3(inertia, inv)
-    for a in range(3):
-        prod[a, a] -= 1.0
-    return mv3(prod, (big_l[0] / h, big_l[1] / h, big_l[2] / h))
+    inv = 1.0 / det
+    b00 = c00 * inv
+    b10 = c01 * inv
+    b20 = c02 * inv
+    b01 = (m02 * m21 - m01 * m22) * inv
+    b11 = (m00 * m22 - m02 * m20) * inv
+    b21 = (m01 * m20 - m00 * m21) * inv
+    b02 = (m01 * m12 - m02 * m11) * inv
+    b12 = (m02 * m10 - m00 * m12) * inv
+    b22 = (m00 * m11 - m01 * m10) * inv
+    v0, v1, v2 = big_l[0] / h, big_l[1] / h, big_l[2] / h
+    return (
+        _gyro_row(inertia, 0, b00, b01, b02, b10, b11, b12, b20, b21, b22, v0, v1, v2),
+        _gyro_row(inertia, 1, b00, b01, b02, b10, b11, b12, b20, b21, b22, v0, v1, v2),
+        _gyro_row(inertia, 2, b00, b01, b02, b10, b11, b12, b20, b21, b22, v0, v1, v2),
+    )
+
+
+@njit(cache=True)
+def _gyro_row(inertia, a, b00, b01, b02, b10, b11, b12, b20, b21, b22, v0, v1, v2):
+    """Row a of (I I~^-1 - 1) v, I~^-1 = b: ``linalg.mat_mul3``'s entries, then ``mv3``'s sum."""
+    i0, i1, i2 = inertia[a, 0], inertia[a, 1], inertia[a, 2]
+    p0 = fused_multiply_add(i2, b20, fused_multiply_add(i1, b10, i0 * b00))
+    p1 = fused_multiply_add(i2, b21, fused_multiply_add(i1, b11, i0 * b01))
+    p2 = fused_multiply_add(i2, b22, fused_multiply_add(i1, b12, i0 * b02))
+    if a == 0:
+        p0 -= 1.0
+    elif a == 1:
+        p1 -= 1.0
+    else:
+        p2 -= 1.0
+    return p0 * v0 + p1 * v1 + p2 * v2
 
 
 @njit(cache=True)
@@ -91,7 +126,7 @@ def free_velocities(vel, spin, force, masses, inv_inertia, h):
     for k in range(nb):
         for a in range(3):
             free[k, a] = vel[k, a] + h * force[k, a] / masses[k]
-        ang = mat_vec(inv_inertia[k], force[k, 3:6])
+        ang = mv3(inv_inertia[k], (force[k, 3], force[k, 4], force[k, 5]))  # a tuple: no array per body
         for a in range(3):
             free[k, 3 + a] = spin[k, a] + h * ang[a]
     return free

@@ -6,6 +6,11 @@
   are solved on their Schur complement (``schur_complement``) as a boxed LCP: exactly, by the
   active-set ``box_qp``; in large islands block principal pivoting (``block_pivot``) first.
 - ``contact_forces``: the solved contact rows as forces.
+- ``factor_hinged``, ``unbounded_rhs_hinged``, ``tree_solve_hinged``, ``schur_hinged``: the same
+  for a robot's step (``tree_step``), the structural zeros of the hinges' Jacobian blocks skipped
+  (``linalg.hinge_mv_sub``) and, in S, the terms of bodies and hinges two rows' paths do not share:
+  the same bits whenever every value a zero is skipped against is finite, which each reports (when
+  one is not, the step is redone by them told not to skip: the dense functions' own operations).
 """
 
 from __future__ import annotations
@@ -13,14 +18,28 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from server_stub.physics.linalg import cho_solve, cholesky, inverse_definite, mdmt, mtdm_sub, mtv_sub, mv, mv_sub
+from server_stub.physics.linalg import (
+    cho_solve,
+    cholesky_rows,
+    finite,
+    hinge_mdmt,
+    hinge_mtdm_sub,
+    hinge_mtv_sub,
+    hinge_mv_sub,
+    inverse_definite,
+    mdmt,
+    mtdm_sub,
+    mtv_sub,
+    mv,
+    mv_sub,
+)
 
 
 @njit(cache=True)
 def free_system(a, b, x, state, free):
     """The boxed LCP's rows ``free`` (``state`` 0) with every other row held where ``x`` has it:
-    A_FF x_F = b_F - A_FB x_B, as (A_FF, right side); the inner system of ``box_qp`` and of the
-    island solve's block pivoting."""
+    A_FF x_F = b_F - A_FB x_B, as (A_FF, right side); the inner system of the island solve's block
+    pivoting (``box_qp`` sums the same right side and factors A_FF in place)."""
     nf = free.size
     sub = np.empty((nf, nf))
     rhs = np.empty(nf)
@@ -54,18 +73,40 @@ def box_qp(a, b, lo, hi, state):
             x[i] = min(max(0.0, lo[i]), hi[i])
             if x[i] != 0.0:  # 0 outside the box: start at the nearer bound
                 state[i] = -1 if x[i] == lo[i] else 1
+    # the free rows' factor, kept from pass to pass: a pass changes one row's state, and the
+    # factor's rows before the first changed one stay (``linalg.cholesky_rows``)
+    lower = np.empty((n, n))
+    free = np.empty(n, dtype=np.int64)
+    rhs = np.empty(n)
+    target = np.empty(n)
+    nf = 0
     it = 0
     while it < 4 * n + 19:  # the count of passes is returned
         it += 1
-        free = np.nonzero(state == 0)[0]
-        nf = free.size
-        target = x.copy()
+        # the free rows, and how many of them lead the last pass's in the same places
+        kept = 0
+        count = 0
+        for i in range(n):
+            if state[i] == 0:
+                if kept == count and count < nf and free[count] == i:
+                    kept += 1
+                free[count] = i
+                count += 1
+        nf = count
+        for i in range(n):
+            target[i] = x[i]
         if nf > 0:
-            sub, rhs = free_system(a, b, x, state, free)
-            lower, ok = cholesky(sub)
-            if not ok:
+            # A_FF x_F = b_F - A_FB x_B (``free_system``)
+            for ii in range(nf):
+                i = free[ii]
+                t = b[i]
+                for k in range(n):
+                    if state[k] != 0:
+                        t -= a[i, k] * x[k]
+                rhs[ii] = t
+            if not cholesky_rows(a, free, nf, lower, kept):
                 break
-            sol = cho_solve(lower, rhs)
+            sol = cho_solve(lower, rhs[:nf])
             for ii in range(nf):
                 target[free[ii]] = sol[ii]
         # step towards target, stopping at the first bound crossed
@@ -255,7 +296,7 @@ def factor(parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, sl
             dinv_contact[c, 1, 1] = -1.0 / slip[c]
             mtdm_sub(jf[c], dinv_contact[c], dbody[k], tmp)
             c = contact_next[c]
-        inverse_definite(dbody[k], 1.0, dinv_body[k], tmp)
+        inverse_definite(dbody[k], 1.0, dinv_body[k], tmp, 6)
         p = parents[k]
         if p < 0:
             continue
@@ -264,7 +305,7 @@ def factor(parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, sl
         for a in range(5):
             dj[a, a] = -joint_cfm
         mdmt(jc[j], dinv_body[k], dj, tmp)
-        inverse_definite(dj, -1.0, dinv_joint[j], tmp)
+        inverse_definite(dj, -1.0, dinv_joint[j], tmp, 5)
         mtdm_sub(jp[j], dinv_joint[j], dbody[p], tmp)
     return dinv_body, dinv_joint, dinv_contact
 
@@ -387,3 +428,204 @@ def contact_forces(lam_b, first, bf):
         forces[i, 1] = -bf[i, 0]
         forces[i, 2] = -bf[i, 1]
     return forces
+
+
+@njit(cache=True)
+def factor_hinged(parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, slip, joint_cfm, hinged):
+    """``factor``, the hinge blocks' structural zeros skipped (``linalg.hinge_mdmt``); not
+    ``hinged``, ``factor``'s own operations (the dense redo). Returns (dinv_body, dinv_joint,
+    dinv_contact, whether the skipped terms were all +-0)."""
+    nb = dbody.shape[0]
+    nj = jc.shape[0]
+    dinv_body = np.empty((nb, 6, 6))
+    dinv_joint = np.empty((nj, 5, 5))
+    dinv_contact = np.zeros((jf.shape[0], 2, 2))
+    dj = np.empty((5, 5))
+    tmp = np.empty((6, 6))
+    ok = True
+    for k in range(nb - 1, -1, -1):
+        c = contact_first[k]
+        while c >= 0:
+            dinv_contact[c, 0, 0] = -1.0 / slip[c]
+            dinv_contact[c, 1, 1] = -1.0 / slip[c]
+            mtdm_sub(jf[c], dinv_contact[c], dbody[k], tmp)
+            c = contact_next[c]
+        inverse_definite(dbody[k], 1.0, dinv_body[k], tmp, 6)
+        p = parents[k]
+        if p < 0:
+            continue
+        j = joint_of[k]
+        dj[:, :] = 0.0
+        for a in range(5):
+            dj[a, a] = -joint_cfm
+        if hinged:
+            ok &= hinge_mdmt(jc[j], dinv_body[k], dj, tmp)
+        else:
+            mdmt(jc[j], dinv_body[k], dj, tmp)
+        inverse_definite(dj, -1.0, dinv_joint[j], tmp, 5)
+        if hinged:
+            ok &= hinge_mtdm_sub(jp[j], dinv_joint[j], dbody[p], tmp)
+        else:
+            mtdm_sub(jp[j], dinv_joint[j], dbody[p], tmp)
+    return dinv_body, dinv_joint, dinv_contact, ok
+
+
+@njit(cache=True)
+def unbounded_rhs_hinged(parents, joint_of, c_body, jc, jp, jf, cj, free, hinged):
+    """``unbounded_rhs``, the hinge blocks' structural zeros skipped (not ``hinged``: its own
+    operations). Returns (bj, bf, whether the skipped terms were all +-0)."""
+    bj = cj.copy()
+    ok = True
+    for k in range(parents.shape[0]):
+        if parents[k] >= 0:
+            j = joint_of[k]
+            if hinged:
+                ok &= hinge_mv_sub(jc[j], free[k], bj[j])
+                ok &= hinge_mv_sub(jp[j], free[parents[k]], bj[j])
+            else:
+                mv_sub(jc[j], free[k], bj[j])
+                mv_sub(jp[j], free[parents[k]], bj[j])
+    bf = np.zeros((jf.shape[0], 2))
+    for i in range(jf.shape[0]):
+        mv_sub(jf[i], free[c_body[i]], bf[i])
+    return bj, bf, ok
+
+
+@njit(cache=True)
+def tree_solve_hinged(first, end, tree, rb, rj, rf, hinged):
+    """``tree_solve``, the hinge blocks' structural zeros skipped (not ``hinged``: its own
+    operations). Returns whether the skipped terms were all +-0."""
+    parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact = tree
+    t6 = np.empty(6)
+    t5 = np.empty(5)
+    t2 = np.empty(2)
+    ok = True
+    for k in range(end - 1, first - 1, -1):
+        c = contact_first[k]
+        while c >= 0:
+            mv(dinv_contact[c], rf[c], t2)
+            mtv_sub(jf[c], t2, rb[k])
+            c = contact_next[c]
+        p = parents[k]
+        if p < 0:
+            continue
+        j = joint_of[k]
+        mv(dinv_body[k], rb[k], t6)
+        if hinged:
+            ok &= hinge_mv_sub(jc[j], t6, rj[j])
+        else:
+            mv_sub(jc[j], t6, rj[j])
+        mv(dinv_joint[j], rj[j], t5)
+        if hinged:
+            ok &= hinge_mtv_sub(jp[j], t5, rb[p])
+        else:
+            mtv_sub(jp[j], t5, rb[p])
+    for k in range(first, end):
+        p = parents[k]
+        if p >= 0:
+            j = joint_of[k]
+            if hinged:
+                ok &= hinge_mv_sub(jp[j], rb[p], rj[j])
+            else:
+                mv_sub(jp[j], rb[p], rj[j])
+            mv(dinv_joint[j], rj[j], t5)
+            for a in range(5):
+                rj[j, a] = t5[a]
+            if hinged:
+                ok &= hinge_mtv_sub(jc[j], rj[j], rb[k])
+            else:
+                mtv_sub(jc[j], rj[j], rb[k])
+        mv(dinv_body[k], rb[k], t6)
+        for a in range(6):
+            rb[k, a] = t6[a]
+        c = contact_first[k]
+        while c >= 0:
+            mv_sub(jf[c], rb[k], rf[c])
+            mv(dinv_contact[c], rf[c], t2)
+            for a in range(2):
+                rf[c, a] = t2[a]
+            c = contact_next[c]
+    return ok
+
+
+@njit(cache=True)
+def schur_hinged(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b, hinged):
+    """``schur_complement`` for rows whose paths are chains, each one body's path to the root (a
+    robot's own rows, ``step_tree``), the hinge blocks' structural zeros skipped in the forward
+    passes. Two chains share their tail from their lowest common body to the root (rows in
+    different limbs the torso alone), and row s's z is exactly +0 off its path: so S[r, s]'s terms
+    before that tail of row r's path add 0 w, +-0 when w is finite, and are skipped. Four entries
+    at a time as ``schur_complement``, from the earliest of their four tails (the few terms of the
+    others' before theirs add +-0 again), each in its order. Not ``hinged``: nothing skipped,
+    ``schur_complement``'s own operations. Returns (S, whether every skipped term was +-0)."""
+    nbd = zb.shape[0]
+    nb = zb.shape[1]
+    nj = jc.shape[0]
+    path_j = np.empty((nbd, nb), dtype=np.int64)
+    len_j = np.zeros(nbd, dtype=np.int64)
+    zj = np.zeros((nbd, nj, 5))
+    wb = np.empty((nbd, nb, 6))
+    wj = np.empty((nbd, nj, 5))
+    on_b = np.zeros((nbd, nb), dtype=np.bool_)
+    ok = True
+    for r in range(nbd):
+        for m in range(len_b[r]):
+            k = path_b[r, m]
+            on_b[r, k] = True
+            mv(dinv_body[k], zb[r, k], wb[r, k])
+            p = parents[k]
+            if p < 0:
+                for a in range(6):  # (below the root, the hinge helpers check w)
+                    ok &= finite(wb[r, k, a])
+                continue
+            j = joint_of[k]
+            if hinged:
+                ok &= hinge_mv_sub(jc[j], wb[r, k], zj[r, j])
+            else:
+                mv_sub(jc[j], wb[r, k], zj[r, j])
+            mv(dinv_joint[j], zj[r, j], wj[r, j])
+            if hinged:
+                ok &= hinge_mtv_sub(jp[j], wj[r, j], zb[r, p])
+            else:
+                mtv_sub(jp[j], wj[r, j], zb[r, p])
+            path_j[r, len_j[r]] = j
+            len_j[r] += 1
+    schur = np.zeros((nbd, nbd))
+    for r in range(nbd):
+        for s in range(r, nbd, 4):
+            s1, s2, s3 = min(s + 1, nbd - 1), min(s + 2, nbd - 1), min(s + 3, nbd - 1)
+            # where row r's path first meets any of the four rows' (path body m has hinge m)
+            first = 0
+            while (
+                hinged
+                and first < len_b[r]
+                and not (
+                    on_b[s, path_b[r, first]]
+                    or on_b[s1, path_b[r, first]]
+                    or on_b[s2, path_b[r, first]]
+                    or on_b[s3, path_b[r, first]]
+                )
+            ):
+                first += 1
+            v0 = v1 = v2 = v3 = 0.0
+            for m in range(first, len_b[r]):
+                k = path_b[r, m]
+                for a in range(6):
+                    w = wb[r, k, a]
+                    v0 += zb[s, k, a] * w
+                    v1 += zb[s1, k, a] * w
+                    v2 += zb[s2, k, a] * w
+                    v3 += zb[s3, k, a] * w
+            for m in range(first, len_j[r]):
+                j = path_j[r, m]
+                for a in range(5):
+                    w = wj[r, j, a]
+                    v0 += zj[s, j, a] * w
+                    v1 += zj[s1, j, a] * w
+                    v2 += zj[s2, j, a] * w
+                    v3 += zj[s3, j, a] * w
+            for x, v in ((s3, v3), (s2, v2), (s1, v1), (s, v0)):  # past the end: the last entry again, same value
+                schur[r, x] = v
+                schur[x, r] = v
+        schur[r, r] += cfm_b[r]
+    return schur, ok

@@ -44,10 +44,10 @@ from server_stub.physics.solver import (
     FIRST_BODY,
     box_qp,
     contact_forces,
-    factor,
-    schur_complement,
-    tree_solve,
-    unbounded_rhs,
+    factor_hinged,
+    schur_hinged,
+    tree_solve_hinged,
+    unbounded_rhs_hinged,
 )
 
 
@@ -64,7 +64,12 @@ def step_tree(model, state, forces, contacts, motors, params):
     The arguments are the bundles ``Model``, ``State``, ``Forces``, ``GroundContacts``, ``Motors``
     and ``Params``, each as a plain tuple (``bundles``). Inlined where it is called
     (``lanes.step_lanes``, for every lone robot): a cold start compiles it once, not once alone
-    and again inside its caller."""
+    and again inside its caller.
+
+    The solve skips the hinge Jacobians' structural zeros and the Schur complement's terms off the
+    rows' common paths (``solver.factor_hinged`` and the others), which gives the same bits as the
+    dense solve whenever every value a zero is skipped against is finite; when one is not (a
+    robot whose state has blown up), the step is redone densely, from the motors' states given."""
     masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
     pos, quat, vel, spin = state
     gravity, drag_linear, drag_angular, drag_vel, drag_spin = forces
@@ -74,100 +79,113 @@ def step_tree(model, state, forces, contacts, motors, params):
     nb = masses.shape[0]
     nj = local_axes.shape[0]
     nc = contact_point.shape[0]
-    roots = parents.copy()
-    roots[0] = -1  # the torso: the tree's root
-    rot, inv_inertia, force, dbody = robot_body_terms(
-        masses, principal, quat, spin, gravity, drag_linear, drag_angular, drag_vel, drag_spin, h, implicit_gyro
-    )
-    # hinge nodes (5 rows on child k and parent p) and their motor/stop rows (bounded)
-    jc, jp, cj, motor_dir, child_of = hinge_nodes(
-        roots, joint_of, nj, rot, pos, anchor_child, anchor_parent, local_axes, push, force, h, joint_erp
-    )
-    # contacts: friction nodes (2 rows) and normal rows (bounded), listed per body
-    normals = np.zeros((nc, 3))
-    normals[:, 2] = 1.0
-    jn, jf, tangents, contact_first, contact_next = contact_nodes(nb, contact_body, contact_point, normals, pos)
-    cn = np.zeros(nc)
-    for i in range(nc):
-        cn[i] = contact_c(contact_erp, contact_depth[i], surface_layer, h, 0.0, np.inf, 0.0)
-    free = free_velocities(vel, spin, force, masses, inv_inertia, h)
-    # factor H from the leaves to the torso
-    dinv_body, dinv_joint, dinv_contact = factor(
-        roots, joint_of, contact_first, contact_next, jc, jp, jf, dbody, np.full(nc, slip), joint_cfm
-    )
-    # right-hand sides b = c - J free, unbounded and bounded
-    bj, bf = unbounded_rhs(roots, joint_of, contact_body, jc, jp, jf, cj, free)
-    nbd = nj + nc
-    bb, lo, hi, cfm_b = bounded_rows(nbd, motor_target, motor_lo, motor_hi, motor_cfm)
-    for j in range(nj):
-        k = child_of[j]
-        p = parents[k]
-        rel = 0.0
-        for a in range(3):
-            rel += motor_dir[j, a] * (free[k, 3 + a] - free[p, 3 + a])
-        bb[j] -= rel
-    for i in range(nc):
-        v = 0.0
-        for a in range(6):
-            v += jn[i, a] * free[contact_body[i], a]
-        bb[nj + i] = cn[i] - v
-        lo[nj + i] = 0.0
-        hi[nj + i] = np.inf
-        cfm_b[nj + i] = contact_cfm
-    # y0: the velocity change with the bounded rows' forces 0
-    yb = np.zeros((nb, 6))
-    yj = bj.copy()
-    yf = bf.copy()
-    tree = (roots, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact)
-    tree_solve(FIRST_BODY, nb, tree, yb, yj, yf)
-    # the bounded rows' Jacobians on their bodies and their paths to the torso
-    path_b = np.empty((nbd, nb), dtype=np.int64)
-    len_b = np.zeros(nbd, dtype=np.int64)
-    zb = np.zeros((nbd, nb, 6))
-    for r in range(nbd):
-        if r < nj:
-            k = child_of[r]
+    saved = motor_state.copy()
+    # the step skipping zeros, then, only if a skipped zero met a value not finite, densely from
+    # the motors' states given: one body for both (``solver.factor_hinged`` and the others take
+    # the choice), which compiles in far less time than two
+    for attempt in range(2):
+        hinged = attempt == 0
+        roots = parents.copy()
+        roots[0] = -1  # the torso: the tree's root
+        rot, inv_inertia, force, dbody = robot_body_terms(
+            masses, principal, quat, spin, gravity, drag_linear, drag_angular, drag_vel, drag_spin, h, implicit_gyro
+        )
+        # hinge nodes (5 rows on child k and parent p) and their motor/stop rows (bounded)
+        jc, jp, cj, motor_dir, child_of = hinge_nodes(
+            roots, joint_of, nj, rot, pos, anchor_child, anchor_parent, local_axes, push, force, h, joint_erp
+        )
+        # contacts: friction nodes (2 rows) and normal rows (bounded), listed per body
+        normals = np.zeros((nc, 3))
+        normals[:, 2] = 1.0
+        jn, jf, tangents, contact_first, contact_next = contact_nodes(nb, contact_body, contact_point, normals, pos)
+        cn = np.zeros(nc)
+        for i in range(nc):
+            cn[i] = contact_c(contact_erp, contact_depth[i], surface_layer, h, 0.0, np.inf, 0.0)
+        free = free_velocities(vel, spin, force, masses, inv_inertia, h)
+        # factor H from the leaves to the torso
+        dinv_body, dinv_joint, dinv_contact, ok = factor_hinged(
+            roots, joint_of, contact_first, contact_next, jc, jp, jf, dbody, np.full(nc, slip), joint_cfm, hinged
+        )
+        # right-hand sides b = c - J free, unbounded and bounded
+        bj, bf, fine = unbounded_rhs_hinged(roots, joint_of, contact_body, jc, jp, jf, cj, free, hinged)
+        ok &= fine
+        nbd = nj + nc
+        bb, lo, hi, cfm_b = bounded_rows(nbd, motor_target, motor_lo, motor_hi, motor_cfm)
+        for j in range(nj):
+            k = child_of[j]
+            p = parents[k]
+            rel = 0.0
+            for a in range(3):
+                rel += motor_dir[j, a] * (free[k, 3 + a] - free[p, 3 + a])
+            bb[j] -= rel
+        for i in range(nc):
+            v = 0.0
+            for a in range(6):
+                v += jn[i, a] * free[contact_body[i], a]
+            bb[nj + i] = cn[i] - v
+            lo[nj + i] = 0.0
+            hi[nj + i] = np.inf
+            cfm_b[nj + i] = contact_cfm
+        # y0: the velocity change with the bounded rows' forces 0
+        yb = np.zeros((nb, 6))
+        yj = bj.copy()
+        yf = bf.copy()
+        tree = (roots, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact)
+        ok &= tree_solve_hinged(FIRST_BODY, nb, tree, yb, yj, yf, hinged)
+        # the bounded rows' Jacobians on their bodies and their paths to the torso
+        path_b = np.empty((nbd, nb), dtype=np.int64)
+        len_b = np.zeros(nbd, dtype=np.int64)
+        zb = np.zeros((nbd, nb, 6))
+        for r in range(nbd):
+            if r < nj:
+                k = child_of[r]
+                p = parents[k]
+                for a in range(3):
+                    zb[r, k, 3 + a] = motor_dir[r, a]
+                    zb[r, p, 3 + a] = -motor_dir[r, a]
+            else:
+                k = contact_body[r - nj]
+                for a in range(6):
+                    zb[r, k, a] = jn[r - nj, a]
+            while k >= 0:
+                path_b[r, len_b[r]] = k
+                len_b[r] += 1
+                k = roots[k]
+        schur, fine = schur_hinged(roots, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b, hinged)
+        ok &= fine
+        # the bounded rows' right-hand side: b_B - J_B y0
+        for j in range(nj):
+            k = child_of[j]
             p = parents[k]
             for a in range(3):
-                zb[r, k, 3 + a] = motor_dir[r, a]
-                zb[r, p, 3 + a] = -motor_dir[r, a]
-        else:
-            k = contact_body[r - nj]
+                bb[j] -= motor_dir[j, a] * (yb[k, 3 + a] - yb[p, 3 + a])
+        for i in range(nc):
             for a in range(6):
-                zb[r, k, a] = jn[r - nj, a]
-        while k >= 0:
-            path_b[r, len_b[r]] = k
-            len_b[r] += 1
-            k = roots[k]
-    schur = schur_complement(roots, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b)
-    # the bounded rows' right-hand side: b_B - J_B y0
-    for j in range(nj):
-        k = child_of[j]
-        p = parents[k]
-        for a in range(3):
-            bb[j] -= motor_dir[j, a] * (yb[k, 3 + a] - yb[p, 3 + a])
-    for i in range(nc):
-        for a in range(6):
-            bb[nj + i] -= jn[i, a] * yb[contact_body[i], a]
-    state = np.zeros(nbd, dtype=np.int64)
-    for j in range(nj):
-        state[j] = motor_state[j]
-    lam_b, iterations = box_qp(schur, bb, lo, hi, state)
-    for j in range(nj):
-        motor_state[j] = state[j]
-    # the final solve: body right-hand side G lambda_B, unbounded rows' b
-    rb = np.zeros((nb, 6))
-    for j in range(nj):
-        k = child_of[j]
-        p = parents[k]
-        for a in range(3):
-            rb[k, 3 + a] += motor_dir[j, a] * lam_b[j]
-            rb[p, 3 + a] -= motor_dir[j, a] * lam_b[j]
-    for i in range(nc):
-        for a in range(6):
-            rb[contact_body[i], a] += jn[i, a] * lam_b[nj + i]
-    tree_solve(FIRST_BODY, nb, tree, rb, bj, bf)
-    out_pos, out_quat, out_vel, out_spin = advance(pos, quat, free + rb, h)
-    forces = contact_forces(lam_b, nj, bf)
-    torques = lam_b[:nj].copy()
-    return out_pos, out_quat, out_vel, out_spin, forces, tangents, torques, iterations
+                bb[nj + i] -= jn[i, a] * yb[contact_body[i], a]
+        row_state = np.zeros(nbd, dtype=np.int64)
+        for j in range(nj):
+            row_state[j] = motor_state[j]
+        lam_b, iterations = box_qp(schur, bb, lo, hi, row_state)
+        for j in range(nj):
+            motor_state[j] = row_state[j]
+        # the final solve: body right-hand side G lambda_B, unbounded rows' b
+        rb = np.zeros((nb, 6))
+        for j in range(nj):
+            k = child_of[j]
+            p = parents[k]
+            for a in range(3):
+                rb[k, 3 + a] += motor_dir[j, a] * lam_b[j]
+                rb[p, 3 + a] -= motor_dir[j, a] * lam_b[j]
+        for i in range(nc):
+            for a in range(6):
+                rb[contact_body[i], a] += jn[i, a] * lam_b[nj + i]
+        ok &= tree_solve_hinged(FIRST_BODY, nb, tree, rb, bj, bf, hinged)
+        out_pos, out_quat, out_vel, out_spin = advance(pos, quat, free + rb, h)
+        contact_f = contact_forces(lam_b, nj, bf)
+        torques = lam_b[:nj].copy()
+
+        if ok or not hinged:
+            break
+        for j in range(nj):
+            motor_state[j] = saved[j]
+    return out_pos, out_quat, out_vel, out_spin, contact_f, tangents, torques, iterations
