@@ -66,23 +66,19 @@ _TYPES: dict[str, types.Type] = {
 #: The factored forest ``solver.tree_solve`` takes (``solver.factor``'s tree and inverted blocks).
 _TYPES["tree"] = types.Tuple(tuple(_TYPES[name] for name in "i1 i1 i1 i1 f3 f3 f3 f3 f3 f3".split()))
 #: The kernels both a robot's step and an island's call, with the argument types they call them
-#: with (``tests/test_kernels.py`` checks them), in the order a robot's step first calls them; with
-#: them the robot's own versions of the solver's (``*_hinged``) and the island's dense ones, so
-#: that the helper process compiles those too while this one compiles a robot's step.
+#: with (``tests/test_kernels.py`` checks them), in the order a robot's step first calls them (the
+#: solver's with ``hinged`` either way: one compiled version for both), so that the helper process
+#: compiles those while this one compiles a robot's step.
 SHARED: tuple[tuple[Callable[[], Any], str], ...] = (
     (lambda: integrate.body_terms, "f1 f2 f2 f2 f1 f1 f1 f2 f2 f b"),
     (lambda: rows.hinge_nodes, "i1 i1 i f3 f2 f2 f2 f2 f1 f2 f f"),
     (lambda: rows.contact_nodes, "i i1 f2 f2 f2"),
     (lambda: integrate.free_velocities, "f2 f2 f2 f1 f3 f"),
-    (lambda: solver.factor, "i1 i1 i1 i1 f3 f3 f3 f3 f1 f"),
-    (lambda: solver.factor_hinged, "i1 i1 i1 i1 f3 f3 f3 f3 f1 f b"),
-    (lambda: solver.unbounded_rhs, "i1 i1 i1 f3 f3 f3 f2 f2"),
-    (lambda: solver.unbounded_rhs_hinged, "i1 i1 i1 f3 f3 f3 f2 f2 b"),
+    (lambda: solver.factor, "i1 i1 i1 i1 f3 f3 f3 f3 f1 f b"),
+    (lambda: solver.unbounded_rhs, "i1 i1 i1 f3 f3 f3 f2 f2 b"),
     (lambda: rows.bounded_rows, "i f1 f1 f1 f"),
-    (lambda: solver.tree_solve, "i i tree f2 f2 f2"),
-    (lambda: solver.tree_solve_hinged, "i i tree f2 f2 f2 b"),
-    (lambda: solver.schur_complement, "i1 i1 f3 f3 f3 f3 i2 i1 f3 f1"),
-    (lambda: solver.schur_hinged, "i1 i1 f3 f3 f3 f3 i2 i1 f3 f1 b"),
+    (lambda: solver.tree_solve, "i i tree f2 f2 f2 b"),
+    (lambda: solver.schur_complement, "i1 i1 f3 f3 f3 f3 i2 i1 f3 f1 b"),
     (lambda: solver.box_qp, "f2 f1 f1 f1 i1"),
     (lambda: integrate.advance, "f2 f2 f2 f"),
     (lambda: solver.contact_forces, "f1 i f2"),

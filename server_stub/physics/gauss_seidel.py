@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from server_stub.physics.solver import box_qp, schur_of_rows, tree_solve
+from server_stub.physics.solver import box_qp, dense, schur_of_rows, tree_solve
 
 
 @njit(cache=True)
@@ -66,7 +66,7 @@ def _tree_solve(t, first, end, tree, rb, rj, rf):
         while c >= 0:
             rf[c, :] = 0.0
             c = contact_next[c]
-    tree_solve(first[t], end[t], tree, rb, rj, rf)
+    tree_solve(first[t], end[t], tree, rb, rj, rf, dense())
 
 
 @njit(cache=True)

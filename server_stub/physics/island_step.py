@@ -59,6 +59,7 @@ from server_stub.physics.solver import (
     block_pivot,
     box_qp,
     contact_forces,
+    dense,
     factor,
     schur_of_rows,
     tree_solve,
@@ -199,16 +200,16 @@ def _prepare(model, state, forces, motors, contacts, pairs, params):
             hi[r] = np.inf
     free = free_velocities(vel, spin, force, masses, inv_inertia, h)
     # factor H from the leaves to the roots
-    dinv_body, dinv_joint, dinv_contact = factor(
-        parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, c_surface[:, SLIP].copy(), joint_cfm
+    dinv_body, dinv_joint, dinv_contact, _ = factor(
+        parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, c_surface[:, SLIP].copy(), joint_cfm, dense()
     )
-    bj, bf = unbounded_rhs(parents, joint_of, c_body, jc, jp, jf, cj, free)
+    bj, bf, _ = unbounded_rhs(parents, joint_of, c_body, jc, jp, jf, cj, free, dense())
     rows_sub(gb, gj, free, bb)
     yb = np.zeros((nb, 6))
     yj = bj.copy()
     yf = bf.copy()
     tree = (parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact)
-    tree_solve(FIRST_BODY, nb, tree, yb, yj, yf)
+    tree_solve(FIRST_BODY, nb, tree, yb, yj, yf, dense())
     return free, gb, gj, bb, lo, hi, cfm_b, yb, bj, bf, tree, tangents, p_tangents
 
 
@@ -228,7 +229,7 @@ def _finish(nj, nc, h, state, prepared, lam_b, iterations):
             if k >= 0:
                 for a in range(6):
                     rb[k, a] += gj[r, x, a] * lam_b[r]
-    tree_solve(FIRST_BODY, nb, tree, rb, bj, bf)
+    tree_solve(FIRST_BODY, nb, tree, rb, bj, bf, dense())
     out_pos, out_quat, out_vel, out_spin = advance(pos, quat, free + rb, h)
     forces = contact_forces(lam_b, nj, bf)
     p_forces = np.empty((npc, 3))

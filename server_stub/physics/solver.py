@@ -6,11 +6,11 @@
   are solved on their Schur complement (``schur_complement``) as a boxed LCP: exactly, by the
   active-set ``box_qp``; in large islands block principal pivoting (``block_pivot``) first.
 - ``contact_forces``: the solved contact rows as forces.
-- ``factor_hinged``, ``unbounded_rhs_hinged``, ``tree_solve_hinged``, ``schur_hinged``: the same
-  for a robot's step (``tree_step``), the structural zeros of the hinges' Jacobian blocks skipped
-  (``linalg.hinge_mv_sub``) and, in S, the terms of bodies and hinges two rows' paths do not share:
-  the same bits whenever every value a zero is skipped against is finite, which each reports (when
-  one is not, the step is redone by them told not to skip: the dense functions' own operations).
+- ``hinged`` (the last argument of the four above), for a robot's step (``tree_step``): the
+  structural zeros of the hinges' Jacobian blocks skipped (``linalg.hinge_mv_sub``) and, in S,
+  the terms of bodies and hinges two rows' paths do not share: the same bits whenever every value
+  a zero is skipped against is finite, which each reports (when one is not, the step is redone by
+  them told not to skip, as an island is solved: one code for both).
 """
 
 from __future__ import annotations
@@ -230,159 +230,11 @@ def block_pivot(a, b, lo, hi, state):
 
 
 @njit(cache=True)
-def tree_solve(first, end, tree, rb, rj, rf):
-    """Solve H x = r on the factored forest (``step_tree``, ``island_step.step_island``; roots
-    have parent -1), r given per body (rb, nb x 6), hinge node (rj, nj x 5) and friction node
-    (rf, nc x 2); overwritten by x. Only the bodies [first, end) are visited: the whole forest,
-    or whole trees of it (``gauss_seidel.body_blocks``). ``tree`` is the factored forest: parents,
-    joint_of, contact_first, contact_next, jc, jp, jf and the inverted blocks of ``factor``."""
-    parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact = tree
-    t6 = np.empty(6)
-    t5 = np.empty(5)
-    t2 = np.empty(2)
-    # forward: leaves to roots
-    for k in range(end - 1, first - 1, -1):
-        c = contact_first[k]
-        while c >= 0:
-            mv(dinv_contact[c], rf[c], t2)
-            mtv_sub(jf[c], t2, rb[k])
-            c = contact_next[c]
-        p = parents[k]
-        if p < 0:
-            continue
-        j = joint_of[k]
-        mv(dinv_body[k], rb[k], t6)
-        mv_sub(jc[j], t6, rj[j])
-        mv(dinv_joint[j], rj[j], t5)
-        mtv_sub(jp[j], t5, rb[p])
-    # backward: roots to leaves
-    for k in range(first, end):
-        p = parents[k]
-        if p >= 0:
-            j = joint_of[k]
-            mv_sub(jp[j], rb[p], rj[j])
-            mv(dinv_joint[j], rj[j], t5)
-            for a in range(5):  # not rj[j, :] = t5: a slice copy compiles numba's shape error
-                rj[j, a] = t5[a]
-            mtv_sub(jc[j], rj[j], rb[k])
-        mv(dinv_body[k], rb[k], t6)
-        for a in range(6):
-            rb[k, a] = t6[a]
-        c = contact_first[k]
-        while c >= 0:
-            mv_sub(jf[c], rb[k], rf[c])
-            mv(dinv_contact[c], rf[c], t2)
-            for a in range(2):
-                rf[c, a] = t2[a]
-            c = contact_next[c]
-
-
-@njit(cache=True)
-def factor(parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, slip, joint_cfm):
-    """Factor H from the leaves to the roots (``parents`` -1 there): ``dbody`` (M/h) is
-    overwritten by each body's block; ``slip`` per contact. Returns the inverted blocks
-    (dinv_body, dinv_joint, dinv_contact)."""
-    nb = dbody.shape[0]
-    nj = jc.shape[0]
-    dinv_body = np.empty((nb, 6, 6))
-    dinv_joint = np.empty((nj, 5, 5))
-    dinv_contact = np.zeros((jf.shape[0], 2, 2))
-    dj = np.empty((5, 5))
-    tmp = np.empty((6, 6))
-    for k in range(nb - 1, -1, -1):
-        c = contact_first[k]
-        while c >= 0:
-            dinv_contact[c, 0, 0] = -1.0 / slip[c]
-            dinv_contact[c, 1, 1] = -1.0 / slip[c]
-            mtdm_sub(jf[c], dinv_contact[c], dbody[k], tmp)
-            c = contact_next[c]
-        inverse_definite(dbody[k], 1.0, dinv_body[k], tmp, 6)
-        p = parents[k]
-        if p < 0:
-            continue
-        j = joint_of[k]
-        dj[:, :] = 0.0
-        for a in range(5):
-            dj[a, a] = -joint_cfm
-        mdmt(jc[j], dinv_body[k], dj, tmp)
-        inverse_definite(dj, -1.0, dinv_joint[j], tmp, 5)
-        mtdm_sub(jp[j], dinv_joint[j], dbody[p], tmp)
-    return dinv_body, dinv_joint, dinv_contact
-
-
-@njit(cache=True)
-def unbounded_rhs(parents, joint_of, c_body, jc, jp, jf, cj, free):
-    """The unbounded rows' right-hand sides b = c - J free: hinge nodes (bj) and friction nodes
-    (bf; c = 0)."""
-    bj = cj.copy()
-    for k in range(parents.shape[0]):
-        if parents[k] >= 0:
-            j = joint_of[k]
-            mv_sub(jc[j], free[k], bj[j])
-            mv_sub(jp[j], free[parents[k]], bj[j])
-    bf = np.zeros((jf.shape[0], 2))
-    for i in range(jf.shape[0]):
-        mv_sub(jf[i], free[c_body[i]], bf[i])
-    return bj, bf
-
-
-@njit(cache=True)
-def schur_complement(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b):
-    """S = cfm_B + G' H^-1 G of the bounded rows, from one forward pass each: row r's z starts as
-    its Jacobian on its bodies (zb[r]) and is carried through the bodies path_b[r, :len_b[r]]
-    (leaves first, the union of its bodies' paths to their roots; z is zero off them) and the
-    hinges between them, w = D^-1 z there. Then S[r, s] = cfm + sum over row r's path of
-    z_s' w_r. ``zb`` is overwritten."""
-    nbd = zb.shape[0]
-    nb = zb.shape[1]
-    nj = jc.shape[0]
-    path_j = np.empty((nbd, nb), dtype=np.int64)
-    len_j = np.zeros(nbd, dtype=np.int64)
-    zj = np.zeros((nbd, nj, 5))
-    # w is read only where the pass has written it: on each row's path
-    wb = np.empty((nbd, nb, 6))
-    wj = np.empty((nbd, nj, 5))
-    for r in range(nbd):
-        for m in range(len_b[r]):
-            k = path_b[r, m]
-            mv(dinv_body[k], zb[r, k], wb[r, k])
-            p = parents[k]
-            if p < 0:
-                continue
-            j = joint_of[k]
-            mv_sub(jc[j], wb[r, k], zj[r, j])
-            mv(dinv_joint[j], zj[r, j], wj[r, j])
-            mtv_sub(jp[j], wj[r, j], zb[r, p])
-            path_j[r, len_j[r]] = j
-            len_j[r] += 1
-    schur = np.zeros((nbd, nbd))
-    for r in range(nbd):
-        # four entries S[r, s..s+3] at a time: four independent sums, each in the order of one
-        # at a time (row r's path bodies, then its hinges), which the CPU overlaps
-        for s in range(r, nbd, 4):
-            s1, s2, s3 = min(s + 1, nbd - 1), min(s + 2, nbd - 1), min(s + 3, nbd - 1)
-            v0 = v1 = v2 = v3 = 0.0
-            for m in range(len_b[r]):
-                k = path_b[r, m]
-                for a in range(6):
-                    w = wb[r, k, a]
-                    v0 += zb[s, k, a] * w
-                    v1 += zb[s1, k, a] * w
-                    v2 += zb[s2, k, a] * w
-                    v3 += zb[s3, k, a] * w
-            for m in range(len_j[r]):
-                j = path_j[r, m]
-                for a in range(5):
-                    w = wj[r, j, a]
-                    v0 += zj[s, j, a] * w
-                    v1 += zj[s1, j, a] * w
-                    v2 += zj[s2, j, a] * w
-                    v3 += zj[s3, j, a] * w
-            for x, v in ((s3, v3), (s2, v2), (s1, v1), (s, v0)):  # past the end: the last entry again, same value
-                schur[r, x] = v
-                schur[x, r] = v
-        schur[r, r] += cfm_b[r]
-    return schur
+def dense():
+    """``hinged`` for an island's solve (every term taken): ``False`` as a value numba types
+    ``bool``, as the robot's step passes it; a literal ``False`` (a plain ``return False`` too)
+    would compile each of the solver's functions a second time."""
+    return np.bool_(False)
 
 
 @njit(cache=True)
@@ -414,7 +266,7 @@ def schur_of_rows(parents, joint_of, jc, jp, dinv_body, dinv_joint, gb, gj, cfm_
             if mark[k]:
                 path_b[r, len_b[r]] = k
                 len_b[r] += 1
-    return schur_complement(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b)
+    return schur_complement(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b, dense())[0]
 
 
 @njit(cache=True)
@@ -431,10 +283,12 @@ def contact_forces(lam_b, first, bf):
 
 
 @njit(cache=True)
-def factor_hinged(parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, slip, joint_cfm, hinged):
-    """``factor``, the hinge blocks' structural zeros skipped (``linalg.hinge_mdmt``); not
-    ``hinged``, ``factor``'s own operations (the dense redo). Returns (dinv_body, dinv_joint,
-    dinv_contact, whether the skipped terms were all +-0)."""
+def factor(parents, joint_of, contact_first, contact_next, jc, jp, jf, dbody, slip, joint_cfm, hinged):
+    """Factor H from the leaves to the roots (``parents`` -1 there): ``dbody`` (M/h) is
+    overwritten by each body's block; ``slip`` per contact. ``hinged`` (a robot's own step): the
+    hinge blocks' structural zeros skipped (``linalg.hinge_mdmt``); else (an island, the dense
+    redo) every term taken. Returns the inverted blocks (dinv_body, dinv_joint, dinv_contact) and
+    whether the skipped terms were all +-0."""
     nb = dbody.shape[0]
     nj = jc.shape[0]
     dinv_body = np.empty((nb, 6, 6))
@@ -471,9 +325,10 @@ def factor_hinged(parents, joint_of, contact_first, contact_next, jc, jp, jf, db
 
 
 @njit(cache=True)
-def unbounded_rhs_hinged(parents, joint_of, c_body, jc, jp, jf, cj, free, hinged):
-    """``unbounded_rhs``, the hinge blocks' structural zeros skipped (not ``hinged``: its own
-    operations). Returns (bj, bf, whether the skipped terms were all +-0)."""
+def unbounded_rhs(parents, joint_of, c_body, jc, jp, jf, cj, free, hinged):
+    """The unbounded rows' right-hand sides b = c - J free: hinge nodes (bj) and friction nodes
+    (bf; c = 0); ``hinged``: the hinge blocks' structural zeros skipped. Returns (bj, bf, whether
+    the skipped terms were all +-0)."""
     bj = cj.copy()
     ok = True
     for k in range(parents.shape[0]):
@@ -492,9 +347,14 @@ def unbounded_rhs_hinged(parents, joint_of, c_body, jc, jp, jf, cj, free, hinged
 
 
 @njit(cache=True)
-def tree_solve_hinged(first, end, tree, rb, rj, rf, hinged):
-    """``tree_solve``, the hinge blocks' structural zeros skipped (not ``hinged``: its own
-    operations). Returns whether the skipped terms were all +-0."""
+def tree_solve(first, end, tree, rb, rj, rf, hinged):
+    """Solve H x = r on the factored forest (``step_tree``, ``island_step.step_island``; roots
+    have parent -1), r given per body (rb, nb x 6), hinge node (rj, nj x 5) and friction node
+    (rf, nc x 2); overwritten by x. Only the bodies [first, end) are visited: the whole forest,
+    or whole trees of it (``gauss_seidel.body_blocks``). ``tree`` is the factored forest: parents,
+    joint_of, contact_first, contact_next, jc, jp, jf and the inverted blocks of ``factor``.
+    ``hinged``: the hinge blocks' structural zeros skipped. Returns whether the skipped terms were
+    all +-0."""
     parents, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact = tree
     t6 = np.empty(6)
     t5 = np.empty(5)
@@ -549,15 +409,22 @@ def tree_solve_hinged(first, end, tree, rb, rj, rf, hinged):
 
 
 @njit(cache=True)
-def schur_hinged(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b, hinged):
-    """``schur_complement`` for rows whose paths are chains, each one body's path to the root (a
-    robot's own rows, ``step_tree``), the hinge blocks' structural zeros skipped in the forward
-    passes. Two chains share their tail from their lowest common body to the root (rows in
-    different limbs the torso alone), and row s's z is exactly +0 off its path: so S[r, s]'s terms
-    before that tail of row r's path add 0 w, +-0 when w is finite, and are skipped. Four entries
-    at a time as ``schur_complement``, from the earliest of their four tails (the few terms of the
-    others' before theirs add +-0 again), each in its order. Not ``hinged``: nothing skipped,
-    ``schur_complement``'s own operations. Returns (S, whether every skipped term was +-0)."""
+def schur_complement(parents, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b, hinged):
+    """S = cfm_B + G' H^-1 G of the bounded rows, from one forward pass each: row r's z starts as
+    its Jacobian on its bodies (zb[r]) and is carried through the bodies path_b[r, :len_b[r]]
+    (leaves first, the union of its bodies' paths to their roots; z is zero off them) and the
+    hinges between them, w = D^-1 z there. Then S[r, s] = cfm + sum over row r's path of
+    z_s' w_r, four entries S[r, s..s+3] at a time: four independent sums, each in the order of one
+    at a time (row r's path bodies, then its hinges), which the CPU overlaps. ``zb`` is
+    overwritten.
+
+    ``hinged``, for rows whose paths are chains, each one body's path to the root (a robot's own
+    rows, ``step_tree``): the hinge blocks' structural zeros skipped in the forward passes. Two
+    chains share their tail from their lowest common body to the root (rows in different limbs
+    the torso alone), and row s's z is exactly +0 off its path: so S[r, s]'s terms before that
+    tail of row r's path add 0 w, +-0 when w is finite, and are skipped, from the earliest of the
+    four entries' tails (the few terms of the others' before theirs add +-0 again). Returns (S,
+    whether every skipped term was +-0)."""
     nbd = zb.shape[0]
     nb = zb.shape[1]
     nj = jc.shape[0]

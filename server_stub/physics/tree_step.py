@@ -44,10 +44,10 @@ from server_stub.physics.solver import (
     FIRST_BODY,
     box_qp,
     contact_forces,
-    factor_hinged,
-    schur_hinged,
-    tree_solve_hinged,
-    unbounded_rhs_hinged,
+    factor,
+    schur_complement,
+    tree_solve,
+    unbounded_rhs,
 )
 
 
@@ -67,7 +67,7 @@ def step_tree(model, state, forces, contacts, motors, params):
     and again inside its caller.
 
     The solve skips the hinge Jacobians' structural zeros and the Schur complement's terms off the
-    rows' common paths (``solver.factor_hinged`` and the others), which gives the same bits as the
+    rows' common paths (``solver.factor`` and the others), which gives the same bits as the
     dense solve whenever every value a zero is skipped against is finite; when one is not (a
     robot whose state has blown up), the step is redone densely, from the motors' states given."""
     masses, principal, parents, joint_of, local_axes, anchor_child, anchor_parent = model
@@ -81,7 +81,7 @@ def step_tree(model, state, forces, contacts, motors, params):
     nc = contact_point.shape[0]
     saved = motor_state.copy()
     # the step skipping zeros, then, only if a skipped zero met a value not finite, densely from
-    # the motors' states given: one body for both (``solver.factor_hinged`` and the others take
+    # the motors' states given: one body for both (``solver.factor`` and the others take
     # the choice), which compiles in far less time than two
     for attempt in range(2):
         hinged = attempt == 0
@@ -103,11 +103,11 @@ def step_tree(model, state, forces, contacts, motors, params):
             cn[i] = contact_c(contact_erp, contact_depth[i], surface_layer, h, 0.0, np.inf, 0.0)
         free = free_velocities(vel, spin, force, masses, inv_inertia, h)
         # factor H from the leaves to the torso
-        dinv_body, dinv_joint, dinv_contact, ok = factor_hinged(
+        dinv_body, dinv_joint, dinv_contact, ok = factor(
             roots, joint_of, contact_first, contact_next, jc, jp, jf, dbody, np.full(nc, slip), joint_cfm, hinged
         )
         # right-hand sides b = c - J free, unbounded and bounded
-        bj, bf, fine = unbounded_rhs_hinged(roots, joint_of, contact_body, jc, jp, jf, cj, free, hinged)
+        bj, bf, fine = unbounded_rhs(roots, joint_of, contact_body, jc, jp, jf, cj, free, hinged)
         ok &= fine
         nbd = nj + nc
         bb, lo, hi, cfm_b = bounded_rows(nbd, motor_target, motor_lo, motor_hi, motor_cfm)
@@ -131,7 +131,7 @@ def step_tree(model, state, forces, contacts, motors, params):
         yj = bj.copy()
         yf = bf.copy()
         tree = (roots, joint_of, contact_first, contact_next, jc, jp, jf, dinv_body, dinv_joint, dinv_contact)
-        ok &= tree_solve_hinged(FIRST_BODY, nb, tree, yb, yj, yf, hinged)
+        ok &= tree_solve(FIRST_BODY, nb, tree, yb, yj, yf, hinged)
         # the bounded rows' Jacobians on their bodies and their paths to the torso
         path_b = np.empty((nbd, nb), dtype=np.int64)
         len_b = np.zeros(nbd, dtype=np.int64)
@@ -151,7 +151,7 @@ def step_tree(model, state, forces, contacts, motors, params):
                 path_b[r, len_b[r]] = k
                 len_b[r] += 1
                 k = roots[k]
-        schur, fine = schur_hinged(roots, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b, hinged)
+        schur, fine = schur_complement(roots, joint_of, jc, jp, dinv_body, dinv_joint, path_b, len_b, zb, cfm_b, hinged)
         ok &= fine
         # the bounded rows' right-hand side: b_B - J_B y0
         for j in range(nj):
@@ -179,7 +179,7 @@ def step_tree(model, state, forces, contacts, motors, params):
         for i in range(nc):
             for a in range(6):
                 rb[contact_body[i], a] += jn[i, a] * lam_b[nj + i]
-        ok &= tree_solve_hinged(FIRST_BODY, nb, tree, rb, bj, bf, hinged)
+        ok &= tree_solve(FIRST_BODY, nb, tree, rb, bj, bf, hinged)
         out_pos, out_quat, out_vel, out_spin = advance(pos, quat, free + rb, h)
         contact_f = contact_forces(lam_b, nj, bf)
         torques = lam_b[:nj].copy()
