@@ -59,29 +59,29 @@ def test_each_lane_of_a_field_steps_as_its_robot_alone():
         assert alone == trace
 
 
+def _stood(world: World, robot: Robot, steps: int) -> list[bytes]:
+    """``robot`` beamed to (-5, 0) facing +x, then its trace after each of ``steps`` steps."""
+    robot.beam(-5.0, 0.0, 0.0)
+    traces = []
+    for _ in range(steps):
+        world.step()
+        traces.append(_trace(robot))
+    return traces
+
+
 def test_a_robot_that_leaves_frees_its_lane_for_the_next():
     """A robot taken off the field gives its row back; the next robot of its type takes it, and
     walks as a robot on a fresh field does."""
     with World() as world:
         first = world.add_robot()
-        first.beam(-5.0, 0.0, 0.0)
-        world.step()
+        _stood(world, first, 1)
         row = world.physics_of(first).row
         world.remove_robot(first)
         second = world.add_robot()
-        second.beam(-5.0, 0.0, 0.0)
-        traces = []
-        for _ in range(30):
-            world.step()
-            traces.append(_trace(second))
+        traces = _stood(world, second, 30)
         assert world.physics_of(second).row == row
     with World() as world:
-        fresh = world.add_robot()
-        fresh.beam(-5.0, 0.0, 0.0)
-        alone = []
-        for _ in range(30):
-            world.step()
-            alone.append(_trace(fresh))
+        alone = _stood(world, world.add_robot(), 30)
     assert traces == alone
 
 
